@@ -1,0 +1,3 @@
+from mane.app.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,61 @@
+"""The ``mane`` command line: a sub-command per module in ``mane.app``.
+
+Each command module defines ``HELP`` (one line), ``add_arguments(parser)`` and
+``run(args) -> int``. Modules are imported only when their command runs, so
+``mane --help`` stays fast and a missing optional library breaks only its command.
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import sys
+
+from .. import __version__
+from ..errors import ManeError
+
+# command -> (module, one-line help). Kept here so that --help needs no imports.
+COMMANDS: dict[str, tuple[str, str]] = {
+    "info": ("mane.app.info", "print a hair file's strands, points, bounding box and attributes"),
+    "convert": ("mane.app.convert", "convert a hair file to another format (with --up and --scale)"),
+    "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
+    "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
+    "demo": ("mane.app.demo", "the main job: grow, convert and describe the default groom"),
+}
+
+
+def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
+    """The parser; only the ``chosen`` command's module is imported to add its arguments."""
+    parser = argparse.ArgumentParser(
+        prog="mane",
+        description="Real-time hair simulation and rendering on the GPU.",
+    )
+    parser.add_argument("--version", action="version", version=f"mane {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    for name, (module, help_text) in COMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.set_defaults(_module=module)
+        if name == chosen:
+            importlib.import_module(module).add_arguments(p)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> int:
+    argv = sys.argv[1:] if argv is None else list(argv)
+    chosen = next((a for a in argv if not a.startswith("-")), None)
+    parser = build_parser(chosen)
+    args = parser.parse_args(argv)
+    if not getattr(args, "command", None):
+        parser.print_help()
+        return 0
+    try:
+        return int(importlib.import_module(args._module).run(args) or 0)
+    except ManeError as exc:
+        print(f"mane {args.command}: error: {exc}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f"mane {args.command}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

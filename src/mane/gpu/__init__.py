@@ -1,0 +1,14 @@
+"""The one place that talks to OpenGL: contexts, GLSL programs, buffers and GPU timing.
+
+Nothing outside ``mane.gpu``, ``mane.sim`` and ``mane.render`` makes GL calls.
+"""
+from __future__ import annotations
+
+from .context import (  # noqa: F401
+    MIN_GL_VERSION,
+    get_context,
+    headless_context,
+    is_software_renderer,
+    renderer_name,
+)
+from .glsl import compute_shader, load_source, program  # noqa: F401

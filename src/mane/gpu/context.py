@@ -1,0 +1,73 @@
+"""OpenGL contexts: headless through EGL, or the window's that is current.
+
+    ctx = mane.gpu.get_context()      # the window's if one is current, else a shared headless one
+
+Mesa's llvmpipe gives a full OpenGL 4.5 on machines without a GPU; an NVIDIA driver
+gives 4.6. Anything below 4.3 (macOS stops at 4.1) cannot run compute shaders and is
+refused with a message that says what to install.
+"""
+from __future__ import annotations
+
+import threading
+
+from ..errors import GLFeatureError, GPUError
+
+MIN_GL_VERSION = 430
+
+_lock = threading.Lock()
+_headless = None
+
+HOW_TO_GET_GL = (
+    "mane needs OpenGL 4.3 core through EGL. On Debian/Ubuntu without a GPU: "
+    "sudo apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri (Mesa's llvmpipe gives OpenGL 4.5 on the CPU). "
+    "With an NVIDIA GPU: install the driver and libegl1 (glvnd). macOS stops at OpenGL 4.1 and cannot run mane's compute shaders."
+)
+
+
+def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
+    """A new standalone (window-less) context through EGL, OpenGL ``require`` core at least."""
+    try:
+        import moderngl
+    except ImportError as exc:  # pragma: no cover - moderngl is a hard dependency
+        raise GPUError(f"moderngl is not installed ({exc}); pip install moderngl") from None
+    try:
+        ctx = moderngl.create_context(standalone=True, backend=backend, require=require)
+    except Exception as exc:
+        raise GLFeatureError(f"cannot create an OpenGL {require // 100}.{require % 100 // 10} "
+                             f"context through {backend.upper()}: {exc}. {HOW_TO_GET_GL}") from None
+    if ctx.version_code < require:
+        version = ctx.info.get("GL_VERSION", "?")
+        ctx.release()
+        raise GLFeatureError(f"OpenGL {version} is too old. {HOW_TO_GET_GL}")
+    return ctx
+
+
+def get_context(require: int = MIN_GL_VERSION):
+    """The current window's context if there is one, otherwise one shared headless context."""
+    global _headless
+    import moderngl
+
+    window_ctx = None
+    if _headless is None:
+        try:
+            window_ctx = moderngl.get_context()
+        except Exception:
+            window_ctx = None
+    if window_ctx is not None:
+        if window_ctx.version_code < require:
+            raise GLFeatureError(f"the window's OpenGL {window_ctx.version_code} is below {require}. {HOW_TO_GET_GL}")
+        return window_ctx
+    with _lock:
+        if _headless is None:
+            _headless = headless_context(require)
+        return _headless
+
+
+def renderer_name(ctx) -> str:
+    return str(ctx.info.get("GL_RENDERER", "unknown"))
+
+
+def is_software_renderer(ctx) -> bool:
+    """True for CPU rasterisers (Mesa llvmpipe, softpipe, swrast, SwiftShader)."""
+    name = renderer_name(ctx).lower()
+    return any(k in name for k in ("llvmpipe", "softpipe", "swrast", "swiftshader", "software"))

@@ -1,0 +1,178 @@
+"""GLSL sources from files beside the Python that uses them.
+
+A source may ``#include "other.glsl"`` (looked up beside the including file, then in
+``mane/gpu/shaders``); each file is included once per program. ``defines`` are injected
+after ``#version``. A line map from the assembled text back to the files (drivers differ
+in how they honour ``#line``, so none is emitted) reports a compile error against the
+original file and line:
+
+    ShaderCompileError: src/mane/sim/integrate.comp:42: error: 'foo' undeclared
+"""
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from ..errors import ShaderCompileError, UsageError
+
+SHARED_SHADER_DIR = Path(__file__).with_name("shaders")
+DEFAULT_VERSION = "#version 430 core"
+
+_INCLUDE = re.compile(r'^\s*#\s*include\s+[<"]([^>"]+)[>"]\s*$')
+_VERSION = re.compile(r"^\s*#\s*version\b")
+_EXTENSION = re.compile(r"^\s*#\s*extension\b")
+_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*$")
+# Mesa: "0:12(5): error: ..."; NVIDIA: "0(12) : error C1008: ..."; others: "ERROR: 0:12: ..."
+_ERROR_LOCATIONS = (
+    re.compile(r"(?P<src>\d+):(?P<line>\d+)\(\d+\)"),
+    re.compile(r"(?P<src>\d+)\((?P<line>\d+)\)"),
+    re.compile(r"(?P<src>\d+):(?P<line>\d+)"),
+)
+
+
+@dataclass
+class Source:
+    """Preprocessed GLSL text, and for each of its lines the file and line it came from."""
+
+    text: str
+    files: list[Path] = field(default_factory=list)
+    line_map: list[tuple[int, int]] = field(default_factory=list)  # text line - 1 -> (file, line)
+
+    def origin(self, line: int) -> str:
+        """'path:line' of the assembled text's 1-based ``line``."""
+        if 1 <= line <= len(self.line_map):
+            f, n = self.line_map[line - 1]
+            return f"{self.files[f]}:{n}" if f >= 0 else f"<injected>:{n}"
+        return f"<generated>:{line}"
+
+    def locate(self, message: str) -> str:
+        """Rewrite a driver's log so that each location names the original file and line."""
+        out = []
+        for line in message.splitlines():
+            for pattern in _ERROR_LOCATIONS:
+                m = pattern.search(line)
+                if m:
+                    line = line[: m.start()] + self.origin(int(m["line"])) + line[m.end():]
+                    break
+            out.append(line)
+        return "\n".join(out)
+
+
+def _format_define(name: str, value) -> str:
+    if not _NAME.match(str(name)):
+        raise UsageError(f"bad GLSL define name {name!r}")
+    if value is True:
+        value = 1
+    elif value is False:
+        value = 0
+    return f"#define {name} {value}"
+
+
+def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
+    """Read ``path``, resolve its includes and inject ``defines``."""
+    path = Path(path)
+    files: list[Path] = []
+    included: set[Path] = set()
+    dirs = [Path(d) for d in include_dirs] + [SHARED_SHADER_DIR]
+
+    def expand(file: Path, stack: tuple[Path, ...]) -> list[tuple[str, int, int]]:
+        file = file.resolve()
+        if file in stack:
+            chain = " -> ".join(p.name for p in stack + (file,))
+            raise ShaderCompileError(f"{file}: circular #include ({chain})")
+        if file in included:
+            return []
+        included.add(file)
+        try:
+            lines = file.read_text().splitlines()
+        except OSError as exc:
+            raise ShaderCompileError(f"cannot read shader {file}: {exc}") from None
+        index = len(files)
+        files.append(file)
+        out: list[tuple[str, int, int]] = []
+        for number, line in enumerate(lines, start=1):
+            m = _INCLUDE.match(line)
+            if not m:
+                if index and _VERSION.match(line):
+                    line = ""  # an included file's #version is the includer's
+                out.append((line, index, number))
+                continue
+            name = m[1]
+            candidates = [file.parent / name] + [d / name for d in dirs]
+            target = next((c for c in candidates if c.is_file()), None)
+            if target is None:
+                raise ShaderCompileError(f"{file}:{number}: cannot find #include \"{name}\"")
+            out.extend(expand(target, stack + (file,)))
+        return out
+
+    body = expand(path, ())
+    # #version (and #extension lines) must come first; defines follow them.
+    head: list[tuple[str, int, int]] = []
+    i = 0
+    while i < len(body) and (not body[i][0].strip() or body[i][0].lstrip().startswith("//")):
+        i += 1
+    if i < len(body) and _VERSION.match(body[i][0]):
+        head.append(body[i])
+        i += 1
+    else:
+        head.append((DEFAULT_VERSION, -1, 0))
+        i = 0
+    while i < len(body) and _EXTENSION.match(body[i][0]):
+        head.append(body[i])
+        i += 1
+    head += [(_format_define(k, v), -1, n) for n, (k, v) in enumerate((defines or {}).items(), 1)]
+    lines = head + body[i:]
+    return Source("\n".join(t for t, _, _ in lines) + "\n", files, [(f, n) for _, f, n in lines])
+
+
+_cache: dict[tuple, object] = {}
+
+
+def _compile(ctx, kind: str, sources: dict[str, Source], build):
+    try:
+        return build()
+    except Exception as exc:  # moderngl.Error carries the driver's log
+        log = str(exc)
+        for src in sources.values():
+            log = src.locate(log)
+        names = ", ".join(str(s.files[0]) for s in sources.values())
+        raise ShaderCompileError(f"{kind} failed to build ({names}):\n{log}") from None
+
+
+def _key(ctx, paths, defines) -> tuple:
+    stamps = tuple((str(p), Path(p).stat().st_mtime_ns) for p in paths if p is not None)
+    return (id(ctx), stamps, tuple(sorted((defines or {}).items(), key=lambda kv: kv[0])))
+
+
+def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
+    """A moderngl ComputeShader from a file, cached per context, file version and defines."""
+    key = _key(ctx, [path], defines) + ("compute",)
+    if key not in _cache:
+        src = load_source(path, defines, include_dirs)
+        _cache[key] = _compile(ctx, "compute shader", {"compute": src},
+                               lambda: ctx.compute_shader(src.text))
+    return _cache[key]
+
+
+def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
+            tess_evaluation=None, defines: dict | None = None, include_dirs=(),
+            varyings=(), cache: bool = True):
+    """A moderngl Program from stage files (paths); each stage gets the same defines."""
+    stages = {
+        "vertex_shader": vertex,
+        "fragment_shader": fragment,
+        "geometry_shader": geometry,
+        "tess_control_shader": tess_control,
+        "tess_evaluation_shader": tess_evaluation,
+    }
+    stages = {k: v for k, v in stages.items() if v is not None}
+    key = _key(ctx, list(stages.values()), defines) + ("program", tuple(varyings))
+    if cache and key in _cache:
+        return _cache[key]
+    sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
+    prog = _compile(ctx, "program", sources, lambda: ctx.program(
+        **{k: s.text for k, s in sources.items()}, varyings=tuple(varyings)))
+    if cache:
+        _cache[key] = prog
+    return prog
