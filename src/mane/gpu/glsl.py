@@ -11,6 +11,7 @@ original file and line:
 from __future__ import annotations
 
 import re
+import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -69,6 +70,33 @@ def _format_define(name: str, value) -> str:
     return f"#define {name} {value}"
 
 
+_IF = re.compile(r"^\s*#\s*if(n?def)?\b")
+_ENDIF = re.compile(r"^\s*#\s*endif\b")
+
+
+def _hoist_extensions(body: list[tuple[str, int, int]]) -> list[tuple[str, int, int]]:
+    """Move unconditional ``#extension`` lines (an included file's too) up to the #version.
+
+    GLSL refuses an #extension after the first declaration, so an include that needs one
+    (``#extension GL_ARB_gpu_shader_int64 : require``) could not otherwise be included after
+    code. Lines inside ``#if`` blocks stay where they are.
+    """
+    start = next((i for i, (t, _, _) in enumerate(body) if _VERSION.match(t)), -1) + 1
+    hoisted, rest, depth = [], [], 0
+    for i, item in enumerate(body):
+        text = item[0]
+        if i >= start:
+            if _IF.match(text):
+                depth += 1
+            elif _ENDIF.match(text):
+                depth = max(0, depth - 1)
+            elif depth == 0 and _EXTENSION.match(text):
+                hoisted.append(item)
+                continue
+        rest.append(item)
+    return rest[:start] + hoisted + rest[start:]
+
+
 def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
     """Read ``path``, resolve its includes and inject ``defines``."""
     path = Path(path)
@@ -96,6 +124,9 @@ def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
             if not m:
                 if index and _VERSION.match(line):
                     line = ""  # an included file's #version is the includer's
+                elif "#include" in line:
+                    # moderngl replaces `#include "x"` anywhere, comments too, from ctx.includes
+                    line = line.replace("#include", "# include")
                 out.append((line, index, number))
                 continue
             name = m[1]
@@ -106,7 +137,7 @@ def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
             out.extend(expand(target, stack + (file,)))
         return out
 
-    body = expand(path, ())
+    body = _hoist_extensions(expand(path, ()))
     # #version (and #extension lines) must come first; defines follow them.
     head: list[tuple[str, int, int]] = []
     i = 0
@@ -126,7 +157,47 @@ def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
     return Source("\n".join(t for t, _, _ in lines) + "\n", files, [(f, n) for _, f, n in lines])
 
 
-_cache: dict[tuple, object] = {}
+# context -> {key: (file stamps, compiled object)}. Weak keys: a released and collected
+# context takes its programs with it, and a new context that reuses its id() starts empty.
+_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def _stamps(files) -> tuple:
+    out = []
+    for f in files:
+        try:
+            out.append((str(f), Path(f).stat().st_mtime_ns))
+        except OSError:
+            out.append((str(f), None))
+    return tuple(out)
+
+
+def _key(kind: str, paths, defines, include_dirs, extra=()) -> tuple:
+    return (kind, tuple(str(Path(p).resolve()) for p in paths),
+            tuple(sorted(((str(k), repr(v)) for k, v in (defines or {}).items()))),
+            tuple(str(Path(d).resolve()) for d in include_dirs), tuple(extra))
+
+
+def _cached(ctx, key):
+    """The compiled object for ``key`` if none of the files it was built from (includes too) changed."""
+    entry = _cache.get(ctx, {}).get(key)
+    if entry is not None and _stamps(f for f, _ in entry[0]) == entry[0]:
+        return entry[1]
+    return None
+
+
+def _store(ctx, key, sources, obj):
+    files = sorted({f for src in sources for f in src.files}, key=str)
+    _cache.setdefault(ctx, {})[key] = (_stamps(files), obj)
+    return obj
+
+
+def clear_cache(ctx=None) -> None:
+    """Forget compiled programs (of one context, or all)."""
+    if ctx is None:
+        _cache.clear()
+    else:
+        _cache.pop(ctx, None)
 
 
 def _compile(ctx, kind: str, sources: dict[str, Source], build):
@@ -140,19 +211,15 @@ def _compile(ctx, kind: str, sources: dict[str, Source], build):
         raise ShaderCompileError(f"{kind} failed to build ({names}):\n{log}") from None
 
 
-def _key(ctx, paths, defines) -> tuple:
-    stamps = tuple((str(p), Path(p).stat().st_mtime_ns) for p in paths if p is not None)
-    return (id(ctx), stamps, tuple(sorted((defines or {}).items(), key=lambda kv: kv[0])))
-
-
 def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
-    """A moderngl ComputeShader from a file, cached per context, file version and defines."""
-    key = _key(ctx, [path], defines) + ("compute",)
-    if key not in _cache:
+    """A moderngl ComputeShader from a file, cached per context, file versions (includes too) and defines."""
+    key = _key("compute", [path], defines, include_dirs)
+    shader = _cached(ctx, key)
+    if shader is None:
         src = load_source(path, defines, include_dirs)
-        _cache[key] = _compile(ctx, "compute shader", {"compute": src},
-                               lambda: ctx.compute_shader(src.text))
-    return _cache[key]
+        shader = _store(ctx, key, [src], _compile(ctx, "compute shader", {"compute": src},
+                                                  lambda: ctx.compute_shader(src.text)))
+    return shader
 
 
 def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
@@ -167,12 +234,14 @@ def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
         "tess_evaluation_shader": tess_evaluation,
     }
     stages = {k: v for k, v in stages.items() if v is not None}
-    key = _key(ctx, list(stages.values()), defines) + ("program", tuple(varyings))
-    if cache and key in _cache:
-        return _cache[key]
+    key = _key("program", list(stages.values()), defines, include_dirs, (tuple(stages), tuple(varyings)))
+    if cache:
+        prog = _cached(ctx, key)
+        if prog is not None:
+            return prog
     sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
     prog = _compile(ctx, "program", sources, lambda: ctx.program(
         **{k: s.text for k, s in sources.items()}, varyings=tuple(varyings)))
     if cache:
-        _cache[key] = prog
+        _store(ctx, key, sources.values(), prog)
     return prog
