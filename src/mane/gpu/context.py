@@ -30,11 +30,18 @@ def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
         import moderngl
     except ImportError as exc:  # pragma: no cover - moderngl is a hard dependency
         raise GPUError(f"moderngl is not installed ({exc}); pip install moderngl") from None
-    try:
-        ctx = moderngl.create_context(standalone=True, backend=backend, require=require)
-    except Exception as exc:
+    # Drivers such as NVIDIA's give exactly the version asked for, so ask for the newest
+    # first (4.6 brings what 4.3 lacks) and step down to ``require``.
+    ctx, error = None, None
+    for version in [v for v in (460, 450, 440, 430) if v > require] + [require]:
+        try:
+            ctx = moderngl.create_context(standalone=True, backend=backend, require=version)
+            break
+        except Exception as exc:
+            error = exc
+    if ctx is None:
         raise GLFeatureError(f"cannot create an OpenGL {require // 100}.{require % 100 // 10} "
-                             f"context through {backend.upper()}: {exc}. {HOW_TO_GET_GL}") from None
+                             f"context through {backend.upper()}: {error}. {HOW_TO_GET_GL}") from None
     if ctx.version_code < require:
         version = ctx.info.get("GL_VERSION", "?")
         ctx.release()
