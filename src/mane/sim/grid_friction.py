@@ -1,0 +1,267 @@
+"""Hair-hair friction by grid velocity smoothing (Petrovic, Henne and Anderson 2005).
+
+    friction = GridFriction(ctx, resolution=32, method="raster")
+    friction.apply(positions, velocities, num_particles, friction=0.1)           # own bounds
+    friction.apply(positions, velocities, num_particles, 0.1, bounds=bounds)     # shared GridBounds
+
+Each step, on the GPU only:
+
+1. **splat**: every particle adds its mass m and momentum m v to the 8 nodes of its cell
+   with trilinear (tent) weights w = (1-|dx|)(1-|dy|)(1-|dz|) (Woodhouse §1.5, Petrovic):
+   - ``method="atomic"``: one compute invocation per particle, ``atomicAdd`` into an SSBO in
+     64-bit fixed point made of two 32-bit words (a carry from the low word goes to the high
+     one). Each contribution is rounded to 2^-32 (of a mass unit, or mass unit * m/s); the
+     sums are exact and independent of order; a node holds up to 2^31 mass units.
+   - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Particles are drawn as points;
+     a geometry shader emits each particle's 8 corners as 1-pixel points on the ``gl_Layer``
+     slices of a layered RGBA32F 3D texture attached to a framebuffer, and GL_ONE/GL_ONE
+     additive blending sums (m v, m) in float32.
+2. **normalise**: node velocity V = sum(m w v) / sum(m w) (zero where there is no mass).
+3. **gather**: v <- (1 - f) v + f V(x), V(x) trilinear. Pinned particles (w = 0) keep their
+   velocity (they still splat, with ``pinned_mass``).
+
+The grid has ``resolution``^3 nodes spanning a :class:`~mane.sim.bounds.GridBounds` box:
+node i at lo + i (hi - lo)/(R - 1). Masses are 1/w from ``positions.w`` in units of
+``mass_unit`` (kg); only their ratios matter to the result.
+"""
+from __future__ import annotations
+
+import ctypes
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GLFeatureError, UsageError
+from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
+                     set_uniforms, storage_barrier)
+
+HERE = Path(__file__).resolve().parent
+METHODS = ("atomic", "raster")
+METHOD_ALIASES = {"splat": "atomic", "scatter": "atomic", "gpu": "atomic",
+                  "rasterize": "raster", "rasterise": "raster", "optimised_gpu": "raster",
+                  "optimized_gpu": "raster"}
+
+# --------------------------------------------------------------------------- raw GL for layered FBOs
+GL_FRAMEBUFFER = 0x8D40
+GL_COLOR_ATTACHMENT0 = 0x8CE0
+GL_FRAMEBUFFER_COMPLETE = 0x8CD5
+_gl_cache: dict[str, object] = {}
+
+
+def _gl(name: str, restype, *argtypes):
+    """A core GL entry point through glvnd's libOpenGL/libGL (or eglGetProcAddress)."""
+    if name in _gl_cache:
+        return _gl_cache[name]
+    fn = None
+    for lib in ("libOpenGL.so.0", "libGL.so.1", "libGL.so"):
+        try:
+            fn = getattr(ctypes.CDLL(lib), name)
+            break
+        except (OSError, AttributeError):
+            continue
+    if fn is None:
+        try:
+            egl = ctypes.CDLL("libEGL.so.1")
+            egl.eglGetProcAddress.restype = ctypes.c_void_p
+            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+            addr = egl.eglGetProcAddress(name.encode())
+            if addr:
+                fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr)
+        except OSError:
+            pass
+    if fn is None:
+        raise GLFeatureError(f"cannot find the OpenGL function {name} (needed for the layered "
+                             f"3D-texture framebuffer of GridFriction(method='raster')); use method='atomic'")
+    fn.restype = restype
+    fn.argtypes = list(argtypes)
+    _gl_cache[name] = fn
+    return fn
+
+
+def layered_framebuffer(ctx, texture3d):
+    """A moderngl Framebuffer whose colour attachment is all layers of ``texture3d``."""
+    gen = _gl("glGenFramebuffers", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))
+    bind = _gl("glBindFramebuffer", None, ctypes.c_uint, ctypes.c_uint)
+    attach = _gl("glFramebufferTexture", None, ctypes.c_uint, ctypes.c_uint, ctypes.c_uint, ctypes.c_int)
+    draw_buffers = _gl("glDrawBuffers", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))
+    status = _gl("glCheckFramebufferStatus", ctypes.c_uint, ctypes.c_uint)
+    previous = ctx.fbo
+    fbo = ctypes.c_uint(0)
+    gen(1, ctypes.byref(fbo))
+    bind(GL_FRAMEBUFFER, fbo.value)
+    attach(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, texture3d.glo, 0)
+    bufs = (ctypes.c_uint * 1)(GL_COLOR_ATTACHMENT0)
+    draw_buffers(1, bufs)
+    code = status(GL_FRAMEBUFFER)
+    if code != GL_FRAMEBUFFER_COMPLETE:
+        bind(GL_FRAMEBUFFER, 0)
+        raise GLFeatureError(f"the layered 3D-texture framebuffer is incomplete (status 0x{code:04x}); "
+                             "use GridFriction(method='atomic')")
+    framebuffer = ctx.detect_framebuffer(fbo.value)
+    if previous is not None:
+        previous.use()
+    return framebuffer, fbo.value
+
+
+def delete_framebuffer(glo: int) -> None:
+    delete = _gl("glDeleteFramebuffers", None, ctypes.c_int, ctypes.POINTER(ctypes.c_uint))
+    delete(1, ctypes.byref(ctypes.c_uint(glo)))
+
+
+# --------------------------------------------------------------------------- GridFriction
+class GridFriction:
+    """Velocity smoothing on a ``resolution``^3 node grid (16..128; see the module docstring).
+
+    mass_unit: kg that one unit of grid mass stands for (the fixed-point range and
+    resolution are in this unit). pinned_mass: kg a pinned particle (w = 0) brings to the
+    grid (0 leaves pinned particles out). bounds_*: settings of the GridBounds made when
+    ``apply`` gets no ``bounds``.
+    """
+
+    def __init__(self, ctx, resolution: int = 32, method: str = "atomic", *,
+                 mass_unit: float = 1.0, pinned_mass: float = 1.0,
+                 bounds_margin: float = 0.0, bounds_relative_margin: float = 0.05,
+                 bounds_cubic: bool = True):
+        from ..gpu.glsl import compute_shader, program
+
+        resolution = int(resolution)
+        if not 2 <= resolution <= 512:
+            raise UsageError(f"GridFriction resolution must be in 2..512 (16..128 is usual), got {resolution}")
+        method = METHOD_ALIASES.get(method, method)
+        if method not in METHODS:
+            raise UsageError(f"GridFriction method must be one of {METHODS}, got {method!r}")
+        if mass_unit <= 0 or pinned_mass < 0:
+            raise UsageError("GridFriction: mass_unit must be > 0 and pinned_mass >= 0")
+        self.ctx = ctx
+        self.resolution = resolution
+        self.method = method
+        self.mass_unit = float(mass_unit)
+        self.pinned_mass = float(pinned_mass)
+        self.num_nodes = resolution ** 3
+        defines = {"GRID_RES": resolution, "BOUNDS_BINDING": BOUNDS_BINDING}
+        self._own_bounds = GridBounds(ctx, margin=bounds_margin, relative_margin=bounds_relative_margin,
+                                      cubic=bounds_cubic)
+        self.bounds: GridBounds = self._own_bounds
+        self.grid = ctx.buffer(reserve=self.num_nodes * 16)        # vec4(v, mass) per node
+        self._gather = compute_shader(ctx, HERE / "grid_gather.comp", defines)
+        if method == "atomic":
+            self.accumulator = ctx.buffer(reserve=self.num_nodes * 32)  # 4 x 64-bit per node
+            self.accumulator.clear()
+            self._splat = compute_shader(ctx, HERE / "splat_atomic.comp", defines)
+            self._normalize = compute_shader(ctx, HERE / "grid_normalize.comp",
+                                             dict(defines, METHOD_ATOMIC=1))
+        else:
+            self.texture = ctx.texture3d((resolution,) * 3, 4, dtype="f4")
+            self._fbo, self._fbo_glo = layered_framebuffer(ctx, self.texture)
+            self._raster = program(ctx, vertex=HERE / "splat_raster.vert", geometry=HERE / "splat_raster.geom",
+                                   fragment=HERE / "splat_raster.frag", defines=defines)
+            self._vao = ctx.vertex_array(self._raster, [])
+            self._normalize = compute_shader(ctx, HERE / "grid_normalize.comp",
+                                             dict(defines, METHOD_ATOMIC=0))
+
+    # ------------------------------------------------------------------ steps
+    def splat(self, positions, velocities, num_particles: int, bounds: GridBounds | None = None) -> None:
+        """Clear, splat and normalise: leaves vec4(V, mass) per node in ``self.grid``."""
+        n = check_particle_buffers(num_particles, positions, velocities)
+        if bounds is None:
+            bounds = self._own_bounds
+            bounds.update(positions, n)
+        self.bounds = bounds
+        ctx = self.ctx
+        bounds.bind()
+        positions.bind_to_storage_buffer(0)
+        velocities.bind_to_storage_buffer(1)
+        masses = dict(pinned_mass=self.pinned_mass / self.mass_unit, inv_mass_unit=1.0 / self.mass_unit)
+        if self.method == "atomic":
+            self.accumulator.bind_to_storage_buffer(2)
+            if n:
+                set_uniforms(self._splat, num_particles=n, **masses)
+                self._splat.run(groups(n, 128))
+                storage_barrier(ctx)
+        else:
+            self._raster_splat(n, masses)
+        self.grid.bind_to_storage_buffer(3)
+        set_uniforms(self._normalize, min_mass=1e-30)
+        if self.method == "atomic":
+            self.accumulator.bind_to_storage_buffer(2)
+        else:
+            self.texture.use(0)
+            set_uniforms(self._normalize, splat_texture=0)
+        self._normalize.run(groups(self.num_nodes, 256))
+        storage_barrier(ctx)
+
+    def _raster_splat(self, n: int, masses: dict) -> None:
+        import moderngl
+
+        ctx = self.ctx
+        saved = (ctx.viewport, ctx.point_size)
+        # the scope restores the bound framebuffer and the enable flags on exit; the blend
+        # function and equation (which moderngl cannot read back) are left at their defaults
+        with ctx.scope(self._fbo, enable_only=moderngl.BLEND):
+            ctx.viewport = (0, 0, self.resolution, self.resolution)
+            self._fbo.clear(0.0, 0.0, 0.0, 0.0)
+            if n:
+                ctx.memory_barrier(moderngl.SHADER_STORAGE_BARRIER_BIT)
+                set_uniforms(self._raster, **masses)
+                ctx.blend_func = moderngl.ONE, moderngl.ONE
+                ctx.blend_equation = moderngl.FUNC_ADD
+                ctx.point_size = 1.0
+                self._vao.render(mode=moderngl.POINTS, vertices=n)
+        ctx.viewport, ctx.point_size = saved
+        ctx.blend_func = moderngl.DEFAULT_BLENDING
+        ctx.blend_equation = moderngl.FUNC_ADD
+        ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.FRAMEBUFFER_BARRIER_BIT)
+
+    def gather(self, positions, velocities, num_particles: int, friction: float) -> None:
+        """v <- (1 - friction) v + friction V(x) with the grid left by the last ``splat``."""
+        n = check_particle_buffers(num_particles, positions, velocities)
+        if not n:
+            return
+        self.bounds.bind()
+        positions.bind_to_storage_buffer(0)
+        velocities.bind_to_storage_buffer(1)
+        self.grid.bind_to_storage_buffer(3)
+        set_uniforms(self._gather, num_particles=n, friction=float(friction))
+        self._gather.run(groups(n, 128))
+        storage_barrier(self.ctx)
+
+    def apply(self, positions, *args, **kwargs) -> None:
+        """One smoothing step in place on ``velocities`` (vec4, w kept). friction in [0, 1].
+
+        ``apply(positions, velocities, num_particles, friction, bounds=None)`` or
+        ``apply(state, friction, bounds=None)`` with a SimState.
+        """
+        if is_state(positions):
+            st = positions
+            return self._apply(st.positions, st.velocities, st.num_particles, *args, **kwargs)
+        return self._apply(positions, *args, **kwargs)
+
+    def _apply(self, positions, velocities, num_particles: int, friction: float,
+               bounds: GridBounds | None = None) -> None:
+        friction = float(friction)
+        if not 0.0 <= friction <= 1.0:
+            raise UsageError(f"grid friction must be in [0, 1], got {friction}")
+        self.splat(positions, velocities, num_particles, bounds)
+        if friction > 0.0:
+            self.gather(positions, velocities, num_particles, friction)
+
+    # ------------------------------------------------------------------ readback (tests, debugging)
+    def read_grid(self) -> dict:
+        """density (R,R,R) mass units, velocity and momentum (R,R,R,3), indexed [x, y, z]."""
+        R = self.resolution
+        g = np.frombuffer(self.grid.read(), dtype=np.float32).reshape(R, R, R, 4)  # [z, y, x]
+        g = g.transpose(2, 1, 0, 3)
+        density = g[..., 3].copy()
+        velocity = g[..., :3].copy()
+        return {"density": density, "velocity": velocity, "momentum": velocity * density[..., None]}
+
+    def release(self) -> None:
+        self.grid.release()
+        self._own_bounds.release()
+        if self.method == "atomic":
+            self.accumulator.release()
+        else:
+            self._vao.release()
+            self._fbo.release()
+            delete_framebuffer(self._fbo_glo)
+            self.texture.release()

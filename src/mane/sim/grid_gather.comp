@@ -1,0 +1,27 @@
+#version 430 core
+// Grid friction (Petrovic et al. 2005): v <- (1 - f) v + f * v_grid, v_grid the trilinear
+// interpolation of the node velocities. Pinned particles (w = 0) are left alone.
+layout(local_size_x = 128) in;
+
+layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = 1) buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = 3) readonly buffer Grid { vec4 grid[]; };
+#include "grid_nodes.glsl"
+
+uniform uint num_particles;
+uniform float friction;
+
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= num_particles) return;
+    vec4 p = positions[i];
+    if (p.w == 0.0) return;
+    NodeStencil s = node_stencil(p.xyz);
+    vec3 vg = vec3(0.0);
+    for (int c = 0; c < 8; ++c) {
+        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        vg += corner_weight(s.frac, corner) * grid[node_index(s.base + corner)].xyz;
+    }
+    vec4 v = velocities[i];
+    velocities[i] = vec4(mix(v.xyz, vg, friction), v.w);
+}

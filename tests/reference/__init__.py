@@ -1,0 +1,1 @@
+"""NumPy twins of GPU kernels, used only by the tests."""
