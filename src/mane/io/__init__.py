@@ -17,9 +17,10 @@ from ..groom import Groom
 HAIR_FORMATS: dict[str, tuple[str, bool, bool]] = {
     ".hair": ("cyhair", True, True),
     ".data": ("usc_hairsalon", True, True),
-    ".tfx": ("tressfx", True, False),
+    ".tfx": ("tressfx", True, True),
+    ".tfxproj": ("tressfx", True, False),
     ".ply": ("strand_ply", True, True),
-    ".abc": ("alembic_curves", True, False),
+    ".abc": ("alembic_curves", True, True),
     ".usd": ("usd_curves", True, True),
     ".usda": ("usd_curves", True, True),
     ".usdc": ("usd_curves", True, True),
