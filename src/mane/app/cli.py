@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "convert": ("mane.app.convert", "convert a hair file to another format (with --up and --scale)"),
     "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
+    "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
     "demo": ("mane.app.demo", "the main job: grow, convert and describe the default groom"),
 }
 

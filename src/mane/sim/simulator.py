@@ -1,0 +1,539 @@
+"""The strand solver: a Simulator steps a SimState of GPU buffers with compute shaders.
+
+    sim = Simulator(groom, colliders=[Sphere(center=(0, 1.6, 0), radius=0.09)],
+                    settings=SimSettings(length_method="dftl"))
+    for frame in range(240):
+        sim.set_head_transform(head_motion.nod(frame / 60))
+        sim.advance(1 / 60)            # as many fixed steps of settings.dt as fit
+        pts = sim.positions()          # (P, 3) numpy; the renderer binds sim.state.positions
+
+One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is skipped):
+
+    integrate  forces, prediction, pinned follicles, global shape    (per particle)
+    shape      local shape + bending, Gauss-Seidel sweeps            (per strand)
+    length     DFTL (per strand) or odd/even PBD (shared memory)     (per strand group)
+    collide    projection colliders + friction                       (per particle)
+    sdf        mesh colliders (mane.sim.sdf, when present)
+    velocity   v = (x - x_prev) / dt (+ DFTL correction)             (per particle)
+    friction   hair-hair grid friction (mane.sim.grid_friction, when present)
+    volume     FLIP volume (mane.sim.flip, when present)
+    guard      NaN / absurd-value recovery                           (per strand)
+
+The simulator keeps no dynamic state of its own: everything that changes from step to
+step lives in its ``SimState`` (``sim.state``), and every method takes ``state=`` to
+step another one. It does cache GPU programs and the helper passes' grids.
+"""
+from __future__ import annotations
+
+import importlib
+import importlib.util
+import math
+from contextlib import contextmanager
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import GroomError, UsageError
+from ..gpu import compute_shader, get_context
+from . import head_motion
+from .colliders import Collider, MeshCollider, pack_colliders
+from .settings import MAX_DT, MIN_DT, SimSettings, iteration_stiffness
+from .state import BINDINGS, MAX_POINTS_PER_STRAND, SimState, transform_points
+
+HERE = Path(__file__).resolve().parent
+PASSES = ("integrate", "shape", "length", "collide", "sdf", "velocity", "friction", "volume", "guard")
+DEFAULT_POINTS_PER_STRAND = 16
+
+
+def _optional(module: str, name: str):
+    """``module.name`` when the module exists (helper passes written elsewhere), else None."""
+    if importlib.util.find_spec(module) is None:
+        return None
+    return getattr(importlib.import_module(module), name, None)
+
+
+def _mat4(m) -> tuple:
+    """A row-major NumPy 4x4 as the column-major tuple GLSL wants."""
+    return tuple(float(x) for x in np.asarray(m, dtype=np.float64).T.reshape(-1))
+
+
+def _set(shader, name: str, value) -> None:
+    try:
+        uniform = shader[name]
+    except KeyError:  # optimised away or unused by this kernel
+        return
+    uniform.value = value
+
+
+@dataclass
+class SimSnapshot:
+    """A copy of a SimState's contents (CPU side), for ``Simulator.restore``."""
+
+    buffers: dict
+    length_scale: np.ndarray
+    head: np.ndarray
+    head_target: np.ndarray
+    time: float
+    steps: int
+    accumulator: float
+    collider_worlds: list | None = None
+
+
+@dataclass
+class _Timer:
+    queries: dict = field(default_factory=dict)  # name -> list of (query)
+    totals: dict = field(default_factory=dict)  # name -> [ms sum, count]
+
+
+class Simulator:
+    """GPU strand simulation of a groom (see the module doc)."""
+
+    def __init__(self, groom, colliders=(), settings: SimSettings | None = None, ctx=None, *,
+                 points_per_strand: int | None = None, head_transform=None, profile: bool = False):
+        self.ctx = ctx if ctx is not None else get_context()
+        self.settings = settings if settings is not None else SimSettings()
+        self.groom = self._prepare(groom, points_per_strand)
+        self.colliders = list(colliders)
+        for c in self.colliders:
+            if not isinstance(c, (Collider, MeshCollider)):
+                raise UsageError(f"not a collider: {c!r} (use mane.sim.Sphere, Ellipsoid, Capsule or MeshCollider)")
+        S, N = self.groom.num_strands, int(self.groom.uniform_count)
+        inv_mass = np.ones((S, N), dtype=np.float32)
+        inv_mass[:, 0] = 0.0
+        immovable = self.groom.point_attributes.get("immovable")
+        if immovable is not None:
+            inv_mass[np.asarray(immovable).reshape(S, N).astype(bool)] = 0.0
+        n_prims = sum(isinstance(c, Collider) for c in self.colliders)
+        self.state = SimState.allocate(self.ctx, self.groom.as_padded(), inv_mass.reshape(-1), n_prims)
+        if head_transform is not None:
+            self.set_head_transform(head_transform)
+            self.reset()
+        self.warnings: list[str] = []
+        self._warned: set[str] = set()
+        self._grid = None
+        self._grid_key = None
+        self._flip = None
+        self._flip_key = None
+        self.profile = bool(profile)
+        self._timer = _Timer()
+        self._profiler = None
+        if self.profile:
+            GpuProfiler = _optional("mane.gpu.profiler", "GpuProfiler")
+            if GpuProfiler is not None:
+                try:
+                    self._profiler = GpuProfiler(self.ctx)
+                except Exception as exc:  # an interface we do not know yet: time ourselves
+                    self._warn("profiler", f"GpuProfiler unusable ({exc}); using plain timer queries")
+
+    # ------------------------------------------------------------------ set-up
+    @staticmethod
+    def _prepare(groom, points_per_strand):
+        if points_per_strand is not None:
+            n = int(points_per_strand)
+            if not 2 <= n <= MAX_POINTS_PER_STRAND:
+                raise UsageError(f"points_per_strand must be in 2..{MAX_POINTS_PER_STRAND}, got {n}")
+            return groom if groom.uniform_count == n else groom.resampled(n)
+        n = groom.uniform_count
+        if n is None or n > MAX_POINTS_PER_STRAND:
+            return groom.resampled(DEFAULT_POINTS_PER_STRAND)
+        return groom
+
+    @property
+    def settings(self) -> SimSettings:
+        return self._settings
+
+    @settings.setter
+    def settings(self, value: SimSettings) -> None:
+        if not isinstance(value, SimSettings):
+            raise UsageError("settings must be a mane.sim.SimSettings")
+        self._settings = value
+
+    def _warn(self, key: str, message: str) -> None:
+        if key not in self._warned:
+            self._warned.add(key)
+            self.warnings.append(message)
+
+    def _shader(self, name: str, **defines):
+        st = self.state
+        return compute_shader(self.ctx, HERE / f"{name}.comp", {"NV": st.points_per_strand, **defines})
+
+    # ------------------------------------------------------------------ inputs
+    def set_head_transform(self, matrix, state: SimState | None = None) -> None:
+        """Where the head is (head frame -> world, rigid 4x4) at the end of the next step or
+        ``advance``; the follicles get there smoothly over its sub-steps."""
+        m = np.asarray(matrix, dtype=np.float64)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise UsageError("the head transform must be a finite 4x4 matrix")
+        (state or self.state).head_target = m.copy()
+
+    def set_length_scale(self, scale, state: SimState | None = None) -> None:
+        """Haircut: cut every strand (scalar) or each strand ((S,) array) to ``scale`` of its
+        rest arc length, in (0, 1]. Segments past the cut get rest length 0 (the tip particles
+        gather at the cut); 1 restores the full length."""
+        st = state or self.state
+        s = np.broadcast_to(np.asarray(scale, dtype=np.float64), (st.num_strands,)).copy()
+        if not np.all(np.isfinite(s)) or np.any(s <= 0) or np.any(s > 1):
+            raise UsageError("length scale must be in (0, 1] (a haircut cannot grow hair)")
+        st.length_scale = s
+        st.upload_rest()
+
+    def reset(self, state: SimState | None = None) -> None:
+        """Back to the rest pose at the head's target transform, at rest, time 0."""
+        st = state or self.state
+        st.head = np.array(st.head_target, dtype=np.float64)
+        st.reset()
+
+    def new_state(self) -> SimState:
+        """Another state of the same groom (at rest), to step side by side with ``state=``."""
+        return SimState.allocate(self.ctx, self.groom.as_padded(), self.state.inv_mass,
+                                 sum(isinstance(c, Collider) for c in self.colliders))
+
+    # ------------------------------------------------------------------ stepping
+    def advance(self, frame_dt: float, state: SimState | None = None) -> int:
+        """Add ``frame_dt`` seconds to the accumulator and run as many fixed steps of
+        ``settings.dt`` as fit (at most ``settings.max_substeps``; time beyond that is
+        dropped). The head moves from where it was to its target over these steps.
+        Returns the number of steps run."""
+        st = state or self.state
+        frame_dt = float(frame_dt)
+        if not math.isfinite(frame_dt) or frame_dt < 0:
+            raise UsageError(f"frame time must be a finite number >= 0 s, got {frame_dt}")
+        dt = self.settings.dt
+        st.accumulator += frame_dt
+        n = int(math.floor(st.accumulator / dt + 1e-6))
+        if n > self.settings.max_substeps:
+            n = self.settings.max_substeps
+            st.accumulator = 0.0
+        else:
+            st.accumulator = max(st.accumulator - n * dt, 0.0)
+        start, target = st.head.copy(), st.head_target.copy()
+        for j in range(n):
+            self._step(st, dt, head_motion.interpolate(start, target, j / n),
+                       head_motion.interpolate(start, target, (j + 1) / n))
+        return n
+
+    def step(self, dt: float | None = None, state: SimState | None = None) -> None:
+        """One fixed step (``settings.dt`` unless given; clamped to [MIN_DT, MAX_DT])."""
+        st = state or self.state
+        dt = self.settings.dt if dt is None else float(dt)
+        if not math.isfinite(dt) or dt <= 0:
+            raise UsageError(f"dt must be a finite number > 0 s, got {dt}")
+        dt = min(max(dt, MIN_DT), MAX_DT)
+        self._step(st, dt, st.head.copy(), st.head_target.copy())
+
+    def _step(self, st: SimState, dt: float, head_from: np.ndarray, head_to: np.ndarray) -> None:
+        n = self.settings.substeps
+        h = dt / n
+        for j in range(n):
+            head = head_to if j == n - 1 else head_motion.interpolate(head_from, head_to, (j + 1) / n)
+            self.substep(st, h, head)
+
+    def substep(self, st: SimState, h: float, head: np.ndarray) -> None:
+        """Every pass once, with step ``h`` seconds and the head at ``head``."""
+        st.head = np.asarray(head, dtype=np.float64)
+        self.upload_colliders(st)
+        for name in PASSES:
+            self.run_pass(name, st, h)
+        st.time += h
+        st.steps += 1
+        st.last_dt = h
+
+    def upload_colliders(self, st: SimState) -> None:
+        data, worlds = pack_colliders(self.colliders, st.head, st.collider_worlds)
+        buf = st.buffers["colliders"]
+        if data.nbytes > buf.size:
+            buf.orphan(data.nbytes)
+        buf.write(data.tobytes())
+        st.collider_worlds = worlds
+        st.num_colliders = len(worlds)
+
+    # ------------------------------------------------------------------ passes
+    def _bind(self, st: SimState) -> None:
+        for name, binding in BINDINGS.items():
+            st.buffers[name].bind_to_storage_buffer(binding)
+
+    def _dispatch(self, name: str, shader, groups: int) -> None:
+        if groups <= 0:
+            return
+        with self._timed(name):
+            shader.run(group_x=int(groups))
+        self.ctx.memory_barrier()
+
+    def run_pass(self, name: str, st: SimState | None = None, h: float | None = None) -> bool:
+        """Run one pass of the step (``PASSES``) on ``st``; False when it had nothing to do.
+
+        Exposed for tests and profiling; ``substep`` runs them all in order.
+        """
+        st = st or self.state
+        h = self.settings.dt / self.settings.substeps if h is None else float(h)
+        if st.collider_worlds is None:
+            self.upload_colliders(st)
+        method = getattr(self, f"_pass_{name}", None)
+        if method is None:
+            raise UsageError(f"unknown pass {name!r}; passes: {', '.join(PASSES)}")
+        self._bind(st)
+        return bool(method(st, h))
+
+    def _particle_groups(self, st: SimState) -> int:
+        return (st.num_particles + 63) // 64
+
+    def _strand_groups(self, st: SimState) -> int:
+        return (st.num_strands + 63) // 64
+
+    def _pass_integrate(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        sh = self._shader("integrate")
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "num_colliders", st.num_colliders)
+        _set(sh, "head", _mat4(st.head))
+        _set(sh, "dt", h)
+        _set(sh, "gravity", s.gravity)
+        _set(sh, "damping_factor", math.exp(-s.damping * h))
+        _set(sh, "drag", s.drag)
+        _set(sh, "max_speed", s.max_speed)
+        _set(sh, "global_stiffness", s.global_shape_stiffness)
+        _set(sh, "global_range", s.global_shape_range)
+        _set(sh, "time", st.time)
+        _set(sh, "wind_on", int(s.wind.active))
+        for k, v in s.wind.uniforms().items():
+            _set(sh, k, v)
+        self._dispatch("integrate", sh, self._particle_groups(st))
+        return True
+
+    def _pass_shape(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        if s.local_shape_stiffness <= 0 and s.bending_stiffness <= 0:
+            return False
+        sh = self._shader("shape")
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "head", _mat4(st.head))
+        _set(sh, "local_stiffness", iteration_stiffness(s.local_shape_stiffness, s.shape_iterations))
+        _set(sh, "bending_stiffness", iteration_stiffness(s.bending_stiffness, s.shape_iterations))
+        _set(sh, "iterations", s.shape_iterations)
+        self._dispatch("shape", sh, self._strand_groups(st))
+        return True
+
+    def _pass_length(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        if s.length_method == "dftl":
+            sh = self._shader("dftl")
+            _set(sh, "num_strands", st.num_strands)
+            _set(sh, "head", _mat4(st.head))
+            self._dispatch("length", sh, self._strand_groups(st))
+            return True
+        spg = max(1, 64 // st.points_per_strand)
+        sh = self._shader("pbd_length", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "iterations", s.pbd_iterations)
+        _set(sh, "tether", int(s.long_range_attachment))
+        self._dispatch("length", sh, (st.num_strands + spg - 1) // spg)
+        return True
+
+    def _pass_collide(self, st: SimState, h: float) -> bool:
+        if not any(isinstance(c, Collider) and c.mode == "projection" for c in self.colliders):
+            return False
+        sh = self._shader("collide")
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "num_colliders", st.num_colliders)
+        self._dispatch("collide", sh, self._particle_groups(st))
+        return True
+
+    def _pass_sdf(self, st: SimState, h: float) -> bool:
+        meshes = [c for c in self.colliders if isinstance(c, MeshCollider)]
+        if not meshes:
+            return False
+        MeshSDF = _optional("mane.sim.sdf", "MeshSDF")
+        if MeshSDF is None:
+            self._warn("sdf", "mesh colliders skipped: mane.sim.sdf is not available")
+            return False
+        with self._timed("sdf"):
+            for c in meshes:
+                if c._sdf is None:
+                    c._sdf = MeshSDF.bake(self.ctx, c.mesh, resolution=c.resolution, padding=c.padding)
+                c._sdf.collide(st, c.world_transform(st.head), c.margin, c.friction)
+        self.ctx.memory_barrier()
+        self._bind(st)
+        return True
+
+    def _pass_velocity(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        sh = self._shader("velocity")
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "dt", h)
+        _set(sh, "dftl_damping", s.dftl_damping if s.length_method == "dftl" else 0.0)
+        _set(sh, "max_speed", s.max_speed)
+        self._dispatch("velocity", sh, self._particle_groups(st))
+        return True
+
+    def _pass_friction(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        if s.friction <= 0:
+            return False
+        GridFriction = _optional("mane.sim.grid_friction", "GridFriction")
+        if GridFriction is None:
+            self._warn("friction", "hair-hair friction skipped: mane.sim.grid_friction is not available")
+            return False
+        key = (s.grid_resolution, s.grid_method)
+        if self._grid is None or self._grid_key != key:
+            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method)
+            self._grid_key = key
+        with self._timed("friction"):
+            self._grid.apply(st, s.friction)
+        self.ctx.memory_barrier()
+        self._bind(st)
+        return True
+
+    def _pass_volume(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        if not s.volume:
+            return False
+        FlipVolume = _optional("mane.sim.flip", "FlipVolume")
+        if FlipVolume is None:
+            self._warn("volume", "volume preservation skipped: mane.sim.flip is not available")
+            return False
+        if self._flip is None or self._flip_key != s.grid_resolution:
+            self._flip = FlipVolume(self.ctx, s.grid_resolution)
+            self._flip_key = s.grid_resolution
+        with self._timed("volume"):
+            self._flip.apply(st, h, s.flip_ratio)
+        self.ctx.memory_barrier()
+        self._bind(st)
+        return True
+
+    def _pass_guard(self, st: SimState, h: float) -> bool:
+        s = self.settings
+        if not s.nan_guard:
+            return False
+        sh = self._shader("nan_guard")
+        _set(sh, "num_strands", st.num_strands)
+        _set(sh, "head", _mat4(st.head))
+        _set(sh, "max_stretch", s.max_stretch)
+        _set(sh, "max_speed_abs", 10.0 * s.max_speed)
+        self._dispatch("guard", sh, self._strand_groups(st))
+        return True
+
+    # ------------------------------------------------------------------ timing
+    @contextmanager
+    def _timed(self, name: str):
+        if not self.profile:
+            yield
+            return
+        if self._profiler is not None and hasattr(self._profiler, "section"):
+            with self._profiler.section(f"sim.{name}"):
+                yield
+            return
+        q = self.ctx.query(time=True)
+        with q:
+            yield
+        self._timer.queries.setdefault(name, []).append(q)
+        if len(self._timer.queries[name]) > 64:
+            self._collect_times()
+
+    def _collect_times(self) -> None:
+        for name, qs in self._timer.queries.items():
+            tot = self._timer.totals.setdefault(name, [0.0, 0])
+            for q in qs:
+                tot[0] += q.elapsed / 1e6
+                tot[1] += 1
+        self._timer.queries = {}
+
+    def pass_times(self) -> dict:
+        """Pass name -> mean GPU milliseconds per dispatch (needs ``profile=True``)."""
+        if self._profiler is not None and hasattr(self._profiler, "means"):
+            try:
+                return {k.removeprefix("sim."): v for k, v in self._profiler.means().items()
+                        if k.startswith("sim.")}
+            except Exception:
+                pass
+        self._collect_times()
+        return {k: t / c for k, (t, c) in self._timer.totals.items() if c}
+
+    # ------------------------------------------------------------------ outputs
+    def positions(self, state: SimState | None = None) -> np.ndarray:
+        """(P, 3) float32 world positions read back from the GPU."""
+        return (state or self.state).positions()
+
+    def velocities(self, state: SimState | None = None) -> np.ndarray:
+        return (state or self.state).velocities()
+
+    @property
+    def nan_recoveries(self) -> int:
+        """Strands the NaN guard has reset since the last reset."""
+        return self.state.recoveries
+
+    def snapshot(self, state: SimState | None = None) -> SimSnapshot:
+        st = state or self.state
+        names = ("positions", "prev_positions", "velocities", "corrections", "guard")
+        return SimSnapshot({n: st.read(n) for n in names}, st.length_scale.copy(), st.head.copy(),
+                           st.head_target.copy(), st.time, st.steps, st.accumulator,
+                           None if st.collider_worlds is None else [w.copy() for w in st.collider_worlds])
+
+    def restore(self, snap: SimSnapshot, state: SimState | None = None) -> None:
+        st = state or self.state
+        if len(snap.length_scale) != st.num_strands:
+            raise UsageError("the snapshot is of another groom")
+        if not np.array_equal(snap.length_scale, st.length_scale):
+            st.length_scale = snap.length_scale.copy()
+            st.upload_rest()
+        for name, arr in snap.buffers.items():
+            st.write(name, arr)
+        st.head, st.head_target = snap.head.copy(), snap.head_target.copy()
+        st.time, st.steps, st.accumulator = snap.time, snap.steps, snap.accumulator
+        st.collider_worlds = None if snap.collider_worlds is None else [w.copy() for w in snap.collider_worlds]
+
+    # ------------------------------------------------------------------ invariants
+    def _padded(self, st: SimState, positions=None) -> np.ndarray:
+        p = st.positions() if positions is None else np.asarray(positions)
+        return p.astype(np.float64).reshape(st.num_strands, st.points_per_strand, 3)
+
+    def length_errors(self, state: SimState | None = None, positions=None) -> np.ndarray:
+        """(S, N-1) |segment length - rest length| / base rest length."""
+        st = state or self.state
+        p = self._padded(st, positions)
+        info = st.read("rest_info").reshape(st.num_strands, st.points_per_strand, 4).astype(np.float64)
+        seg = np.linalg.norm(np.diff(p, axis=1), axis=2)
+        base = np.maximum(info[:, 1:, 3], 1e-12)
+        return np.abs(seg - info[:, 1:, 0]) / base
+
+    def max_length_error(self, state: SimState | None = None, positions=None) -> float:
+        """Largest relative segment length error (dimensionless)."""
+        return float(self.length_errors(state, positions).max())
+
+    def max_root_error(self, state: SimState | None = None, positions=None) -> float:
+        """Largest distance of a pinned particle from its follicle under the head, metres."""
+        st = state or self.state
+        p = self._padded(st, positions).reshape(-1, 3)
+        rest = st.read("rest_positions")
+        pinned = rest[:, 3] == 0
+        target = transform_points(st.head, rest[pinned, :3])
+        return float(np.linalg.norm(p[pinned] - target, axis=1).max()) if pinned.any() else 0.0
+
+    def max_penetration(self, state: SimState | None = None, positions=None) -> float:
+        """Deepest free particle inside a primitive collider, metres (0 when none is)."""
+        st = state or self.state
+        p = self._padded(st, positions).reshape(-1, 3)
+        free = st.read("rest_positions")[:, 3] > 0
+        deepest = 0.0
+        for c in self.colliders:
+            if isinstance(c, Collider):
+                deepest = max(deepest, float(np.max(c.depth(p[free], st.head), initial=0.0)))
+        return deepest
+
+    def kinetic_energy(self, state: SimState | None = None) -> float:
+        """Sum of |dx/dt|^2 / 2 over free particles (unit mass each) for the last step's
+        displacement, J/kg. (Not the velocity buffer: with DFTL it carries the s_damping
+        correction, which a strand hanging at rest keeps.)"""
+        st = state or self.state
+        if st.last_dt <= 0:
+            return 0.0
+        x = st.read("positions")[:, :3].astype(np.float64)
+        x0 = st.read("prev_positions")[:, :3].astype(np.float64)
+        free = st.read("rest_positions")[:, 3] > 0
+        return float(0.5 * (((x - x0)[free] / st.last_dt) ** 2).sum())
+
+    def release(self) -> None:
+        self.state.release()
+
+
+__all__ = ["Simulator", "SimSnapshot", "PASSES", "GroomError"]

@@ -1,0 +1,288 @@
+"""The simulator's dynamic state: GPU buffers plus the few numbers that go with them.
+
+Layout (fixed, shared with the grid passes and the renderer): every strand has the same
+``N <= 64`` particles; particle ``i = strand * N + k``, root ``k = 0``. All buffers are
+std430 arrays of float32 ``vec4`` (one per particle unless said):
+
+=================  =========  ==========================================================
+buffer             binding    contents
+=================  =========  ==========================================================
+positions          0          xyz metres (world), w inverse mass (0 = pinned)
+prev_positions     1          positions at the start of the step (last valid, see guard)
+velocities         2          xyz m/s, w 0
+rest_positions     3          bind pose in the head's frame (after haircut), w inverse mass
+rest_info          4          x rest length of segment k-1 -> k (after haircut), y rest arc
+                              length root -> k, z rest angle (rad) between segments k-2 -> k-1
+                              and k-1 -> k, w base length
+corrections        5          DFTL correction d_k (xyz), for the velocity update
+shape_refs         6          segment k-1 -> k in the bind frame of segment k-2 (local shape)
+root_frames        7          3 vec4 per strand: columns of the root's bind frame (head frame)
+colliders          8          ``colliders.py`` layout, rewritten every step
+guard              9          uint[4]: recoveries, last bad strand + 1, 0, 0
+=================  =========  ==========================================================
+
+A ``SimState`` can be copied (``snapshot``/``restore`` on the simulator) and two states
+can be stepped side by side by one simulator.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import moderngl
+import numpy as np
+
+from ..errors import GPUMemoryError, GroomError, UsageError
+
+MAX_POINTS_PER_STRAND = 64
+PARTICLE_BUFFERS = ("positions", "prev_positions", "velocities", "rest_positions", "rest_info",
+                    "corrections", "shape_refs")
+BINDINGS = {name: i for i, name in enumerate(PARTICLE_BUFFERS)}
+BINDINGS.update(root_frames=7, colliders=8, guard=9)
+COLLIDER_BYTES = 176
+GUARD_BYTES = 16
+
+
+def estimate_bytes(num_strands: int, points_per_strand: int, num_colliders: int = 0) -> dict:
+    """name -> bytes of every buffer a state of this size allocates."""
+    P = int(num_strands) * int(points_per_strand)
+    sizes = {name: P * 16 for name in PARTICLE_BUFFERS}
+    sizes["root_frames"] = int(num_strands) * 48
+    sizes["colliders"] = max(1, num_colliders) * COLLIDER_BYTES
+    sizes["guard"] = GUARD_BYTES
+    return sizes
+
+
+def _buffer_limit(ctx) -> int:
+    """The largest SSBO the context binds, bytes."""
+    value = ctx.info.get("GL_MAX_SHADER_STORAGE_BLOCK_SIZE")
+    try:
+        return int(value)
+    except (TypeError, ValueError):
+        return 2**27  # the GL 4.3 minimum is 2**24; every desktop driver gives >= 2**27
+
+
+def check_fits(ctx, num_strands: int, points_per_strand: int, num_colliders: int = 0) -> int:
+    """Raise GPUMemoryError unless a state of this size fits; return its total bytes."""
+    sizes = estimate_bytes(num_strands, points_per_strand, num_colliders)
+    total = sum(sizes.values())
+    try:
+        from ..gpu.buffers import check_allocation  # written by helper-gpu; optional
+    except ImportError:
+        check_allocation = None
+    if check_allocation is not None:
+        check_allocation(ctx, total, f"the simulation state of {num_strands} strands x "
+                                     f"{points_per_strand} points", ssbo=False)
+    limit = _buffer_limit(ctx)
+    largest = max(sizes, key=sizes.get)
+    if sizes[largest] > limit:
+        raise GPUMemoryError(
+            f"the simulation needs a {sizes[largest] / 2**20:.1f} MiB '{largest}' buffer "
+            f"({num_strands} strands x {points_per_strand} points, {total / 2**20:.1f} MiB in all) "
+            f"but this OpenGL binds at most {limit / 2**20:.1f} MiB per storage buffer; "
+            "simulate fewer strands (guides) or fewer points per strand")
+    return total
+
+
+# ---------------------------------------------------------------------- rest data
+def _frame_from_direction(t: np.ndarray) -> np.ndarray:
+    """(S,3,3) rotation whose columns are x = t, y, z (deterministic choice of y)."""
+    S = len(t)
+    helper = np.tile(np.array([0.0, 0.0, 1.0]), (S, 1))
+    near = np.abs(t[:, 2]) > 0.9
+    helper[near] = (1.0, 0.0, 0.0)
+    y = np.cross(helper, t)
+    y /= np.linalg.norm(y, axis=1, keepdims=True)
+    z = np.cross(t, y)
+    return np.stack([t, y, z], axis=2)
+
+
+def min_rotation_from_x(u: np.ndarray) -> np.ndarray:
+    """(S,3,3) the smallest rotation taking e_x to the unit vectors u (S,3)."""
+    c = u[:, 0]
+    v = np.stack([np.zeros_like(c), -u[:, 2], u[:, 1]], axis=1)  # e_x x u
+    K = np.zeros((len(u), 3, 3))
+    K[:, 0, 1], K[:, 0, 2] = -v[:, 2], v[:, 1]
+    K[:, 1, 0], K[:, 1, 2] = v[:, 2], -v[:, 0]
+    K[:, 2, 0], K[:, 2, 1] = -v[:, 1], v[:, 0]
+    opposite = c < -1.0 + 1e-6
+    denom = np.where(opposite, 1.0, 1.0 + c)
+    R = c[:, None, None] * np.eye(3) + K + v[:, :, None] * v[:, None, :] / denom[:, None, None]
+    R[opposite] = np.diag([-1.0, -1.0, 1.0])
+    return R
+
+
+def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
+    """(S,N,3): the rest strands cut at ``scale`` of their arc length (tips collapse on the cut)."""
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    arc = np.concatenate([np.zeros((len(rest), 1)), np.cumsum(seg, axis=1)], axis=1)
+    if np.all(scale >= 1.0):
+        return rest.copy()
+    cut = arc[:, -1] * scale
+    a = np.minimum(arc, cut[:, None])  # (S,N) wanted arc of each particle
+    N = rest.shape[1]
+    j = (arc[:, None, :] <= a[:, :, None]).sum(axis=2) - 1  # segment start index
+    j = np.clip(j, 0, N - 2)
+    S_idx = np.arange(len(rest))[:, None]
+    a0, a1 = arc[S_idx, j], arc[S_idx, j + 1]
+    span = np.where(a1 - a0 > 0, a1 - a0, 1.0)
+    w = np.clip((a - a0) / span, 0.0, 1.0)[..., None]
+    return rest[S_idx, j] * (1 - w) + rest[S_idx, j + 1] * w
+
+
+def rest_data(base: np.ndarray, scale: np.ndarray, inv_mass: np.ndarray) -> dict:
+    """Every rest-derived buffer's contents (float32) for base strands (S,N,3) and length scales (S,)."""
+    S, N, _ = base.shape
+    rest = haircut(base, scale)
+    base_seg = np.linalg.norm(np.diff(base, axis=1), axis=2)
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    d_all = np.diff(rest, axis=1)
+    info = np.zeros((S, N, 4))
+    info[:, 1:, 0] = seg
+    info[:, 1:, 1] = np.cumsum(seg, axis=1)
+    # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
+    e0, e1 = d_all[:, :-1], d_all[:, 1:]
+    sn = np.linalg.norm(np.cross(e0, e1), axis=2)
+    info[:, 2:, 2] = np.where((seg[:, :-1] > 1e-12) & (seg[:, 1:] > 1e-12),
+                              np.arctan2(sn, np.einsum("snk,snk->sn", e0, e1)), 0.0)
+    info[:, 1:, 3] = base_seg
+    # local shape: bind frames propagated root to tip
+    d = np.diff(rest, axis=1)  # (S,N-1,3)
+    t0 = d[:, 0] / np.maximum(seg[:, :1], 1e-30)
+    t0[seg[:, 0] <= 1e-12] = (0.0, -1.0, 0.0)
+    R0 = _frame_from_direction(t0)
+    refs = np.zeros((S, N, 4))
+    F = R0.copy()
+    for k in range(N - 1):
+        refs[:, k + 1, :3] = np.einsum("sji,sj->si", F, d[:, k])  # F^T d
+        ok = seg[:, k] > 1e-12
+        if np.any(ok):
+            u = np.einsum("sji,sj->si", F[ok], d[ok, k] / seg[ok, k, None])
+            u /= np.linalg.norm(u, axis=1, keepdims=True)
+            F[ok] = F[ok] @ min_rotation_from_x(u)
+    frames = np.zeros((S, 3, 4))
+    frames[:, :, :3] = np.transpose(R0, (0, 2, 1))  # row c = column c of R0
+    pos = np.concatenate([rest, inv_mass.reshape(S, N, 1)], axis=2)
+    return {
+        "rest_positions": pos.astype(np.float32).reshape(-1, 4),
+        "rest_info": info.astype(np.float32).reshape(-1, 4),
+        "shape_refs": refs.astype(np.float32).reshape(-1, 4),
+        "root_frames": frames.astype(np.float32).reshape(-1, 4),
+    }
+
+
+def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
+    m = np.asarray(m, dtype=np.float64)
+    return np.asarray(p, dtype=np.float64) @ m[:3, :3].T + m[:3, 3]
+
+
+# ---------------------------------------------------------------------- the state
+class StateBuffer(moderngl.Buffer):
+    """A moderngl Buffer (bind it as is) that, called, reads its vec4s back as (n, 3) float32.
+
+    ``state.positions`` is the buffer the renderer binds; ``state.positions()`` is a copy of
+    its xyz in NumPy.
+    """
+
+    def __call__(self) -> np.ndarray:
+        return np.frombuffer(self.read(), dtype=np.float32).reshape(-1, 4)[:, :3].copy()
+
+
+@dataclass(eq=False)
+class SimState:
+    """GPU buffers of one simulated groom (see the module doc for the layout)."""
+
+    ctx: object
+    num_strands: int
+    points_per_strand: int
+    buffers: dict
+    base_rest: np.ndarray  # (S,N,3) float64 bind pose, head frame, before haircut
+    inv_mass: np.ndarray  # (P,) float32
+    length_scale: np.ndarray  # (S,) float64
+    head: np.ndarray = field(default_factory=lambda: np.eye(4))
+    """head transform of the last step (head frame -> world), 4x4."""
+    head_target: np.ndarray = field(default_factory=lambda: np.eye(4))
+    """head transform wanted at the end of the next step/advance (set_head_transform)."""
+    time: float = 0.0
+    """simulated time, s."""
+    steps: int = 0
+    """(sub-)steps taken."""
+    last_dt: float = 0.0
+    """length of the last (sub-)step, s."""
+    accumulator: float = 0.0
+    """time left over by ``advance`` for the next call, s."""
+    collider_worlds: list | None = None
+    """world transforms of the primitive colliders at the last step (for their motion)."""
+    num_colliders: int = 0
+    """primitive colliders in the colliders buffer."""
+
+    @property
+    def num_particles(self) -> int:
+        return self.num_strands * self.points_per_strand
+
+    def __getattr__(self, name):  # state.positions etc. are the buffers (StateBuffer)
+        buffers = self.__dict__.get("buffers")
+        if buffers is not None and name in buffers:
+            return buffers[name]
+        raise AttributeError(name)
+
+    @classmethod
+    def allocate(cls, ctx, rest: np.ndarray, inv_mass: np.ndarray, num_colliders: int = 0) -> "SimState":
+        """Buffers for strands ``rest`` (S,N,3) in their bind pose (head frame = world at bind)."""
+        rest = np.asarray(rest, dtype=np.float64)
+        if rest.ndim != 3 or rest.shape[2] != 3:
+            raise GroomError(f"rest strands must be (S, N, 3), got {rest.shape}")
+        S, N, _ = rest.shape
+        if not 2 <= N <= MAX_POINTS_PER_STRAND:
+            raise GroomError(f"the simulator takes 2..{MAX_POINTS_PER_STRAND} points per strand, got {N}")
+        check_fits(ctx, S, N, num_colliders)
+        sizes = estimate_bytes(S, N, num_colliders)
+        buffers = {name: ctx.buffer(reserve=nbytes) for name, nbytes in sizes.items()}
+        for name in PARTICLE_BUFFERS:
+            buffers[name].__class__ = StateBuffer
+        state = cls(ctx, S, N, buffers, rest, np.ascontiguousarray(inv_mass, dtype=np.float32),
+                    np.ones(S))
+        state.upload_rest()
+        state.reset()
+        return state
+
+    def upload_rest(self) -> None:
+        for name, arr in rest_data(self.base_rest, self.length_scale, self.inv_mass).items():
+            self.buffers[name].write(np.ascontiguousarray(arr).tobytes())
+
+    def reset(self) -> None:
+        """Every particle at its rest position under the current head transform, at rest."""
+        rest = self.read("rest_positions")
+        pos = np.empty_like(rest)
+        pos[:, :3] = transform_points(self.head, rest[:, :3])
+        pos[:, 3] = rest[:, 3]
+        data = pos.astype(np.float32).tobytes()
+        self.buffers["positions"].write(data)
+        self.buffers["prev_positions"].write(data)
+        zero = np.zeros((self.num_particles, 4), np.float32).tobytes()
+        self.buffers["velocities"].write(zero)
+        self.buffers["corrections"].write(zero)
+        self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
+        self.time, self.steps, self.accumulator, self.last_dt = 0.0, 0, 0.0, 0.0
+        self.collider_worlds = None
+
+    # ---- read back
+    def read(self, name: str) -> np.ndarray:
+        buf = self.buffers[name]
+        if name == "guard":
+            return np.frombuffer(buf.read(), dtype=np.uint32).copy()
+        return np.frombuffer(buf.read(), dtype=np.float32).reshape(-1, 4).copy()
+
+    def write(self, name: str, data: np.ndarray) -> None:
+        arr = np.ascontiguousarray(data, dtype=np.uint32 if name == "guard" else np.float32)
+        if arr.nbytes != self.buffers[name].size and name != "colliders":
+            raise UsageError(f"{name}: {arr.nbytes} bytes for a buffer of {self.buffers[name].size}")
+        self.buffers[name].write(arr.tobytes())
+
+    @property
+    def recoveries(self) -> int:
+        return int(self.read("guard")[0])
+
+    def release(self) -> None:
+        for buf in self.buffers.values():
+            buf.release()
+        self.buffers = {}
