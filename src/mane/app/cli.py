@@ -18,8 +18,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "info": ("mane.app.info", "print a hair file's strands, points, bounding box and attributes"),
     "convert": ("mane.app.convert", "convert a hair file to another format (with --up and --scale)"),
     "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
+    "render": ("mane.app.render", "render a groom (or the default head and hair) to a PNG or an MP4"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
     "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
+    "bench": ("mane.app.bench", "run benchmarks (sim) and print or write JSON"),
     "demo": ("mane.app.demo", "the main job: grow, convert and describe the default groom"),
 }
 

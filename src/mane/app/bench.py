@@ -1,0 +1,94 @@
+"""``mane bench TARGET [--json] [--out FILE] [--quick | --full]``: run a benchmark.
+
+Targets live in ``TARGETS`` (name -> module, help); a target module has
+``run(ctx, mode, progress=None) -> dict`` (``{"meta", "results", ...}``) and
+``format_text(result) -> str``. Add ``render``, ``oit`` (and an ``all`` that runs every
+target) by adding entries here.
+
+Progress goes to stderr; stdout has the tables, or with ``--json`` the JSON object only.
+``--out FILE`` writes the JSON there as well (whatever is printed).
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from pathlib import Path
+
+from ..errors import UsageError
+
+HELP = "run benchmarks (sim) and print or write JSON"
+
+# target -> (module, one-line help)
+TARGETS: dict[str, tuple[str, str]] = {
+    "sim": ("mane.bench.sim_bench", "strand solver: GPU ms per pass and per step, grids, FLIP, bandwidth"),
+}
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("target", choices=sorted(TARGETS),
+                        help="what to benchmark: " + "; ".join(f"{k}: {v[1]}" for k, v in TARGETS.items()))
+    parser.add_argument("--json", action="store_true", help="print the results as one JSON object")
+    parser.add_argument("--out", metavar="FILE", help="also write the JSON to FILE")
+    size = parser.add_mutually_exclusive_group()
+    size.add_argument("--quick", action="store_true", help="small configurations, a few steps (seconds, any GPU)")
+    size.add_argument("--full", action="store_true", help="more configurations and steps (minutes)")
+    parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+
+
+def _json_default(obj):
+    import numpy as np
+
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (set, frozenset, tuple)):
+        return list(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    return str(obj)
+
+
+def to_json(result: dict) -> str:
+    return json.dumps(result, indent=2, default=_json_default, allow_nan=False)
+
+
+def _sanitise(obj):
+    """NaN / inf -> None, so the JSON is strict."""
+    import math
+
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: _sanitise(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_sanitise(v) for v in obj]
+    return obj
+
+
+def run(args) -> int:
+    from ..gpu import get_context
+
+    if args.target not in TARGETS:
+        raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
+    mode = "quick" if args.quick else "full" if args.full else "default"
+    module = importlib.import_module(TARGETS[args.target][0])
+    progress = None if args.quiet else (
+        lambda msg: print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True))
+    ctx = get_context()
+    result = _sanitise(module.run(ctx, mode, progress=progress))
+    text = to_json(result)
+    if args.out:
+        from ..io.atomic import atomic_write_path
+
+        with atomic_write_path(args.out) as tmp:
+            Path(tmp).write_text(text + "\n")
+    if args.json:
+        print(text)
+    else:
+        print(module.format_text(result))
+        if args.out:
+            print(f"\nJSON written to {args.out}")
+    return 0
