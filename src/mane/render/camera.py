@@ -1,0 +1,147 @@
+"""A pinhole camera: look-at view, perspective projection, automatic framing and turntables.
+
+Matrices are NumPy float64 4x4, row-major maths (``clip = P @ V @ world``); upload them to GLSL
+with ``mat_bytes`` (column-major float32).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, replace
+
+import numpy as np
+
+from ..errors import UsageError
+
+
+def normalize(v) -> np.ndarray:
+    v = np.asarray(v, dtype=np.float64)
+    n = np.linalg.norm(v)
+    if not n > 0:
+        raise UsageError(f"cannot normalise the zero vector {v.tolist()}")
+    return v / n
+
+
+def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
+    """World -> view (camera looks down -Z, Y up)."""
+    eye, target = np.asarray(eye, float), np.asarray(target, float)
+    f = normalize(target - eye)
+    up = np.asarray(up, float)
+    if abs(np.dot(f, normalize(up))) > 0.999:
+        up = np.array([0.0, 0.0, 1.0]) if abs(f[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
+    s = normalize(np.cross(f, up))
+    u = np.cross(s, f)
+    m = np.eye(4)
+    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
+    m[:3, 3] = -m[:3, :3] @ eye
+    return m
+
+
+def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
+    f = 1.0 / math.tan(math.radians(fov_y_deg) / 2.0)
+    m = np.zeros((4, 4))
+    m[0, 0], m[1, 1] = f / aspect, f
+    m[2, 2] = (far + near) / (near - far)
+    m[2, 3] = 2.0 * far * near / (near - far)
+    m[3, 2] = -1.0
+    return m
+
+
+def orthographic(half_w: float, half_h: float, near: float, far: float) -> np.ndarray:
+    m = np.eye(4)
+    m[0, 0], m[1, 1] = 1.0 / half_w, 1.0 / half_h
+    m[2, 2] = -2.0 / (far - near)
+    m[2, 3] = -(far + near) / (far - near)
+    return m
+
+
+def mat_bytes(m) -> bytes:
+    """A NumPy 4x4 (row-major maths) as GLSL's column-major float32 bytes."""
+    return np.asarray(m, dtype=np.float32).T.copy().tobytes()
+
+
+@dataclass(frozen=True)
+class Camera:
+    """eye and target in metres, fov_y in degrees; near/far in metres (None: from the scene)."""
+
+    eye: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    target: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    up: tuple[float, float, float] = (0.0, 1.0, 0.0)
+    fov_y: float = 30.0
+    near: float = 0.01
+    far: float = 100.0
+
+    def view(self) -> np.ndarray:
+        return look_at(self.eye, self.target, self.up)
+
+    def projection(self, aspect: float) -> np.ndarray:
+        return perspective(self.fov_y, aspect, self.near, self.far)
+
+    def view_projection(self, aspect: float) -> np.ndarray:
+        return self.projection(aspect) @ self.view()
+
+    @property
+    def forward(self) -> np.ndarray:
+        return normalize(np.asarray(self.target, float) - np.asarray(self.eye, float))
+
+    def replace(self, **kw) -> "Camera":
+        return replace(self, **kw)
+
+    @classmethod
+    def framing(cls, lo, hi, *, azimuth: float = 25.0, elevation: float = 12.0, fov_y: float = 30.0,
+                aspect: float = 4 / 3, margin: float = 1.08, distance_scale: float = 1.0) -> "Camera":
+        """A camera that sees the box [lo, hi] whole, from ``azimuth`` degrees about +Y (0 looks
+        at the face, +Z toward -Z) and ``elevation`` degrees above the horizon."""
+        lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        center = 0.5 * (lo + hi)
+        az, el = math.radians(azimuth), math.radians(elevation)
+        direction = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
+        # fit the box's corners in both the vertical and horizontal field of view
+        view = look_at(center + direction, center)
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        local = (view[:3, :3] @ (corners - center).T).T  # camera at distance 0 looking at center
+        ty = math.tan(math.radians(fov_y) / 2.0)
+        tx = ty * aspect
+        # distance d such that |x| <= (d - z_local) * tx for every corner (z_local toward the camera)
+        d = max(np.max(np.abs(local[:, 0]) * margin / tx + local[:, 2]),
+                np.max(np.abs(local[:, 1]) * margin / ty + local[:, 2]), 1e-3)
+        d *= float(distance_scale)
+        radius = 0.5 * float(np.linalg.norm(hi - lo))
+        eye = center + direction * d
+        return cls(tuple(eye), tuple(center), (0.0, 1.0, 0.0), fov_y,
+                   near=max(1e-3, d - radius * 1.5) * 0.5, far=d + radius * 2.0 + 1.0)
+
+    def orbited(self, degrees: float) -> "Camera":
+        """This camera turned ``degrees`` about the vertical axis through its target (turntable)."""
+        a = math.radians(degrees)
+        c, s = math.cos(a), math.sin(a)
+        t = np.asarray(self.target, float)
+        e = np.asarray(self.eye, float) - t
+        e = np.array([c * e[0] + s * e[2], e[1], -s * e[0] + c * e[2]])
+        return self.replace(eye=tuple(t + e))
+
+
+def parse_camera(text: str, lo, hi, aspect: float) -> Camera:
+    """--camera: "AZIMUTH,ELEVATION[,DISTANCE_SCALE[,FOV]]" (degrees) framing the scene, or
+    "eye=x,y,z;target=x,y,z[;fov=deg]"."""
+    text = (text or "").strip()
+    try:
+        if "=" in text:
+            kv = dict(part.split("=", 1) for part in text.split(";") if part.strip())
+            eye = tuple(float(v) for v in kv["eye"].split(","))
+            center = 0.5 * (np.asarray(lo, float) + np.asarray(hi, float))
+            target = tuple(float(v) for v in kv["target"].split(",")) if "target" in kv else tuple(center)
+            fov = float(kv.get("fov", 30.0))
+            radius = 0.5 * float(np.linalg.norm(np.asarray(hi, float) - lo))
+            dist = float(np.linalg.norm(np.asarray(eye) - np.asarray(target)))
+            if len(eye) != 3 or len(target) != 3:
+                raise ValueError("eye and target need 3 numbers")
+            return Camera(eye, target, fov_y=fov, near=max(1e-3, (dist - 2 * radius) * 0.5),
+                          far=dist + 4 * radius + 1.0)
+        vals = [float(v) for v in text.split(",")] if text else []
+        if len(vals) > 4:
+            raise ValueError("too many numbers")
+        keys = ("azimuth", "elevation", "distance_scale", "fov_y")
+        return Camera.framing(lo, hi, aspect=aspect, **dict(zip(keys, vals)))
+    except (ValueError, KeyError) as exc:
+        raise UsageError(f"bad --camera {text!r} ({exc}); use AZ,EL[,DIST_SCALE[,FOV]] or "
+                         "eye=x,y,z;target=x,y,z[;fov=deg]") from None

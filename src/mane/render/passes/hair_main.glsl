@@ -1,0 +1,58 @@
+// The hair fragment shader's body (after the shading model's include).
+#include "lighting.glsl"
+
+#if !HAIR_MATERIAL_DECLARED
+uniform HairMaterial u_material;
+#endif
+
+in vec3 g_pos;
+in vec3 g_tangent;
+in float g_s;
+in float g_rand;
+in float g_alpha;
+in float g_depth;
+
+uniform vec3 u_eye;
+uniform sampler2D u_dom_depth;   // PASS 2: z0 of the hair (m)
+uniform vec3 u_dom_layers_abs;   // PASS 3: layer ends after z0 (m)
+uniform float u_strand_opacity;
+uniform int u_premultiply;     // 1: blending (premultiplied); 0: alpha to coverage (MSAA)
+
+#if PASS == 0
+layout(location = 0) out vec4 frag;
+#elif PASS == 1 || PASS == 2
+layout(location = 0) out float frag_depth;
+#else
+layout(location = 0) out vec4 frag_opacity;
+#endif
+
+void main() {
+#if PASS == 0
+    vec3 T = normalize(g_tangent);
+    vec3 V = normalize(u_eye - g_pos);
+    HairMaterial m = u_material;
+    m.strand_rand = g_rand;
+    vec3 color = u_ambient * m.color;
+    for (int i = 0; i < MAX_LIGHTS; ++i) {
+        if (i >= u_num_lights) break;
+        float falloff;
+        vec3 L = light_dir_at(i, g_pos, falloff);
+        float vis = i == 0 ? light0_visibility(g_pos) : 1.0;
+        vec3 radiance = u_light_radiance[i] * falloff;
+        color += radiance * (hair_bsdf(T, V, L, m) * vis + hair_multiple_scattering(T, V, L, m, vis));
+    }
+    // darker toward the root: a touch of the occlusion a clump gives itself
+    color *= mix(0.55, 1.0, smoothstep(0.0, 0.25, g_s));
+    frag = u_premultiply != 0 ? vec4(color * g_alpha, g_alpha) : vec4(color, g_alpha);
+#elif PASS == 1 || PASS == 2
+    // light depth (shadow map, deep opacity z0)
+    frag_depth = g_depth;
+#else
+    // deep opacity layers: add to this fragment's layer and all behind it
+    float z0 = texelFetch(u_dom_depth, ivec2(gl_FragCoord.xy), 0).r;
+    float dz = g_depth - z0;
+    float a = u_strand_opacity * g_alpha;
+    vec3 add = vec3(dz < u_dom_layers_abs.x ? a : 0.0, dz < u_dom_layers_abs.y ? a : 0.0, a);
+    frag_opacity = vec4(add, 0.0);
+#endif
+}

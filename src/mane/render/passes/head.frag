@@ -1,0 +1,38 @@
+#version 430
+// The head: Lambert with a little wrap, skin albedo, the scalp tinted toward the hair colour,
+// light 0 shadowed by the hair (deep opacity) and by the head (shadow map).
+#include "lighting.glsl"
+in vec3 h_pos;
+in vec3 h_normal;
+in float h_scalp;
+in float h_depth;
+uniform vec3 u_eye;
+uniform vec3 u_skin;
+uniform vec3 u_scalp_color;
+#if PASS == 0
+layout(location = 0) out vec4 frag;
+#else
+layout(location = 0) out float frag_depth;
+#endif
+void main() {
+#if PASS == 0
+    vec3 N = normalize(h_normal);
+    vec3 V = normalize(u_eye - h_pos);
+    if (dot(N, V) < 0.0) N = -N;
+    vec3 albedo = mix(u_skin, u_scalp_color, clamp(h_scalp, 0.0, 1.0));
+    vec3 color = u_ambient * albedo;
+    for (int i = 0; i < MAX_LIGHTS; ++i) {
+        if (i >= u_num_lights) break;
+        float falloff;
+        vec3 L = light_dir_at(i, h_pos, falloff);
+        float ndl = max(0.0, (dot(N, L) + 0.15) / 1.15);    // a little wrap for skin
+        float vis = (i == 0 && ndl > 0.0) ? light0_visibility(h_pos) : 1.0;
+        vec3 H = normalize(L + V);
+        float spec = 0.04 * pow(max(dot(N, H), 0.0), 24.0);
+        color += u_light_radiance[i] * falloff * vis * (albedo * ndl / 3.14159265 + spec * ndl);
+    }
+    frag = vec4(color, 1.0);
+#else
+    frag_depth = h_depth;
+#endif
+}

@@ -1,0 +1,37 @@
+"""HDR -> display: MSAA resolve (a blit), optional 2x supersample down-sample with Chen's
+5-tap filter, exposure, tone mapping (ACES or Reinhard), background and sRGB encoding."""
+from __future__ import annotations
+
+import numpy as np
+
+from ...gpu.glsl import program
+from .base import HERE, TONE_IDS, Frame, Pass, set_uniform
+
+
+def srgb_to_linear(c):
+    c = np.asarray(c, dtype=np.float64)
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+class ResolvePass(Pass):
+    name = "resolve"
+    reads = ("hdr",)
+    writes = ("output",)
+
+    def run(self, frame: Frame) -> None:
+        r, ctx = self.renderer, self.ctx
+        s = r.settings
+        hdr = r.resolved_hdr()    # blits the multisampled target when there is one
+        hdr.filter = (ctx.LINEAR, ctx.LINEAR)
+        prog = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "resolve.frag",
+                       defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]})
+        hdr.use(0)
+        set_uniform(prog, "u_hdr", 0)
+        set_uniform(prog, "u_background", tuple(float(x) for x in srgb_to_linear(s.background)))
+        set_uniform(prog, "u_exposure", float(s.exposure))
+        out = r.output_fbo()
+        out.use()
+        ctx.disable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.BLEND)
+        r.empty_vao(prog).render(ctx.TRIANGLES, vertices=3)
+        frame.targets["output"] = out

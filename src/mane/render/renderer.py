@@ -1,0 +1,389 @@
+"""The strand renderer: an ordered list of passes over one Frame, each timed by the profiler.
+
+    r = Renderer(RenderSettings(size=(320, 240), shadows="deep_opacity"))
+    r.set_strands(groom)                  # or StrandBuffers.from_simulator(sim): no copy
+    r.set_head(mesh)
+    r.render()                            # camera framing the scene, default lights
+    img = r.read_image()                  # (H, W, 3) uint8
+    r.stats()                             # {"passes": {"frames": ms, "shadow_map": ms, ...}, ...}
+
+Passes (reads -> writes): frames (strands -> frames), shadow_map (head [+hair] -> shadow_map),
+deep_opacity (strands -> dom), head (head, maps -> hdr), hair (strands, maps -> hdr),
+resolve (hdr -> output).
+"""
+from __future__ import annotations
+
+import math
+import re
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from ..errors import UsageError
+from ..gpu.context import get_context, renderer_name
+from ..gpu.profiler import GpuProfiler
+from .camera import Camera, look_at, orthographic, perspective
+from .lights import MAX_LIGHTS, Light, default_lights
+from .passes import DeepOpacityPass, HairPass, HeadPass, ResolvePass, ShadowMapPass
+from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
+from .settings import RenderSettings
+from .strand_buffers import StrandBuffers
+
+HERE = Path(__file__).resolve().parent
+SHADING_GLSL = HERE / "shading" / "hair_shading.glsl"
+DEFAULT_HAIR_COLOR = (0.23, 0.12, 0.06)
+
+
+class ShadingAdapter:
+    """mane.render.shading when it is there; otherwise a Kajiya-Kay stand-in with its interface."""
+
+    def __init__(self, name: str = "kajiya_kay", hair_color=None, options=None):
+        self.name = name
+        options = dict(options or {})
+        self.options = options
+        self.hair_color = tuple(hair_color) if hair_color is not None else None
+        self.settings = None
+        self.fallback = True
+        self.declares_material = False
+        try:
+            from . import shading as _shading  # noqa: F401  (written by helper-shading)
+
+            ShadingSettings = getattr(_shading, "ShadingSettings")
+        except Exception:
+            ShadingSettings = None
+        if ShadingSettings is not None and SHADING_GLSL.is_file():
+            kwargs = {"model": name, **options}
+            if self.hair_color is not None:
+                kwargs["color"] = self.hair_color
+            try:
+                self.settings = ShadingSettings(**kwargs)
+            except (TypeError, ValueError) as exc:
+                raise UsageError(f"bad shading settings {kwargs}: {exc}") from None
+            self.fallback = False
+            text = SHADING_GLSL.read_text()
+            self.declares_material = re.search(r"^\s*uniform\s+HairMaterial\b", text, re.M) is not None
+
+    def defines(self) -> dict:
+        if self.fallback:
+            return {}
+        return dict(self.settings.defines())
+
+    @property
+    def color(self) -> tuple:
+        if self.hair_color is not None:
+            return self.hair_color
+        c = getattr(self.settings, "color", None)
+        return tuple(c) if c is not None else DEFAULT_HAIR_COLOR
+
+    def bind(self, prog, ctx, render_settings=None) -> None:
+        if not self.fallback:
+            self.settings.bind(prog, ctx)
+            if self.hair_color is not None:
+                set_uniform(prog, "u_material.color", tuple(self.hair_color))
+            return
+        c = self.color
+        for name, value in (("color", tuple(c)), ("specular", float(self.options.get("specular", 0.35))), ("sigma_a", (0.8, 1.4, 2.4)),
+                            ("roughness", 0.3), ("shift", 0.03), ("eta", 1.55), ("glint", 0.0),
+                            ("strand_rand", 0.0)):
+            set_uniform(prog, f"u_material.{name}", value)
+
+
+class FramesPass(Pass):
+    """Rebuild the guides' transported frames from the current positions (compute)."""
+
+    name = "frames"
+    reads = ("strands",)
+    writes = ("frames",)
+
+    def enabled(self, frame: Frame) -> bool:
+        return self.renderer.strands is not None and self.renderer._frames_dirty
+
+    def run(self, frame: Frame) -> None:
+        self.renderer.strands.update_frames()
+        # a simulator's buffer changes behind our back: rebuild every frame
+        self.renderer._frames_dirty = not self.renderer.strands.owns_positions
+
+
+class Renderer:
+    """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
+
+    def __init__(self, settings: RenderSettings | None = None, *, ctx=None, profile: bool = True,
+                 profiler_source: str | None = None):
+        self.ctx = ctx if ctx is not None else get_context()
+        self.settings = settings if settings is not None else RenderSettings()
+        if not isinstance(self.settings, RenderSettings):
+            raise UsageError("settings must be a mane.render.RenderSettings")
+        if self.settings.interpolation_mode != "single":
+            raise UsageError("multi-strand (3-guide barycentric) interpolation is not implemented yet; "
+                             "use interpolation_mode='single'")
+        max_samples = int(self.ctx.info.get("GL_MAX_SAMPLES", 4) or 4)
+        self.samples = max(1, min(int(self.settings.msaa), max_samples))
+        self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
+                                      self.settings.shading_options)
+        self.profiler = GpuProfiler(self.ctx, enabled=profile, source=profiler_source)
+        self.strands: StrandBuffers | None = None
+        self.head = None
+        self._head_gpu = None
+        self._vaos: dict = {}
+        self._frames_dirty = True
+        self._targets: dict = {}
+        self.frames_rendered = 0
+        self.warnings: list[str] = []
+        if self.samples < int(self.settings.msaa):
+            self.warnings.append(f"{self.settings.msaa}x MSAA asked for; this OpenGL gives at most "
+                                 f"{max_samples} samples, using {self.samples}")
+        self.passes: list[Pass] = [FramesPass(self), ShadowMapPass(self), DeepOpacityPass(self),
+                                   HeadPass(self), HairPass(self), ResolvePass(self)]
+        self.last_frame: Frame | None = None
+
+    # ------------------------------------------------------------------ scene
+    def set_strands(self, strands, points_per_strand: int | None = None) -> StrandBuffers:
+        """A StrandBuffers, a Simulator (its positions SSBO is read in place) or a Groom (uploaded)."""
+        if self.strands is not None and self.strands is not strands:
+            self.strands.release()
+        if isinstance(strands, StrandBuffers):
+            self.strands = strands
+        elif hasattr(strands, "state") and hasattr(strands.state, "positions"):
+            self.strands = StrandBuffers.from_simulator(strands)
+        else:
+            self.strands = StrandBuffers.from_groom(self.ctx, strands, points_per_strand)
+        self._frames_dirty = True
+        return self.strands
+
+    def strands_changed(self) -> None:
+        """Positions were written (a simulation step): rebuild the frames on the next render."""
+        self._frames_dirty = True
+
+    def set_head(self, mesh) -> None:
+        if self._head_gpu is not None:
+            for o in self._head_gpu:
+                o.release()
+            self._head_gpu = None
+            self._vaos = {k: v for k, v in self._vaos.items() if k[0] != "head"}
+        self.head = mesh
+        if mesh is None:
+            return
+        scalp = mesh.vertex_attributes.get("scalp")
+        if scalp is None:
+            scalp = np.zeros(len(mesh.vertices), np.float32)
+        data = np.concatenate([mesh.vertices.astype(np.float32), mesh.normals.astype(np.float32),
+                               np.asarray(scalp, np.float32).reshape(-1, 1)], axis=1)
+        vbo = self.ctx.buffer(np.ascontiguousarray(data).tobytes())
+        ibo = self.ctx.buffer(mesh.faces.astype(np.int32).tobytes())
+        self._head_gpu = (vbo, ibo)
+
+    def head_vao(self, prog):
+        key = ("head", id(prog))
+        if key not in self._vaos:
+            vbo, ibo = self._head_gpu
+            names = [n for n in ("in_position", "in_normal", "in_scalp") if n in prog]
+            fmt = " ".join(("3f" if n != "in_scalp" else "1f") if n in names else
+                           ("12x" if n != "in_scalp" else "4x") for n in ("in_position", "in_normal", "in_scalp"))
+            self._vaos[key] = self.ctx.vertex_array(prog, [(vbo, fmt, *names)], index_buffer=ibo,
+                                                    index_element_size=4)
+        return self._vaos[key]
+
+    def empty_vao(self, prog):
+        key = ("empty", id(prog))
+        if key not in self._vaos:
+            self._vaos[key] = self.ctx.vertex_array(prog, [])
+        return self._vaos[key]
+
+    def hair_color(self) -> tuple:
+        return self.shading.color
+
+    def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
+        los, his = [], []
+        if self.strands is not None:
+            lo, hi = self.strands.bbox()
+            pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+            los.append(lo - pad)
+            his.append(hi + pad)
+        if self.head is not None and self.settings.draw_head:
+            lo, hi = self.head.bbox()
+            los.append(lo)
+            his.append(hi)
+        if not los:
+            return np.full(3, -0.5), np.full(3, 0.5)
+        return np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float)
+
+    def scene_center(self) -> np.ndarray:
+        lo, hi = self.scene_bbox()
+        return 0.5 * (lo + hi)
+
+    def framing_bbox(self) -> tuple[np.ndarray, np.ndarray]:
+        """What the default camera frames: the hair, and the head down to a little below it."""
+        if self.strands is None:
+            return self.scene_bbox()
+        lo, hi = self.strands.bbox()
+        pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+        lo, hi = lo - pad, hi + pad
+        if self.head is not None and self.settings.draw_head:
+            v = self.head.vertices
+            floor = lo[1] - 0.04 * (hi[1] - lo[1])
+            v = v[v[:, 1] >= floor]
+            if len(v):
+                lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
+        return lo.astype(float), hi.astype(float)
+
+    def default_camera(self, azimuth: float = 25.0, elevation: float = 12.0, **kw) -> Camera:
+        lo, hi = self.framing_bbox()
+        w, h = self.settings.size
+        return Camera.framing(lo, hi, azimuth=azimuth, elevation=elevation, aspect=w / h, **kw)
+
+    # ------------------------------------------------------------------ targets
+    def hdr_fbo(self):
+        if "hdr" not in self._targets:
+            size = self.settings.render_size
+            ctx = self.ctx
+            if self.samples > 1:
+                color = ctx.renderbuffer(size, 4, samples=self.samples, dtype="f2")
+                depth = ctx.depth_renderbuffer(size, samples=self.samples)
+                tex = ctx.texture(size, 4, dtype="f2")
+                self._targets["hdr_resolved"] = (ctx.framebuffer([tex]), tex)
+            else:
+                color = ctx.texture(size, 4, dtype="f2")
+                depth = ctx.depth_renderbuffer(size)
+            self._targets["hdr"] = (ctx.framebuffer([color], depth), color, depth)
+        return self._targets["hdr"][0]
+
+    def resolved_hdr(self):
+        """The HDR colour as a single-sample texture (blitting the MSAA target into it)."""
+        fbo, color, _ = self._targets["hdr"]
+        if self.samples > 1:
+            dst, tex = self._targets["hdr_resolved"]
+            self.ctx.copy_framebuffer(dst, fbo)
+            return tex
+        return color
+
+    def output_fbo(self):
+        if "output" not in self._targets:
+            tex = self.ctx.texture(self.settings.size, 4)
+            self._targets["output"] = (self.ctx.framebuffer([tex]), tex)
+        return self._targets["output"][0]
+
+    # ------------------------------------------------------------------ views
+    def camera_view(self, camera: Camera) -> View:
+        w, h = self.settings.render_size
+        vp = camera.projection(w / h) @ camera.view()
+        pixel = 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / h
+        min_px = float(self.settings.min_pixel_width) * self.settings.supersample
+        return View(vp, np.asarray(camera.eye, float), camera.forward, False, pixel, min_px)
+
+    def light_view(self, light: Light) -> View:
+        """Light 0's view fitted around the scene's bounding sphere."""
+        lo, hi = self.scene_bbox()
+        center = 0.5 * (lo + hi)
+        radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
+        n = int(self.settings.shadow_map_size)
+        min_px = 1.0   # a strand covers at least a texel in the maps, with its coverage as opacity
+        if light.is_point:
+            eye = np.asarray(light.vector, float)
+            dist = float(np.linalg.norm(center - eye))
+            if dist <= radius * 1.05:
+                raise UsageError("the shadowing point light is inside the scene's bounds; move it "
+                                 "out or use a directional light")
+            fov = 2.0 * math.degrees(math.asin(radius / dist)) * 1.05
+            view = look_at(eye, center)
+            proj = perspective(fov, 1.0, max(1e-3, dist - radius * 1.1), dist + radius * 1.1)
+            pixel = 2.0 * math.tan(math.radians(fov) / 2.0) / n
+            fwd = (center - eye) / dist
+            return View(proj @ view, eye, fwd, False, pixel, min_px)
+        d = light.direction_to(center)
+        eye = center + d * radius * 2.0
+        view = look_at(eye, center)
+        proj = orthographic(radius * 1.02, radius * 1.02, radius * 0.5, radius * 3.5)
+        return View(proj @ view, eye, -d, True, 2.0 * radius * 1.02 / n, min_px)
+
+    def _hair_depth_range(self, lv: View) -> tuple[float, float]:
+        if self.strands is None:
+            return (0.0, 1.0)
+        lo, hi = self.strands.bbox()
+        pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+        lo, hi = lo - pad, hi + pad
+        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        z = (corners - lv.eye) @ lv.forward
+        return float(z.min()), float(z.max())
+
+    # ------------------------------------------------------------------ rendering
+    def render(self, camera: Camera | None = None, lights: list[Light] | None = None) -> Frame:
+        camera = camera if camera is not None else self.default_camera()
+        lights = list(lights) if lights is not None else default_lights()
+        if len(lights) > MAX_LIGHTS:
+            raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
+        frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
+        if lights and self.settings.shadows != "none":
+            frame.light_view = self.light_view(lights[0])
+            frame.hair_depth_range = self._hair_depth_range(frame.light_view)
+        fbo = self.hdr_fbo()
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        for p in self.passes:
+            if p.enabled(frame):
+                with self.profiler.section(p.name):
+                    p.run(frame)
+        self.profiler.frame()
+        self.frames_rendered += 1
+        self.last_frame = frame
+        return frame
+
+    def read_image(self) -> np.ndarray:
+        """(H, W, 3) uint8 sRGB of the last frame, top row first."""
+        w, h = self.settings.size
+        raw = self.output_fbo().read(components=3, alignment=1)
+        return np.frombuffer(raw, np.uint8).reshape(h, w, 3)[::-1].copy()
+
+    def render_image(self, camera: Camera | None = None, lights=None) -> np.ndarray:
+        self.render(camera, lights)
+        return self.read_image()
+
+    # ------------------------------------------------------------------ numbers
+    @property
+    def rendered_strands(self) -> int:
+        return 0 if self.strands is None else self.strands.num_guides * int(self.settings.strands_per_guide)
+
+    @property
+    def rendered_segments(self) -> int:
+        if self.strands is None:
+            return 0
+        st = self.strands
+        return self.rendered_strands * (st.points_per_strand - 1) * subdivisions(self.settings, st.points_per_strand)
+
+    def stats(self) -> dict:
+        return {
+            "passes": {k: round(v, 4) for k, v in self.profiler.means(wait=True).items()},
+            "frames": self.frames_rendered,
+            "size": list(self.settings.size),
+            "renderer": renderer_name(self.ctx),
+            "timing": self.profiler.source,
+            "rendered_strands": self.rendered_strands,
+            "rendered_segments": self.rendered_segments,
+            "guides": 0 if self.strands is None else self.strands.num_guides,
+            "points_per_guide": 0 if self.strands is None else self.strands.points_per_strand,
+            "msaa": self.samples,
+            "supersample": self.settings.supersample,
+            "shadows": self.settings.shadows,
+            "interpolation": self.settings.interpolation,
+            "geometry": self.settings.geometry,
+            "shading": self.shading.name + (" (stand-in)" if self.shading.fallback else ""),
+            "instances_per_guide_segment": math.ceil(int(self.settings.strands_per_guide) / MAX_ISOLINES),
+        }
+
+    def release(self) -> None:
+        for p in self.passes:
+            p.release()
+        for v in self._targets.values():
+            for o in v:
+                o.release()
+        self._targets.clear()
+        for vao in self._vaos.values():
+            vao.release()
+        self._vaos.clear()
+        if self._head_gpu is not None:
+            for o in self._head_gpu:
+                o.release()
+            self._head_gpu = None
+        if self.strands is not None:
+            self.strands.release()
+            self.strands = None

@@ -1,0 +1,161 @@
+"""Render settings: one frozen dataclass, units in the field docs.
+
+    s = RenderSettings(size=(320, 240), strands_per_guide=8, shadows="deep_opacity", msaa=4)
+    s2 = s.replace(interpolation="bspline")
+
+Lengths are metres, angles degrees (where said), fractions are of the strand's length
+(root 0 .. tip 1) unless said otherwise.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, fields, replace
+
+from ..errors import UsageError
+
+INTERPOLATIONS = ("catmull_rom", "bspline", "bezier")
+GEOMETRIES = ("ribbons", "lines")
+SHADOWS = ("none", "shadow_map", "deep_opacity")
+TONE_MAPS = ("aces", "reinhard", "none")
+AA_MODES = ("none", "msaa2", "msaa4", "msaa8", "ssaa2", "msaa4+ssaa2")
+MAX_TESS_LEVEL = 64   # the GL minimum for GL_MAX_TESS_GEN_LEVEL; llvmpipe and NVIDIA give 64
+
+
+@dataclass(frozen=True)
+class RenderSettings:
+    """Everything the strand renderer needs besides the scene (camera, lights, groom, head)."""
+
+    size: tuple[int, int] = (320, 240)
+    """Output image (width, height), pixels."""
+    # --- tessellation along the strand
+    interpolation: str = "catmull_rom"
+    """Curve through the guide points: "catmull_rom" (interpolates them, phantom end points),
+    "bspline" (uniform cubic B-spline, approximating; passes through root and tip thanks to
+    the phantom points) or "bezier" (cubic Bezier per segment with C1 control points)."""
+    segments: int = 32
+    """Rendered segments per strand (rounded up to a multiple of the guide's segments)."""
+    # --- strand multiplication
+    strands_per_guide: int = 16
+    """Rendered strands per guide (the guide itself is strand 0). Beyond 64 (the tessellation
+    limit) a guide is drawn in more instances of 64 isolines."""
+    interpolation_mode: str = "single"
+    """"single": clumps around one guide; "multi": blend 3 guides with barycentric weights
+    (needs guide data with ``triangles``/``weights``, see StrandBuffers)."""
+    clump_radius: float = 0.006
+    """Radius (m) of the disc, perpendicular to the guide, on which a clump's strands sit."""
+    clump_root: float = 0.25
+    """Clump radius at the root, as a fraction of clump_radius (root taper)."""
+    clump_tip: float = 0.5
+    """Clump radius at the tip, as a fraction of clump_radius (tip taper; <1 gathers tips)."""
+    stray_fraction: float = 0.08
+    """Fraction of rendered strands that stray from their clump."""
+    stray_amount: float = 2.5
+    """How far a stray strand leaves the clump, in clump radii, at its most."""
+    keep_guide: bool = True
+    """Render the guide itself as the clump's strand 0 (offset 0)."""
+    # --- geometry
+    geometry: str = "ribbons"
+    """"ribbons": camera-facing quads from a geometry shader; "lines": GL_LINES."""
+    width: float = 0.0006
+    """Strand width (m) at the root (ribbons)."""
+    width_tip: float = 0.35
+    """Width at the tip as a fraction of the root width (taper)."""
+    min_pixel_width: float = 1.0
+    """Ribbons narrower than this (pixels) are drawn this wide with coverage alpha = true/shown
+    width, so sub-pixel strands fade instead of flickering. 0 turns coverage alpha off."""
+    # --- shading and lights
+    shading: str = "kajiya_kay"
+    """Hair shading model name (mane.render.shading.ShadingSettings)."""
+    shading_options: dict = field(default_factory=lambda: {"specular": 0.25})
+    """Other ShadingSettings fields (e.g. {"specular": 0.4, "roughness": 0.12})."""
+    hair_color: tuple[float, float, float] | None = (0.1, 0.05, 0.025)
+    """Linear RGB hair colour (medium brown); None keeps the shading settings' default."""
+    ambient: float = 0.12
+    """Ambient light (linear radiance, white) added to the hair and the head."""
+    skin_color: tuple[float, float, float] = (0.5, 0.32, 0.24)
+    """Linear RGB albedo of the head mesh (Lambert)."""
+    background: tuple[float, float, float] = (0.16, 0.17, 0.19)
+    """sRGB background colour in [0, 1]."""
+    draw_head: bool = True
+    # --- shadows
+    shadows: str = "deep_opacity"
+    """"none", "shadow_map" (depth + PCF, hair and head cast) or "deep_opacity" (Yuksel and
+    Keyser: 3 opacity layers after the first hair depth z0, in one RGBA texture)."""
+    shadow_map_size: int = 512
+    """Shadow / opacity map resolution (texels per side)."""
+    pcf: int = 3
+    """PCF kernel: pcf x pcf taps (1 = none)."""
+    shadow_bias: float = 3.0
+    """Depth bias, in shadow-map texels (world size of a texel)."""
+    dom_layers: tuple[float, float, float] = (0.05, 0.15, 1.0)
+    """Deep opacity layer ends after z0, as fractions of the hair's depth extent seen from the light."""
+    strand_opacity: float = 0.35
+    """Opacity one strand adds in the deep opacity map (per covered texel)."""
+    shadow_density: float = 3.0
+    """Scale of the opacity -> transmittance exponent: T = exp(-density * O)."""
+    # --- anti-aliasing and output
+    msaa: int = 4
+    """Samples per pixel (1, 2, 4, 8; clamped to GL_MAX_SAMPLES)."""
+    supersample: int = 1
+    """1, or 2: render at twice the size per axis and resolve with Chen's 5-tap filter."""
+    tone_mapping: str = "aces"
+    exposure: float = 1.0
+
+    def __post_init__(self) -> None:
+        w, h = (int(v) for v in self.size)
+        if not (8 <= w <= 8192 and 8 <= h <= 8192):
+            raise UsageError(f"image size must be within 8..8192 pixels per side, got {self.size}")
+        object.__setattr__(self, "size", (w, h))
+        for name, allowed in (("interpolation", INTERPOLATIONS), ("geometry", GEOMETRIES),
+                              ("shadows", SHADOWS), ("tone_mapping", TONE_MAPS),
+                              ("interpolation_mode", ("single", "multi"))):
+            if getattr(self, name) not in allowed:
+                raise UsageError(f"{name} must be one of {', '.join(allowed)}; got {getattr(self, name)!r}")
+        if not 1 <= int(self.segments) <= 4096:
+            raise UsageError(f"segments per strand must be in 1..4096, got {self.segments}")
+        if not 1 <= int(self.strands_per_guide) <= 4096:
+            raise UsageError(f"strands_per_guide must be in 1..4096, got {self.strands_per_guide}")
+        if int(self.msaa) not in (1, 2, 4, 8, 16):
+            raise UsageError(f"msaa must be 1, 2, 4, 8 or 16 samples, got {self.msaa}")
+        if int(self.supersample) not in (1, 2):
+            raise UsageError(f"supersample must be 1 or 2, got {self.supersample}")
+        if not 1 <= int(self.pcf) <= 9:
+            raise UsageError(f"pcf taps per side must be in 1..9, got {self.pcf}")
+        if not 16 <= int(self.shadow_map_size) <= 8192:
+            raise UsageError(f"shadow_map_size must be in 16..8192, got {self.shadow_map_size}")
+        d = tuple(float(x) for x in self.dom_layers)
+        if len(d) != 3 or not (0 < d[0] < d[1] < d[2]):
+            raise UsageError(f"dom_layers must be 3 increasing positive fractions, got {self.dom_layers}")
+        object.__setattr__(self, "dom_layers", d)
+        for name in ("width", "clump_radius", "min_pixel_width", "stray_fraction", "stray_amount",
+                     "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias"):
+            if float(getattr(self, name)) < 0:
+                raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")
+
+    def replace(self, **changes) -> "RenderSettings":
+        return replace(self, **changes)
+
+    @property
+    def render_size(self) -> tuple[int, int]:
+        """The size actually rasterised (size x supersample)."""
+        return (self.size[0] * self.supersample, self.size[1] * self.supersample)
+
+    @classmethod
+    def field_names(cls) -> list[str]:
+        return [f.name for f in fields(cls)]
+
+
+def aa_settings(name: str) -> dict:
+    """--aa NAME -> {msaa, supersample, min_pixel_width}: none, msaa2/4/8, ssaa2, msaa4+ssaa2, coverage."""
+    name = name.lower()
+    table = {
+        "none": dict(msaa=1, supersample=1, min_pixel_width=0.0),
+        "coverage": dict(msaa=1, supersample=1),
+        "msaa2": dict(msaa=2, supersample=1),
+        "msaa4": dict(msaa=4, supersample=1),
+        "msaa8": dict(msaa=8, supersample=1),
+        "ssaa2": dict(msaa=1, supersample=2),
+        "msaa4+ssaa2": dict(msaa=4, supersample=2),
+    }
+    if name not in table:
+        raise UsageError(f"--aa must be one of {', '.join(table)}; got {name!r}")
+    return table[name]

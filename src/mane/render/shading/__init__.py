@@ -1,0 +1,295 @@
+"""Hair shading models: GLSL in ``hair_shading.glsl``, settings and lookup textures here.
+
+GLSL interface (``#include "shading/hair_shading.glsl"`` from ``src/mane/render/``)::
+
+    struct HairMaterial { vec3 color; float specular; vec3 sigma_a; float roughness;
+                          float shift; float eta; float glint; float strand_rand; };
+    vec3 hair_bsdf(vec3 T, vec3 V, vec3 L, HairMaterial m);
+    vec3 hair_multiple_scattering(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance);
+
+T unit tangent root -> tip, V unit direction to the eye, L unit direction to the light.
+``hair_bsdf`` includes the cosine / projection factor: radiance_out = hair_bsdf * L_light.
+The includer declares ``uniform HairMaterial u_material;`` and sets ``m.strand_rand``
+per strand (a per-strand random in [0, 1)); the model is a compile-time define.
+
+Python side::
+
+    s = ShadingSettings(model="marschner", melanin=(1.3, 0.2))
+    prog = mane.gpu.program(ctx, vertex=..., fragment=..., defines={**s.defines(), ...})
+    s.bind(prog, ctx)            # u_material.* and (LUT model) the lookup textures
+
+Models (``MODELS``): kajiya_kay 0, marschner 1, marschner_lut 2, sadeghi 3,
+scheuermann 4, karis 5. Multiple scattering (``MULTIPLE_SCATTERING``): none 0, karis 1,
+dual 2 (reserved for Zinke 2008 dual scattering: not implemented, falls back to karis);
+"auto" = karis.
+
+Units: ``roughness`` is the longitudinal width beta_R in radians, ``shift`` the
+longitudinal shift alpha_R in radians (Marschner 2003 / Hunz 2016 Table 1: alpha_TT =
+-alpha_R/2, alpha_TRT = -3 alpha_R/2, beta_TT = beta_R/2, beta_TRT = 2 beta_R),
+``sigma_a`` is per unit fibre radius (see ``melanin``).
+"""
+from __future__ import annotations
+
+import math
+import weakref
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .melanin import (  # noqa: F401
+    color_to_sigma_a,
+    melanin_to_sigma_a,
+    sigma_a_to_color,
+)
+
+SHADER_DIR = Path(__file__).resolve().parent
+HAIR_SHADING_GLSL = SHADER_DIR / "hair_shading.glsl"
+HARNESS_COMP = SHADER_DIR / "harness.comp"
+
+MODELS: dict[str, int] = {
+    "kajiya_kay": 0,
+    "marschner": 1,
+    "marschner_lut": 2,
+    "sadeghi": 3,
+    "scheuermann": 4,
+    "karis": 5,
+}
+MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
+
+# Texture units bind() uses for the LUT model (the renderer keeps its own below these).
+LUT_UNIT_M = 14
+LUT_UNIT_N = 15
+
+
+def _glsl_float(x: float) -> str:
+    s = repr(float(x))
+    if not math.isfinite(float(x)):
+        raise ValueError(f"non-finite shading constant {x}")
+    return s if any(ch in s for ch in ".e") else s + ".0"
+
+
+@dataclass(frozen=True)
+class ShadingSettings:
+    """Hair shading model and material. Colour from RGB (``color``) or ``melanin``.
+
+    model           one of MODELS
+    color           linear RGB albedo; ignored when ``melanin`` is given (then the colour is
+                    sigma_a_to_color(sigma_a)). Used by Kajiya-Kay, Sadeghi, Scheuermann,
+                    Karis and the multiple-scattering terms.
+    melanin         None or (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8)
+    sigma_a         explicit absorption per unit radius (overrides both); by default from
+                    melanin, else Chiang's inversion of ``color``
+    specular        R-lobe (primary highlight) scale; 1 = physical
+    roughness       beta_R, longitudinal width in radians (7.5 deg)
+    shift           alpha_R, longitudinal shift in radians (-5 deg)
+    eta             index of refraction
+    glint           Marschner k_G (Hunz Table 1: 0.5..5; 0.5 puts the caustic's energy back,
+                    more adds energy) / Sadeghi I_G / Scheuermann sparkle
+    caustic_width   Marschner w_c, radians (Table 1: 10..25 deg)
+    caustic_fade    Marschner delta eta' (0.2..0.4)
+    caustic_limit   Marschner delta h_M (0.5)
+    tt_width        Sadeghi azimuthal width of TT (radians)
+    glint_width     Sadeghi azimuthal width of the glints (radians)
+    noise           Scheuermann tangent-shift noise amplitude (radians) from strand_rand
+    energy_clamp    Marschner: the shifted lobes never gain energy (see luts.py)
+    multiple_scattering  "auto", "none", "karis" or "dual"
+    lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
+    """
+
+    model: str = "marschner"
+    color: tuple = (0.30, 0.18, 0.10)
+    melanin: tuple | None = None
+    sigma_a: tuple | None = None
+    specular: float = 1.0
+    roughness: float = math.radians(7.5)
+    shift: float = math.radians(-5.0)
+    eta: float = 1.55
+    glint: float = 0.5
+    caustic_width: float = math.radians(15.0)
+    caustic_fade: float = 0.3
+    caustic_limit: float = 0.5
+    tt_width: float = math.radians(25.0)
+    glint_width: float = math.radians(5.0)
+    noise: float = 0.1
+    energy_clamp: bool = True
+    multiple_scattering: str = "auto"
+    lut_size: int = 256
+
+    def __post_init__(self):
+        if self.model not in MODELS:
+            raise ValueError(f"unknown hair model {self.model!r}; one of {sorted(MODELS)}")
+        if self.multiple_scattering != "auto" and self.multiple_scattering not in MULTIPLE_SCATTERING:
+            raise ValueError(f"unknown multiple_scattering {self.multiple_scattering!r}")
+        if not self.roughness > 0:
+            raise ValueError("roughness (beta_R, radians) must be > 0")
+        if not self.eta > 1:
+            raise ValueError("eta must be > 1")
+        if int(self.lut_size) < 8:
+            raise ValueError("lut_size must be >= 8")
+
+    # ---------------------------------------------------------------- derived values
+    @property
+    def model_id(self) -> int:
+        return MODELS[self.model]
+
+    @property
+    def ms_mode(self) -> int:
+        if self.multiple_scattering == "auto":
+            return MULTIPLE_SCATTERING["karis"]
+        return MULTIPLE_SCATTERING[self.multiple_scattering]
+
+    def resolved_sigma_a(self) -> np.ndarray:
+        if self.sigma_a is not None:
+            return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
+        if self.melanin is not None:
+            return melanin_to_sigma_a(*self.melanin)
+        return color_to_sigma_a(self.color)
+
+    def resolved_color(self) -> np.ndarray:
+        if self.melanin is not None:
+            return sigma_a_to_color(self.resolved_sigma_a())
+        return np.asarray(self.color, dtype=np.float64).reshape(3)
+
+    def defines(self) -> dict:
+        """GLSL defines: the model, the multiple-scattering mode and the model constants."""
+        return {
+            "HAIR_MODEL": self.model_id,
+            "HAIR_MULTIPLE_SCATTERING": self.ms_mode,
+            "HAIR_CAUSTIC_WIDTH": _glsl_float(self.caustic_width),
+            "HAIR_CAUSTIC_FADE": _glsl_float(self.caustic_fade),
+            "HAIR_CAUSTIC_LIMIT": _glsl_float(self.caustic_limit),
+            "HAIR_TT_WIDTH": _glsl_float(self.tt_width),
+            "HAIR_GLINT_WIDTH": _glsl_float(self.glint_width),
+            "HAIR_SHIFT_NOISE": _glsl_float(self.noise),
+            "HAIR_ENERGY_CLAMP": int(bool(self.energy_clamp)),
+        }
+
+    def material_uniforms(self, prefix: str = "u_material") -> dict:
+        """Values of ``uniform HairMaterial <prefix>`` fields ('u_material.color': (r, g, b), ...).
+
+        strand_rand is 0 here: the shader sets it per strand.
+        """
+        c = self.resolved_color()
+        s = self.resolved_sigma_a()
+        return {
+            f"{prefix}.color": tuple(float(x) for x in c),
+            f"{prefix}.specular": float(self.specular),
+            f"{prefix}.sigma_a": tuple(float(x) for x in s),
+            f"{prefix}.roughness": float(self.roughness),
+            f"{prefix}.shift": float(self.shift),
+            f"{prefix}.eta": float(self.eta),
+            f"{prefix}.glint": float(self.glint),
+            f"{prefix}.strand_rand": 0.0,
+        }
+
+    def lut_key(self) -> tuple:
+        return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
+                float(self.shift), float(self.glint), float(self.caustic_width),
+                float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
+                int(self.lut_size))
+
+    def luts(self):
+        """(m_lut, n_lut) float32 arrays for this material (see luts.build_marschner_luts)."""
+        from .luts import build_marschner_luts
+
+        return build_marschner_luts(
+            self.resolved_sigma_a(), eta=self.eta, beta_r=self.roughness, alpha_r=self.shift,
+            glint=self.glint, caustic_width=self.caustic_width, caustic_fade=self.caustic_fade,
+            caustic_limit=self.caustic_limit, energy_clamp=self.energy_clamp,
+            size=self.lut_size)
+
+    def bind(self, program, ctx, *, prefix: str = "u_material", unit_m: int = LUT_UNIT_M,
+             unit_n: int = LUT_UNIT_N) -> None:
+        """Set the material uniforms that ``program`` uses and, for the LUT model, bind the
+        lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``."""
+        for name, value in self.material_uniforms(prefix).items():
+            if name in program:
+                program[name].value = value
+        if self.model == "marschner_lut":
+            tex_m, tex_n = lut_textures(ctx, self)
+            tex_m.use(unit_m)
+            tex_n.use(unit_n)
+            if "hair_lut_m" in program:
+                program["hair_lut_m"].value = unit_m
+            if "hair_lut_n" in program:
+                program["hair_lut_n"].value = unit_n
+
+
+_lut_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def lut_textures(ctx, settings: ShadingSettings):
+    """(hair_lut_m, hair_lut_n) moderngl textures, RGBA16F, linear filtering, clamped; cached
+    per context and ``settings.lut_key()``."""
+    cache = _lut_cache.setdefault(ctx, {})
+    key = settings.lut_key()
+    if key not in cache:
+        m_lut, n_lut = settings.luts()
+        textures = []
+        for arr in (m_lut, n_lut):
+            h, w = arr.shape[:2]
+            tex = ctx.texture((w, h), 4, np.ascontiguousarray(arr, dtype=np.float16).tobytes(), dtype="f2")
+            tex.repeat_x = tex.repeat_y = False
+            import moderngl
+
+            tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+            textures.append(tex)
+        cache[key] = tuple(textures)
+    return cache[key]
+
+
+def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingSettings | None = None,
+                  *, strand_rand=None, transmittance=None, multiple: bool = False) -> np.ndarray:
+    """Run hair_bsdf (or, ``multiple=True``, hair_multiple_scattering) in a compute shader
+    (harness.comp) on N rows of unit T, V, L; returns (N, 3) float32.
+
+    ``model`` names the model (overriding settings.model) or is the settings itself.
+    """
+    import dataclasses
+
+    from ...gpu.glsl import compute_shader
+
+    if isinstance(model, ShadingSettings):
+        settings = model
+    else:
+        settings = dataclasses.replace(settings or ShadingSettings(), model=model)
+    T = np.asarray(T, np.float32).reshape(-1, 3)
+    V = np.asarray(V, np.float32).reshape(-1, 3)
+    L = np.asarray(L, np.float32).reshape(-1, 3)
+    n = T.shape[0]
+    rand = np.zeros(n, np.float32) if strand_rand is None else np.broadcast_to(np.asarray(strand_rand, np.float32), (n,))
+    trans = np.ones(n, np.float32) if transmittance is None else np.broadcast_to(np.asarray(transmittance, np.float32), (n,))
+    data = np.zeros((n, 3, 4), np.float32)
+    data[:, 0, :3], data[:, 0, 3] = T, rand
+    data[:, 1, :3], data[:, 1, 3] = V, trans
+    data[:, 2, :3] = L
+    shader = compute_shader(ctx, HARNESS_COMP, defines=settings.defines())
+    src = ctx.buffer(data.tobytes())
+    dst = ctx.buffer(reserve=max(n, 1) * 32)
+    try:
+        src.bind_to_storage_buffer(0)
+        dst.bind_to_storage_buffer(1)
+        settings.bind(shader, ctx)
+        shader["u_count"].value = n
+        shader.run((n + 63) // 64)
+        ctx.memory_barrier()
+        out = np.frombuffer(dst.read(), np.float32).reshape(-1, 2, 4)[:n]
+    finally:
+        src.release()
+        dst.release()
+    return out[:, 1 if multiple else 0, :3].copy()
+
+
+__all__ = [
+    "MODELS", "MULTIPLE_SCATTERING", "ShadingSettings", "HAIR_SHADING_GLSL", "SHADER_DIR",
+    "melanin_to_sigma_a", "color_to_sigma_a", "sigma_a_to_color", "build_marschner_luts",
+    "lut_textures", "evaluate_glsl",
+]
+
+
+def build_marschner_luts(*args, **kwargs):
+    """See luts.build_marschner_luts."""
+    from .luts import build_marschner_luts as _build
+
+    return _build(*args, **kwargs)

@@ -1,0 +1,39 @@
+// hair_multiple_scattering(T, V, L, m, transmittance): the light scattered more than once
+// (through other fibres), added to hair_bsdf's single scattering by the renderer:
+//     radiance = (hair_bsdf(..) * shadow + hair_multiple_scattering(.., transmittance)) * Li
+// transmittance in [0, 1] is the fraction of light reaching the fragment through the hair
+// in front of it (deep opacity map: exp(-opacity)); 1 at the lit surface.
+//
+// HAIR_MS_KARIS (Karis 2016, "Physically Based Hair Shading in Unreal", the UE4 code):
+//   fake normal N = normalize(V - T (T.V)); kk = 1 - |T.L|; wrap = saturate((N.L + 1) / 4)
+//   S_ms = sqrt(C) * (1/pi) * mix(wrap, kk, 0.33) * pow(C / luminance(C), 1 - transmittance)
+//   ALU ~30.
+// HAIR_MS_DUAL: reserved for Zinke et al. 2008 dual scattering (dual_scattering.glsl is a
+//   placeholder that returns the Karis term).
+#ifndef MANE_HAIR_MULTIPLE_SCATTERING_GLSL
+#define MANE_HAIR_MULTIPLE_SCATTERING_GLSL
+
+vec3 hair_ms_karis(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
+    float tv = dot(T, V);
+    vec3 N = safe_normalize(V - tv * T, vec3(0.0));
+    float kk = 1.0 - abs(clamp(dot(T, L), -1.0, 1.0));
+    float wrap = saturate((dot(N, L) + 1.0) * 0.25);
+    float diffuse = INV_PI * mix(wrap, kk, 0.33);
+    vec3 c = max(m.color, vec3(1e-4));
+    vec3 tint = pow(c / max(luminance(c), 1e-4), vec3(1.0 - saturate(transmittance)));
+    return sqrt(c) * diffuse * tint;
+}
+
+#include "dual_scattering.glsl"
+
+vec3 hair_multiple_scattering(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
+#if HAIR_MULTIPLE_SCATTERING == HAIR_MS_KARIS
+    return hair_ms_karis(T, V, L, m, transmittance);
+#elif HAIR_MULTIPLE_SCATTERING == HAIR_MS_DUAL
+    return hair_ms_dual(T, V, L, m, transmittance);
+#else
+    return vec3(0.0);
+#endif
+}
+
+#endif

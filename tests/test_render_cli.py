@@ -1,0 +1,71 @@
+"""``mane render``: PNG and MP4 output, the stats JSON, --simulate reading the simulator's buffer."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mane.app.cli import main
+from mane.groom import Groom
+
+pytestmark = pytest.mark.gpu
+
+
+@pytest.fixture
+def groom_file(tmp_path):
+    from mane.io import save
+
+    t = np.linspace(0, 1, 8)
+    g = Groom.from_strands([np.c_[0.03 * np.cos(a) + 0.05 * t * np.cos(a), 0.1 - 0.25 * t, 0.03 * np.sin(a) + 0 * t]
+                            for a in np.linspace(0, 2 * np.pi, 12, endpoint=False)])
+    path = tmp_path / "g.npz"
+    save(g, path)
+    return path
+
+
+def test_png_and_stats(groom_file, tmp_path, capsys):
+    out, stats = tmp_path / "a.png", tmp_path / "s.json"
+    rc = main(["render", str(groom_file), "--out", str(out), "--size", "96x72", "--stats", str(stats),
+               "--strands-per-guide", "5", "--shadows", "shadow_map", "--aa", "ssaa2",
+               "--light", "dir:0,1,0.5:2", "--light", "point:0.3,0.3,0.5:0.5:1,0.8,0.6",
+               "--camera", "30,10"])
+    assert rc == 0
+    from PIL import Image
+
+    img = np.asarray(Image.open(out))
+    assert img.shape == (72, 96, 3) and img.std() > 1
+    s = json.loads(stats.read_text())
+    assert {"passes", "frames", "size", "renderer", "rendered_strands", "rendered_segments"} <= set(s)
+    assert s["frames"] == 1 and s["size"] == [96, 72] and s["rendered_strands"] == 12 * 5
+    assert {"shadow_map", "hair", "resolve"} <= set(s["passes"])
+    assert all(v >= 0 for v in s["passes"].values())
+
+
+def test_turntable_mp4(groom_file, tmp_path):
+    import imageio_ffmpeg
+
+    out = tmp_path / "t.mp4"
+    rc = main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--frames", "3", "--aa", "none"])
+    assert rc == 0
+    reader = imageio_ffmpeg.read_frames(str(out))
+    meta = next(reader)
+    frames = [np.frombuffer(f, np.uint8).reshape(48, 64, 3) for f in reader]
+    assert meta["size"] == (64, 48) and len(frames) == 3
+    assert np.abs(frames[0].astype(int) - frames[1].astype(int)).mean() > 0.1   # the camera turned
+
+
+def test_simulate_reads_the_simulator(groom_file, tmp_path):
+    out, stats = tmp_path / "s.mp4", tmp_path / "s.json"
+    rc = main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--frames", "2",
+               "--simulate", "--stats", str(stats), "--aa", "none", "--shadows", "none"])
+    assert rc == 0
+    s = json.loads(stats.read_text())
+    assert s["frames"] == 2 and "simulate" in s["passes"]
+
+
+def test_bad_arguments(groom_file, tmp_path, capsys):
+    assert main(["render", str(groom_file), "--out", str(tmp_path / "a.png"), "--frames", "3"]) == 2
+    assert main(["render", str(groom_file), "--out", str(tmp_path / "a.gif")]) == 2
+    assert main(["render", str(groom_file), "--out", str(tmp_path / "a.png"), "--light", "sun:1"]) == 2
+    assert "error" in capsys.readouterr().err
