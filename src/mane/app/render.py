@@ -56,6 +56,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--guides", type=int, default=1000, help="guides of the default groom (default 1000)")
     parser.add_argument("--color", default=None, help="hair colour, linear R,G,B in [0,1]")
     parser.add_argument("--stats", help="write per-pass timings and counts to this JSON file")
+    parser.add_argument("--interpolation-mode", default="single", choices=("single", "multi", "hybrid"),
+                        help="strand multiplication: single-strand clumps, 3-guide blend, or the blend "
+                             "with a single-strand fallback where guides straddle the head (default single)")
+    parser.add_argument("--shadow-lights", type=int, default=1, help="lights (from the first) that cast shadows, 1..4")
+    parser.add_argument("--curl", default=None, help="render-time curl RADIUS_M[,TURNS] (e.g. 0.003,6)")
+    parser.add_argument("--lod", default=None, help="distance LOD START,END metres (e.g. 1,5): fewer segments "
+                                                    "and strands, wider strands with distance")
 
 
 def _load_scene(args):
@@ -101,6 +108,19 @@ def run(args) -> int:
               geometry=args.geometry, **aa_settings(args.aa))
     if args.strands_per_guide is not None:
         kw["strands_per_guide"] = args.strands_per_guide
+    kw["interpolation_mode"] = getattr(args, "interpolation_mode", "single")
+    kw["shadow_lights"] = getattr(args, "shadow_lights", 1)
+    try:
+        if getattr(args, "curl", None):
+            c = [float(v) for v in args.curl.split(",")]
+            kw["curl_radius"] = c[0]
+            if len(c) > 1:
+                kw["curl_frequency"] = c[1]
+        if getattr(args, "lod", None):
+            a, b = (float(v) for v in args.lod.split(","))
+            kw.update(lod=True, lod_start=a, lod_end=b)
+    except ValueError:
+        raise UsageError(f"bad --curl {args.curl!r} or --lod {args.lod!r}: numbers separated by a comma") from None
     if args.segments is not None:
         kw["segments"] = args.segments
     if args.color:

@@ -44,7 +44,7 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
     ctx.disable(ctx.DEPTH_TEST)
     ctx.disable(ctx.BLEND)
     try:
-        draw_hair(r, prog, view)
+        draw_hair(r, prog, view, lod_eye=view.eye)
     finally:
         fbo.release()
         tex.release()

@@ -1,7 +1,7 @@
 """Lights: directional or point, with a linear RGB colour and an intensity.
 
 ``direction`` points from the scene toward the light (the L vector of shading). Light 0 is the
-key light: it is the one that casts shadows. At most ``MAX_LIGHTS`` lights are shaded.
+key light: it always casts shadows; RenderSettings.shadow_lights makes the first few cast. At most ``MAX_LIGHTS`` lights are shaded.
 """
 from __future__ import annotations
 
@@ -11,7 +11,8 @@ import numpy as np
 
 from ..errors import UsageError
 
-MAX_LIGHTS = 3
+MAX_LIGHTS = 4
+MAX_SHADOW_LIGHTS = 4
 KINDS = ("directional", "point")
 
 

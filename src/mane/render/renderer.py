@@ -8,7 +8,8 @@
     r.stats()                             # {"passes": {"frames": ms, "shadow_map": ms, ...}, ...}
 
 Passes (reads -> writes): frames (strands -> frames), shadow_map (head [+hair] -> shadow_map),
-deep_opacity (strands -> dom), head (head, maps -> hdr), hair (strands, maps -> hdr),
+deep_opacity (strands -> dom), adsm (strands -> adsm), opacity_maps (strands -> osm),
+density (strands or the simulator's grid -> density), head (head, maps -> hdr), hair (strands, maps -> hdr),
 resolve (hdr -> output).
 """
 from __future__ import annotations
@@ -25,7 +26,8 @@ from ..gpu.context import get_context, renderer_name
 from ..gpu.profiler import GpuProfiler
 from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
-from .passes import DeepOpacityPass, HairPass, HeadPass, ResolvePass, ShadowMapPass
+from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
+                     ResolvePass, ShadowMapPass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
 from .settings import RenderSettings
 from .strand_buffers import StrandBuffers
@@ -114,9 +116,6 @@ class Renderer:
         self.settings = settings if settings is not None else RenderSettings()
         if not isinstance(self.settings, RenderSettings):
             raise UsageError("settings must be a mane.render.RenderSettings")
-        if self.settings.interpolation_mode != "single":
-            raise UsageError("multi-strand (3-guide barycentric) interpolation is not implemented yet; "
-                             "use interpolation_mode='single'")
         max_samples = int(self.ctx.info.get("GL_MAX_SAMPLES", 4) or 4)
         self.samples = max(1, min(int(self.settings.msaa), max_samples))
         self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
@@ -134,8 +133,89 @@ class Renderer:
             self.warnings.append(f"{self.settings.msaa}x MSAA asked for; this OpenGL gives at most "
                                  f"{max_samples} samples, using {self.samples}")
         self.passes: list[Pass] = [FramesPass(self), ShadowMapPass(self), DeepOpacityPass(self),
+                                   ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
                                    HeadPass(self), HairPass(self), ResolvePass(self)]
         self.last_frame: Frame | None = None
+        # multi / hybrid interpolation (mane.render.multi_strand) and distance LOD
+        self._guide_weights = None
+        self._strand_table = None
+        self.collider_sdf = None      # p (M, 3) -> (M,) signed distance; None: from settings / head
+        self.lod_eye = None           # the camera's eye of the frame being drawn (LOD distances)
+
+    # ------------------------------------------------------------------ multi-strand interpolation
+    def strand_pad(self) -> float:
+        """How far (m) a rendered strand may leave its guide (clump, strays, curl)."""
+        s = self.settings
+        return float(s.clump_radius) * (1.0 + float(s.stray_amount)) + float(s.curl_radius)
+
+    def set_guide_weights(self, guide_weights, weights=None, offsets=None) -> None:
+        """Rendered strands for multi / hybrid interpolation: grooming's GuideWeights (R strands,
+        3 guide indices, 3 barycentric weights, root offsets), or (indices, weights[, offsets])."""
+        from .multi_strand import unpack_guide_weights
+
+        self._guide_weights = unpack_guide_weights(guide_weights, weights, offsets)
+        self._release_table()
+
+    def set_colliders(self, sdf=None, ellipsoids=None) -> None:
+        """Hybrid interpolation's collider: a signed distance function or ellipsoids (cx, cy, cz,
+        rx, ry, rz); by default settings.colliders, else the default head's distance field."""
+        from .multi_strand import ellipsoid_sdf
+
+        self.collider_sdf = sdf if sdf is not None else (ellipsoid_sdf(ellipsoids) if ellipsoids is not None else None)
+        self._release_table()
+
+    def hybrid_sdf(self):
+        if self.collider_sdf is not None:
+            return self.collider_sdf
+        if self.settings.colliders:
+            from .multi_strand import ellipsoid_sdf
+
+            return ellipsoid_sdf(self.settings.colliders)
+        head = self.head
+        if head is not None and str(getattr(head, "metadata", {}).get("source", "")).endswith("default_head"):
+            from ..grooming.head import head_sdf
+
+            return head_sdf
+        return None
+
+    def _release_table(self) -> None:
+        if self._strand_table is not None:
+            self._strand_table.release()
+            self._strand_table = None
+
+    def strand_table(self):
+        """The multi / hybrid strand records on the GPU (built on first use)."""
+        from .multi_strand import StrandTable
+
+        if self._strand_table is None:
+            st = self.strands
+            if self._guide_weights is not None:
+                idx, w, off = self._guide_weights
+                table = StrandTable(self.ctx, idx, w, off, num_guides=st.num_guides)
+            else:
+                roots = st.read_positions()[:, 0]
+                table = StrandTable.procedural(self.ctx, roots, int(self.settings.strands_per_guide),
+                                               bool(self.settings.keep_guide), st.guide_triangles)
+            if self.settings.interpolation_mode == "hybrid":
+                sdf = self.hybrid_sdf()
+                if sdf is None:
+                    self.warnings.append("hybrid interpolation without a collider (settings.colliders or "
+                                         "set_colliders): every strand is blended")
+                else:
+                    table.set_hybrid_flags(st.read_positions(), sdf, float(self.settings.hybrid_margin))
+            self._strand_table = table
+        return self._strand_table
+
+    def update_hybrid(self) -> None:
+        """Recompute the hybrid flags from the current guide positions (after simulation steps)."""
+        self._release_table()
+
+    def get_pass(self, name: str) -> Pass:
+        """The pass called ``name`` ("shadow_map", "deep_opacity", "adsm", "opacity_maps", "density", ...)."""
+        for p in self.passes:
+            if p.name == name:
+                return p
+        raise KeyError(name)
 
     # ------------------------------------------------------------------ scene
     def set_strands(self, strands, points_per_strand: int | None = None) -> StrandBuffers:
@@ -149,6 +229,7 @@ class Renderer:
         else:
             self.strands = StrandBuffers.from_groom(self.ctx, strands, points_per_strand)
         self._frames_dirty = True
+        self._release_table()
         return self.strands
 
     def strands_changed(self) -> None:
@@ -197,7 +278,7 @@ class Renderer:
         los, his = [], []
         if self.strands is not None:
             lo, hi = self.strands.bbox()
-            pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+            pad = self.strand_pad()
             los.append(lo - pad)
             his.append(hi + pad)
         if self.head is not None and self.settings.draw_head:
@@ -217,7 +298,7 @@ class Renderer:
         if self.strands is None:
             return self.scene_bbox()
         lo, hi = self.strands.bbox()
-        pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+        pad = self.strand_pad()
         lo, hi = lo - pad, hi + pad
         if self.head is not None and self.settings.draw_head:
             v = self.head.vertices
@@ -300,7 +381,7 @@ class Renderer:
         if self.strands is None:
             return (0.0, 1.0)
         lo, hi = self.strands.bbox()
-        pad = self.settings.clump_radius * (1.0 + self.settings.stray_amount)
+        pad = self.strand_pad()
         lo, hi = lo - pad, hi + pad
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         z = (corners - lv.eye) @ lv.forward
@@ -313,9 +394,13 @@ class Renderer:
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
         frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
+        self.lod_eye = frame.view.eye
         if lights and self.settings.shadows != "none":
             frame.light_view = self.light_view(lights[0])
             frame.hair_depth_range = self._hair_depth_range(frame.light_view)
+            for light in lights[1:int(self.settings.shadow_lights)]:   # more lights that cast
+                lv = self.light_view(light)
+                frame.shadow_views.append((lv, self._hair_depth_range(lv)))
         fbo = self.hdr_fbo()
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
@@ -341,14 +426,24 @@ class Renderer:
     # ------------------------------------------------------------------ numbers
     @property
     def rendered_strands(self) -> int:
-        return 0 if self.strands is None else self.strands.num_guides * int(self.settings.strands_per_guide)
+        if self.strands is None:
+            return 0
+        if self.settings.interpolation_mode != "single":
+            if self._guide_weights is not None:
+                return len(self._guide_weights[0])
+        return self.strands.num_guides * int(self.settings.strands_per_guide)
 
     @property
     def rendered_segments(self) -> int:
         if self.strands is None:
             return 0
         st = self.strands
-        return self.rendered_strands * (st.points_per_strand - 1) * subdivisions(self.settings, st.points_per_strand)
+        per = subdivisions(self.settings, st.points_per_strand)
+        if self.settings.lod:   # the most: fractional_odd_spacing of the nearest level
+            from .strand_math import lod_level, odd_spacing_count
+
+            per = int(odd_spacing_count(lod_level(0.0, self.settings.replace(lod=False), st.points_per_strand)))
+        return self.rendered_strands * (st.points_per_strand - 1) * per
 
     def stats(self) -> dict:
         return {
@@ -384,6 +479,7 @@ class Renderer:
             for o in self._head_gpu:
                 o.release()
             self._head_gpu = None
+        self._release_table()
         if self.strands is not None:
             self.strands.release()
             self.strands = None

@@ -14,7 +14,9 @@ from ..errors import UsageError
 
 INTERPOLATIONS = ("catmull_rom", "bspline", "bezier")
 GEOMETRIES = ("ribbons", "lines")
-SHADOWS = ("none", "shadow_map", "deep_opacity")
+INTERPOLATION_MODES = ("single", "multi", "hybrid")
+SHADOWS = ("none", "shadow_map", "deep_opacity", "adsm", "opacity_maps", "density")
+DENSITY_SOURCES = ("auto", "strands", "simulator")
 TONE_MAPS = ("aces", "reinhard", "none")
 AA_MODES = ("none", "msaa2", "msaa4", "msaa8", "ssaa2", "msaa4+ssaa2")
 MAX_TESS_LEVEL = 64   # the GL minimum for GL_MAX_TESS_GEN_LEVEL; llvmpipe and NVIDIA give 64
@@ -33,23 +35,55 @@ class RenderSettings:
     the phantom points) or "bezier" (cubic Bezier per segment with C1 control points)."""
     segments: int = 32
     """Rendered segments per strand (rounded up to a multiple of the guide's segments)."""
+    # --- distance LOD (Chen: segments; TressFX 4.1: density and width)
+    lod: bool = False
+    """Distance level of detail: between lod_start and lod_end (camera to strand root, m) the
+    segments per strand fall to lod_segment_percent (fractional tessellation), the strand count
+    to lod_percent (strands fade out one by one) and the width rises to lod_width_multiplier."""
+    lod_start: float = 1.0
+    lod_end: float = 5.0
+    lod_percent: float = 0.5
+    """Fraction of strands kept at lod_end and beyond (TressFX LODPercent)."""
+    lod_width_multiplier: float = 2.0
+    """Strand width multiplier at lod_end (TressFX LODWidthMultiplier)."""
+    lod_segment_percent: float = 0.25
+    """Fraction of ``segments`` kept at lod_end (Chen's segment LOD)."""
+    lod_min_segments: int = 4
+    """Fewest segments per strand the LOD goes down to."""
     # --- strand multiplication
     strands_per_guide: int = 16
     """Rendered strands per guide (the guide itself is strand 0). Beyond 64 (the tessellation
     limit) a guide is drawn in more instances of 64 isolines."""
     interpolation_mode: str = "single"
-    """"single": clumps around one guide; "multi": blend 3 guides with barycentric weights
-    (needs guide data with ``triangles``/``weights``, see StrandBuffers)."""
+    """"single": clumps around one guide; "multi": every rendered strand is the barycentric
+    blend of 3 guide curves plus its root offset (Woodhouse; weights from grooming's
+    GuideWeights via ``Renderer.set_guide_weights``, else random barycentrics hashed per strand
+    over each guide and its two nearest guides); "hybrid": "multi", except strands whose 3
+    guides straddle a collider (``colliders``, else the default head's SDF) take the
+    single-strand form around their heaviest guide."""
+    colliders: tuple = ()
+    """Hybrid interpolation's colliders: ellipsoids (cx, cy, cz, rx, ry, rz) in metres (a sphere
+    has rx = ry = rz). Empty: the default head's distance field when the head is the default."""
+    hybrid_margin: float = 0.002
+    """A straight segment between guide points straddles a collider when it passes deeper than
+    this (m) inside it (roots sit on the scalp: chords between them dip a little inside)."""
     clump_radius: float = 0.006
     """Radius (m) of the disc, perpendicular to the guide, on which a clump's strands sit."""
     clump_root: float = 0.25
     """Clump radius at the root, as a fraction of clump_radius (root taper)."""
     clump_tip: float = 0.5
     """Clump radius at the tip, as a fraction of clump_radius (tip taper; <1 gathers tips)."""
-    stray_fraction: float = 0.08
-    """Fraction of rendered strands that stray from their clump."""
-    stray_amount: float = 2.5
-    """How far a stray strand leaves the clump, in clump radii, at its most."""
+    stray_fraction: float = 0.5
+    """Probability that a rendered strand deviates from its clump (the Vulkan hair / Rapp 2014:
+    0.5); a deviating strand takes one of five equiprobable shapes (mane.render.strand_math)."""
+    stray_amount: float = 1.5
+    """How far a deviating strand leaves the clump, in clump radii, at its most (the sharp
+    exponential's tip)."""
+    curl_radius: float = 0.0
+    """Render-time curl: radius (m) of a helix around each strand's curve (0: off). It grows
+    from 0 at the root to full by 10% of the strand."""
+    curl_frequency: float = 6.0
+    """Curl turns per strand, root to tip (each strand starts at its own hashed phase)."""
     keep_guide: bool = True
     """Render the guide itself as the clump's strand 0 (offset 0)."""
     # --- geometry
@@ -78,10 +112,17 @@ class RenderSettings:
     draw_head: bool = True
     # --- shadows
     shadows: str = "deep_opacity"
-    """"none", "shadow_map" (depth + PCF, hair and head cast) or "deep_opacity" (Yuksel and
-    Keyser: 3 opacity layers after the first hair depth z0, in one RGBA texture)."""
+    """"none", "shadow_map" (depth + PCF, hair and head cast), "deep_opacity" (Yuksel and
+    Keyser: 3 opacity layers after the first hair depth z0, in one RGBA texture), "adsm"
+    (TressFX's approximated deep shadow map), "opacity_maps" (Kim and Neumann: osm_slices
+    slices in several render targets) or "density" (Woodhouse: a ray march through a 3D
+    density texture). The head casts through its own shadow map with every method."""
+    shadow_lights: int = 1
+    """How many lights, from light 0, cast shadows (1..4; Chen's scene: 3 lights, 2 casting).
+    Each has its own maps: a shadow map, and with "deep_opacity" a deep opacity map; with
+    "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head)."""
     shadow_map_size: int = 512
-    """Shadow / opacity map resolution (texels per side)."""
+    """Shadow / opacity map resolution (texels per side); 128..2048 is the intended range."""
     pcf: int = 3
     """PCF kernel: pcf x pcf taps (1 = none)."""
     shadow_bias: float = 3.0
@@ -91,7 +132,27 @@ class RenderSettings:
     strand_opacity: float = 0.35
     """Opacity one strand adds in the deep opacity map (per covered texel)."""
     shadow_density: float = 3.0
-    """Scale of the opacity -> transmittance exponent: T = exp(-density * O)."""
+    """Scale of the opacity -> transmittance exponent: T = exp(-density * O). Every method uses
+    it: one strand crossed passes exp(-shadow_density * strand_opacity) of the light."""
+    adsm_spacing: float = 10.0
+    """ADSM (TressFX's approximated deep shadow map, shadows="adsm"): the fibre spacing along
+    the light, in strand widths; n = (depth behind the first hair occluder) / (adsm_spacing *
+    width) strands are assumed crossed, T = (1 - alpha)^n with 1 - alpha = exp(-shadow_density *
+    strand_opacity). Smaller = darker (Hunz §4)."""
+    osm_slices: int = 16
+    """Opacity shadow maps (shadows="opacity_maps"): uniform slices between the hair's nearest
+    and farthest light depth; 4 per RGBA32F target, 4..32 (8 render targets)."""
+    density_resolution: int = 64
+    """Density ray march (shadows="density"): nodes per side of the 3D density texture built
+    from the rendered strands (16..256). With density_source="simulator" the simulator's
+    friction grid (its own resolution) is used instead."""
+    density_source: str = "auto"
+    """"strands": splat the rendered strands (tessellated, clumped) into the 3D texture every
+    frame; "simulator": the simulator's hair-hair friction grid (guide particles, scaled to
+    the rendered strands); "auto": the simulator's grid when the strands come from a
+    simulator whose grid has been built, otherwise the strands."""
+    density_step: float = 0.5
+    """Ray-march step, in grid cells."""
     # --- anti-aliasing and output
     msaa: int = 4
     """Samples per pixel (1, 2, 4, 8; clamped to GL_MAX_SAMPLES)."""
@@ -107,7 +168,7 @@ class RenderSettings:
         object.__setattr__(self, "size", (w, h))
         for name, allowed in (("interpolation", INTERPOLATIONS), ("geometry", GEOMETRIES),
                               ("shadows", SHADOWS), ("tone_mapping", TONE_MAPS),
-                              ("interpolation_mode", ("single", "multi"))):
+                              ("interpolation_mode", INTERPOLATION_MODES)):
             if getattr(self, name) not in allowed:
                 raise UsageError(f"{name} must be one of {', '.join(allowed)}; got {getattr(self, name)!r}")
         if not 1 <= int(self.segments) <= 4096:
@@ -120,16 +181,41 @@ class RenderSettings:
             raise UsageError(f"supersample must be 1 or 2, got {self.supersample}")
         if not 1 <= int(self.pcf) <= 9:
             raise UsageError(f"pcf taps per side must be in 1..9, got {self.pcf}")
+        if not 1 <= int(self.shadow_lights) <= 4:
+            raise UsageError(f"shadow_lights must be in 1..4, got {self.shadow_lights}")
         if not 16 <= int(self.shadow_map_size) <= 8192:
             raise UsageError(f"shadow_map_size must be in 16..8192, got {self.shadow_map_size}")
+        if int(self.osm_slices) % 4 or not 4 <= int(self.osm_slices) <= 32:
+            raise UsageError(f"osm_slices must be a multiple of 4 in 4..32, got {self.osm_slices}")
+        if not 16 <= int(self.density_resolution) <= 256:
+            raise UsageError(f"density_resolution must be in 16..256, got {self.density_resolution}")
+        if self.density_source not in DENSITY_SOURCES:
+            raise UsageError(f"density_source must be one of {', '.join(DENSITY_SOURCES)}; got {self.density_source!r}")
+        if not 0.05 <= float(self.density_step) <= 4.0:
+            raise UsageError(f"density_step must be in 0.05..4 cells, got {self.density_step}")
+        if not float(self.adsm_spacing) > 0:
+            raise UsageError(f"adsm_spacing must be > 0 strand widths, got {self.adsm_spacing}")
         d = tuple(float(x) for x in self.dom_layers)
         if len(d) != 3 or not (0 < d[0] < d[1] < d[2]):
             raise UsageError(f"dom_layers must be 3 increasing positive fractions, got {self.dom_layers}")
         object.__setattr__(self, "dom_layers", d)
         for name in ("width", "clump_radius", "min_pixel_width", "stray_fraction", "stray_amount",
-                     "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias"):
+                     "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias",
+                     "curl_radius", "curl_frequency", "hybrid_margin", "lod_start"):
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")
+        if not 0.0 <= float(self.stray_fraction) <= 1.0:
+            raise UsageError(f"stray_fraction is a probability in 0..1, got {self.stray_fraction}")
+        if self.lod and not float(self.lod_end) > float(self.lod_start):
+            raise UsageError(f"lod_end must be beyond lod_start, got {self.lod_start}..{self.lod_end}")
+        if not (0.0 < float(self.lod_percent) <= 1.0 and 0.0 < float(self.lod_segment_percent) <= 1.0):
+            raise UsageError("lod_percent and lod_segment_percent must be in (0, 1]")
+        if not float(self.lod_width_multiplier) > 0 or not 1 <= int(self.lod_min_segments) <= 4096:
+            raise UsageError("lod_width_multiplier must be > 0 and lod_min_segments in 1..4096")
+        cols = tuple(tuple(float(x) for x in c) for c in self.colliders)
+        if any(len(c) != 6 or min(c[3:]) <= 0 for c in cols):
+            raise UsageError("colliders are ellipsoids (cx, cy, cz, rx, ry, rz) with positive radii")
+        object.__setattr__(self, "colliders", cols)
 
     def replace(self, **changes) -> "RenderSettings":
         return replace(self, **changes)

@@ -10,13 +10,19 @@ import numpy as np
 
 from ...gpu.glsl import program
 from ..camera import mat_bytes
+from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
 HERE = Path(__file__).resolve().parent
 RENDER_DIR = HERE.parent
 MAX_ISOLINES = 64
 
 INTERPOLATION_IDS = {"catmull_rom": 0, "bspline": 1, "bezier": 2}
-SHADOW_IDS = {"none": 0, "shadow_map": 1, "deep_opacity": 2}
+MULTI_IDS = {"single": 0, "multi": 1, "hybrid": 2}
+STRAND_TABLE_BINDING = 2
+SHADOW_IDS = {"none": 0, "shadow_map": 1, "deep_opacity": 2, "adsm": 3, "opacity_maps": 4, "density": 5}
+# texture units and buffer bindings of the shadow look-ups (lighting.glsl and its shadow_*.glsl)
+ADSM_UNIT, DENSITY_UNIT, OSM_FIRST_UNIT = 4, 5, 8
+DENSITY_BOX_BINDING = 6
 TONE_IDS = {"aces": 0, "reinhard": 1, "none": 2}
 # hair fragment passes
 PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
@@ -44,6 +50,7 @@ class Frame:
     view: View
     light_view: View | None = None
     hair_depth_range: tuple[float, float] = (0.0, 1.0)   # hair extent along the key light (m)
+    shadow_views: list = field(default_factory=list)     # (View, depth range) of lights 1.. that cast
     index: int = 0
     targets: dict = field(default_factory=dict)
 
@@ -59,7 +66,11 @@ def set_uniform(prog, name: str, value) -> bool:
     elif isinstance(value, np.ndarray):
         u.value = tuple(float(x) for x in value.reshape(-1))
     elif isinstance(value, (list, tuple)) and value and isinstance(value[0], (list, tuple, np.ndarray)):
-        u.value = [tuple(float(x) for x in v) for v in value]
+        # the driver may trim an array to what the shader uses; a shorter list is zero-padded
+        n = int(getattr(u, "array_length", len(value)) or len(value))
+        vals = [tuple(float(x) for x in v) for v in value[:n]]
+        vals += [tuple(0.0 for _ in vals[0])] * (n - len(vals))
+        u.value = vals[0] if n == 1 else vals
     else:
         u.value = value
     return True
@@ -74,7 +85,10 @@ def set_view(prog, view: View) -> None:
     set_uniform(prog, "u_min_pixel_width", float(view.min_pixel_width))
 
 
-def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str | None = None):
+def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str | None = None,
+                 fragment_file=None, geometry_file=None, extra_defines: dict | None = None):
+    """The hair program for ``pass_id``; a pass may bring its own fragment or geometry stage
+    (same varyings as hair.geom / hair.tese) and defines."""
     s = renderer.settings
     shading = renderer.shading
     geometry = geometry or s.geometry
@@ -85,11 +99,17 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "SHADOWS": SHADOW_IDS[s.shadows],
         "CAPTURE": int(capture),
         "HAIR_MATERIAL_DECLARED": int(shading.declares_material),
+        "MULTI": MULTI_IDS[s.interpolation_mode],
+        "LOD": int(bool(s.lod)),
     }
     defines.update(shading.defines())
+    defines.update(extra_defines or {})
     frag = HERE / ("hair_fallback.frag" if shading.fallback else "hair.frag")
+    if fragment_file is not None:
+        frag = fragment_file
+    geom = geometry_file if geometry_file is not None else HERE / "hair.geom"
     return program(renderer.ctx, vertex=HERE / "hair.vert", tess_control=HERE / "hair.tesc",
-                   tess_evaluation=HERE / "hair.tese", geometry=HERE / "hair.geom", fragment=frag,
+                   tess_evaluation=HERE / "hair.tese", geometry=geom, fragment=frag,
                    defines=defines, include_dirs=[RENDER_DIR])
 
 
@@ -98,8 +118,10 @@ def subdivisions(settings, points_per_strand: int) -> int:
     return int(min(MAX_ISOLINES, max(1, math.ceil(settings.segments / max(1, points_per_strand - 1)))))
 
 
-def draw_hair(renderer, prog, view: View) -> None:
-    """One draw of every guide's patches (instanced by 64 isolines)."""
+def draw_hair(renderer, prog, view: View, lod_eye=None) -> None:
+    """One draw of every guide's patches (instanced by 64 isolines); multi/hybrid
+    interpolation: one patch per guide segment and group of 64 rendered strands. ``lod_eye``:
+    where the distance LOD measures from (default: the renderer's camera of this frame)."""
     s = renderer.settings
     st = renderer.strands
     ctx = renderer.ctx
@@ -112,18 +134,35 @@ def draw_hair(renderer, prog, view: View) -> None:
     for name, value in (("u_clump_radius", s.clump_radius), ("u_clump_root", s.clump_root),
                         ("u_clump_tip", s.clump_tip), ("u_stray_fraction", s.stray_fraction),
                         ("u_stray_amount", s.stray_amount), ("u_width", s.width),
-                        ("u_width_tip", s.width_tip)):
+                        ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
+                        ("u_curl_frequency", s.curl_frequency)):
         set_uniform(prog, name, float(value))
+    if lod_eye is None:
+        lod_eye = getattr(renderer, "lod_eye", None)
+    if lod_eye is None:
+        lod_eye = view.eye
+    set_uniform(prog, "u_lod_eye", tuple(float(x) for x in lod_eye))
+    set_uniform(prog, "u_lod_range", (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
+                                      float(s.lod_width_multiplier) if s.lod else 1.0))
+    set_uniform(prog, "u_lod_segments", (float(s.lod_segment_percent), float(s.lod_min_segments)))
+    set_uniform(prog, "u_segments", int(s.segments))
     st.bind()
     vao = renderer.empty_vao(prog)
     ctx.patch_vertices = 4
+    if s.interpolation_mode != "single":
+        table = renderer.strand_table()
+        table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+        set_uniform(prog, "u_num_render", int(table.count))
+        groups = math.ceil(table.count / MAX_ISOLINES)
+        vao.render(moderngl.PATCHES, vertices=groups * (N - 1) * 4, instances=1)
+        return
     instances = math.ceil(int(s.strands_per_guide) / MAX_ISOLINES)
     vao.render(moderngl.PATCHES, vertices=st.num_segments * 4, instances=instances)
 
 
 def bind_lighting(renderer, prog, frame: Frame) -> None:
     """Lights, ambient and light 0's shadow maps (texture units 1..3)."""
-    lights = frame.lights[:3]
+    lights = frame.lights[:MAX_LIGHTS]
     center = renderer.scene_center()
     vecs, rads = [], []
     for light in lights:
@@ -134,7 +173,7 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
             d = d / np.linalg.norm(d)
             vecs.append((*d, 0.0))
         rads.append(tuple(float(c) * float(light.intensity) for c in light.color))
-    while len(vecs) < 3:
+    while len(vecs) < MAX_LIGHTS:
         vecs.append((0.0, 1.0, 0.0, 0.0))
         rads.append((0.0, 0.0, 0.0))
     set_uniform(prog, "u_num_lights", len(lights))
@@ -162,6 +201,78 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
     if "dom" in t:
         t["dom"].use(2)
         set_uniform(prog, "u_dom", 2)
+    bind_shadow_methods(renderer, prog, frame)
+    bind_extra_shadows(renderer, prog, frame)
+
+
+XSHADOW_FIRST_UNIT, XDOM_FIRST_UNIT = 16, 20
+
+
+def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
+    """Lights 1.. that cast shadows: their maps (units 16.. and 20..) and light views."""
+    s = renderer.settings
+    maps = frame.targets.get("extra_shadow_maps", [])
+    doms = frame.targets.get("extra_doms", [])
+    n = 1 + len(maps) if frame.light_view is not None else 0
+    set_uniform(prog, "u_num_shadow_lights", n)
+    if "u_xshadow_map" not in prog:
+        return
+    center = renderer.scene_center()
+    eyes, dirs, biases, layers = [(0.0, 0.0, 0.0)], [(0.0, 0.0, 1.0)], [0.0], [(1.0, 2.0, 3.0)]
+    mats = [np.eye(4)]
+    for k, (lv, (lo, hi)) in enumerate(frame.shadow_views[:len(maps)]):
+        mats.append(lv.view_proj)
+        eyes.append(tuple(float(x) for x in lv.eye))
+        dirs.append(tuple(float(x) for x in lv.forward))
+        texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
+        biases.append(float(s.shadow_bias) * texel)
+        ext = max(hi - lo, 1e-4)
+        layers.append(tuple(float(f) * ext for f in s.dom_layers))
+    while len(mats) < MAX_SHADOW_LIGHTS:
+        mats.append(np.eye(4)); eyes.append((0.0, 0.0, 0.0)); dirs.append((0.0, 0.0, 1.0))
+        biases.append(0.0); layers.append((1.0, 2.0, 3.0))
+    prog["u_xlight_view_proj"].write(b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]))
+    set_uniform(prog, "u_xlight_eye", eyes[:MAX_SHADOW_LIGHTS])
+    set_uniform(prog, "u_xlight_dir", dirs[:MAX_SHADOW_LIGHTS])
+    set_uniform(prog, "u_xshadow_bias", biases[:MAX_SHADOW_LIGHTS])
+    set_uniform(prog, "u_xdom_layers", layers[:MAX_SHADOW_LIGHTS])
+    for k in range(MAX_SHADOW_LIGHTS):
+        if 1 <= k <= len(maps):
+            maps[k - 1].use(XSHADOW_FIRST_UNIT + k)
+            if k <= len(doms):
+                doms[k - 1].use(XDOM_FIRST_UNIT + k)
+    set_uniform(prog, "u_xshadow_map", [XSHADOW_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
+    if "u_xdom" in prog:
+        set_uniform(prog, "u_xdom", [XDOM_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
+
+
+def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
+    """The ADSM, opacity shadow map and density look-ups' textures and uniforms (when made)."""
+    s = renderer.settings
+    t = frame.targets
+    if "adsm" in t:
+        t["adsm"].use(ADSM_UNIT)
+        set_uniform(prog, "u_adsm", ADSM_UNIT)
+        set_uniform(prog, "u_adsm_spacing", float(s.adsm_spacing) * float(s.width))
+        set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity))
+    if "osm" in t:
+        maps = t["osm"]
+        for k, tex in enumerate(maps):
+            tex.use(OSM_FIRST_UNIT + k)
+        try:
+            n = max(int(prog["u_osm"].array_length), len(maps))
+            prog["u_osm"].value = [OSM_FIRST_UNIT + min(k, len(maps) - 1) for k in range(n)]
+        except KeyError:
+            pass
+        set_uniform(prog, "u_osm_targets", len(maps))
+        lo, hi = t["osm_range"]
+        set_uniform(prog, "u_osm_range", (float(lo), float(hi)))
+    if "density" in t:
+        tex, box = t["density"]
+        tex.use(DENSITY_UNIT)
+        box.bind_to_storage_buffer(DENSITY_BOX_BINDING)
+        set_uniform(prog, "u_density", DENSITY_UNIT)
+        set_uniform(prog, "u_density_step", float(s.density_step))
 
 
 class Pass:

@@ -17,6 +17,7 @@ in float e_s[];
 in float e_rand[];
 in float e_width[];
 in float e_id[];
+in float e_lod_alpha[];   // distance LOD fade (0: the strand is dropped)
 
 uniform mat4 u_view_proj;
 uniform vec3 u_eye;           // perspective views: the eye
@@ -39,6 +40,7 @@ uniform int u_capture_max;
 #endif
 
 void main() {
+    if (e_lod_alpha[0] <= 0.0 && e_lod_alpha[1] <= 0.0) return;   // LOD: dropped strand
     vec3 corner[4];
     float alpha[2];
     for (int i = 0; i < 2; ++i) {
@@ -54,7 +56,7 @@ void main() {
         float a = 1.0;
         float wmin = u_min_pixel_width * pixel;
         if (w < wmin) { a = w / wmin; w = wmin; }
-        alpha[i] = a;
+        alpha[i] = a * e_lod_alpha[i];
         corner[2 * i] = P - 0.5 * w * side;
         corner[2 * i + 1] = P + 0.5 * w * side;
     }

@@ -1,6 +1,7 @@
 #version 430
 // One patch per guide segment: 4 control points, the segment's ends and their neighbours.
-// No vertex buffer: gl_VertexID = patch * 4 + j.
+// No vertex buffer: gl_VertexID = patch * 4 + j. MULTI: a patch is a segment of a group of
+// up to 64 rendered strands; the evaluation stage reads the 3 guides itself.
 #include "strand_common.glsl"
 
 out vec3 v_pos;
@@ -15,8 +16,13 @@ void main() {
     int guide = patch_id / segs;
     int seg = patch_id - guide * segs;
     int k = seg - 1 + j;
+#if MULTI
+    v_pos = vec3(0.0);
+    v_normal = vec3(0.0);
+#else
     v_pos = guide_point(guide, k);
     v_normal = guide_normal(guide, k);
+#endif
     v_patch = patch_id;
     v_instance = gl_InstanceID;
 }

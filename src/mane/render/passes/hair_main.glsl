@@ -37,7 +37,7 @@ void main() {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, g_pos, falloff);
-        float vis = i == 0 ? light0_visibility(g_pos) : 1.0;
+        float vis = light_visibility(i, g_pos);
         vec3 radiance = u_light_radiance[i] * falloff;
         color += radiance * (hair_bsdf(T, V, L, m) * vis + hair_multiple_scattering(T, V, L, m, vis));
     }

@@ -26,7 +26,7 @@ void main() {
         float falloff;
         vec3 L = light_dir_at(i, h_pos, falloff);
         float ndl = max(0.0, (dot(N, L) + 0.15) / 1.15);    // a little wrap for skin
-        float vis = (i == 0 && ndl > 0.0) ? light0_visibility(h_pos) : 1.0;
+        float vis = ndl > 0.0 ? light_visibility(i, h_pos) : 1.0;
         vec3 H = normalize(L + V);
         float spec = 0.04 * pow(max(dot(N, H), 0.0), 24.0);
         color += u_light_radiance[i] * falloff * vis * (albedo * ndl / 3.14159265 + spec * ndl);

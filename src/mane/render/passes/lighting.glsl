@@ -1,11 +1,12 @@
 // Lights (light 0 casts the shadows) and shadow look-ups shared by the hair and the head.
-#define MAX_LIGHTS 3
+#define MAX_LIGHTS 4
 uniform int u_num_lights;
 uniform vec4 u_light_vec[MAX_LIGHTS];        // xyz: direction toward the light (w = 0) or position (w = 1)
 uniform vec3 u_light_radiance[MAX_LIGHTS];   // colour * intensity
 uniform vec3 u_ambient;
 
-// SHADOWS: 0 none, 1 shadow map (linear light depth, PCF), 2 deep opacity map (+ the head's map)
+// SHADOWS: 0 none, 1 shadow map (linear light depth, PCF), 2 deep opacity map (+ the head's map),
+// 3 ADSM, 4 opacity shadow maps, 5 density ray march (each + the head's map)
 uniform mat4 u_light_view_proj;
 uniform vec3 u_light_eye;
 uniform vec3 u_light_dir;                    // unit forward of the light's view
@@ -79,13 +80,80 @@ float dom_transmittance(vec3 P) {
     return tr / n;
 }
 
+// SHADOWS 3 (ADSM), 4 (opacity shadow maps), 5 (density ray march): one look-up per file.
+#include "shadow_adsm.glsl"
+#include "shadow_osm.glsl"
+#include "shadow_density.glsl"
+
 // Fraction of light 0 that reaches P.
 float light0_visibility(vec3 P) {
 #if SHADOWS == 1
     return shadow_map_visibility(P);
 #elif SHADOWS == 2
     return dom_transmittance(P) * shadow_map_visibility(P);
+#elif SHADOWS == 3
+    return adsm_transmittance(P) * shadow_map_visibility(P);
+#elif SHADOWS == 4
+    return osm_transmittance(P) * shadow_map_visibility(P);
+#elif SHADOWS == 5
+    return density_transmittance(P) * shadow_map_visibility(P);
 #else
     return 1.0;
 #endif
+}
+
+// ---------------------------------------------------------------- more shadow-casting lights
+// Lights 1 .. u_num_shadow_lights-1 cast shadows too (light 0 is above): each has its own
+// shadow map (head and hair depth, PCF; with SHADOWS 2 the head only) and, with SHADOWS 2, its
+// own deep opacity map. With SHADOWS 3..5 those lights use the shadow map. Index 0 unused.
+#define MAX_SHADOW_LIGHTS 4
+uniform int u_num_shadow_lights;
+uniform mat4 u_xlight_view_proj[MAX_SHADOW_LIGHTS];
+uniform vec3 u_xlight_eye[MAX_SHADOW_LIGHTS];
+uniform vec3 u_xlight_dir[MAX_SHADOW_LIGHTS];
+uniform float u_xshadow_bias[MAX_SHADOW_LIGHTS];
+uniform vec3 u_xdom_layers[MAX_SHADOW_LIGHTS];
+uniform sampler2D u_xshadow_map[MAX_SHADOW_LIGHTS];
+uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
+
+float xdom_opacity(vec4 t, float z, vec3 layers) {
+    float dz = z - t.a;
+    if (dz <= 0.0) return 0.0;
+    if (dz < layers.x) return t.r * dz / layers.x;
+    if (dz < layers.y) return mix(t.r, t.g, (dz - layers.x) / (layers.y - layers.x));
+    if (dz < layers.z) return mix(t.g, t.b, (dz - layers.y) / (layers.z - layers.y));
+    return t.b;
+}
+
+float xlight_visibility(int i, vec3 P) {
+    vec4 c = u_xlight_view_proj[i] * vec4(P, 1.0);
+    vec2 uv = c.xy / c.w * 0.5 + 0.5;
+    float z = dot(P - u_xlight_eye[i], u_xlight_dir[i]);
+    ivec2 size = textureSize(u_xshadow_map[i], 0);
+    ivec2 cs = ivec2(floor(uv * vec2(size) - 0.5 + 0.5));
+    int r = u_pcf / 2;
+    int lo = -r, hi = u_pcf - 1 - r;
+    float lit = 0.0, tr = 0.0, n = 0.0;
+    for (int y = lo; y <= hi; ++y)
+        for (int x = lo; x <= hi; ++x) {
+            ivec2 t = clamp(cs + ivec2(x, y), ivec2(0), size - 1);
+            lit += (z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0;
+#if SHADOWS == 2
+            ivec2 td = clamp(ivec2(floor(uv * vec2(size))) + ivec2(x, y), ivec2(0), size - 1);
+            tr += exp(-u_shadow_density * xdom_opacity(texelFetch(u_xdom[i], td, 0), z, u_xdom_layers[i]));
+#else
+            tr += 1.0;
+#endif
+            n += 1.0;
+        }
+    return (lit / n) * (tr / n);
+}
+
+// Fraction of light i that reaches P (1 for lights that cast no shadow).
+float light_visibility(int i, vec3 P) {
+    if (i == 0) return light0_visibility(P);
+#if SHADOWS != 0
+    if (i < u_num_shadow_lights) return xlight_visibility(i, P);
+#endif
+    return 1.0;
 }

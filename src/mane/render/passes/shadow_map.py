@@ -39,9 +39,13 @@ class ShadowMapPass(Pass):
                            defines={"PASS": 1, "SHADOWS": 0})
             set_view(prog, frame.light_view)
             r.head_vao(prog).render()
-        if r.strands is not None and r.settings.shadows == "shadow_map":
+        if r.strands is not None and self.hair_casts():
             draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
         frame.targets["shadow_map"] = self.texture
+
+    def hair_casts(self) -> bool:
+        """Whether the hair is drawn into this map (else another map carries its shadow)."""
+        return self.renderer.settings.shadows == "shadow_map"
 
     def read(self):
         import numpy as np

@@ -65,3 +65,33 @@ void eval_curve(vec3 P0, vec3 P1, vec3 P2, vec3 P3, float u, out vec3 pos, out v
     deriv = 3.0 * (e1 - e0);
 #endif
 }
+
+// ---------------------------------------------------------------- multi-strand interpolation (MULTI 1, hybrid 2)
+// One record per rendered strand: 3 guides (w: flags, bit 0 = hybrid single-strand fallback),
+// barycentric weights (the heaviest guide first) and a root offset (m, world).
+#ifndef MULTI
+#define MULTI 0
+#endif
+#ifndef LOD
+#define LOD 0
+#endif
+struct StrandRecord { ivec4 guides; vec4 weights; vec4 offset; };
+#if MULTI
+layout(std430, binding = 2) readonly buffer StrandTable { StrandRecord strand_table[]; };
+#endif
+uniform int u_num_render;         // MULTI: rendered strands (records)
+
+// ---------------------------------------------------------------- distance LOD
+uniform vec3 u_lod_eye;           // the camera's eye (every pass: the shadows see the same hair)
+uniform vec4 u_lod_range;         // start, end (m), density at end, width multiplier at end
+uniform vec2 u_lod_segments;      // segment fraction at end, fewest segments per strand
+uniform int u_segments;           // settings.segments
+
+float lod_t(vec3 root) {
+#if LOD
+    float d = distance(root, u_lod_eye);
+    return clamp((d - u_lod_range.x) / max(u_lod_range.y - u_lod_range.x, 1e-6), 0.0, 1.0);
+#else
+    return 0.0;
+#endif
+}
