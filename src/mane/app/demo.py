@@ -144,7 +144,9 @@ def run(args) -> int:
     try:
         for i in tqdm(range(frames_n), unit="frame", desc="demo"):
             t = i / q.fps
-            sim.set_head_transform(head_motion.nod(t))
+            motion = head_motion.nod(t)
+            sim.set_head_transform(motion)
+            renderer.set_head_transform(motion)
             phase = 2 * math.pi * t / max(seconds, 1e-6)
             sweep.move_to(centre + radius * np.array([1.6 * math.cos(phase), 0.2, 1.6 * math.sin(phase)]))
             if i:

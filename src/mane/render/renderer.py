@@ -123,6 +123,7 @@ class Renderer:
         self.profiler = GpuProfiler(self.ctx, enabled=profile, source=profiler_source)
         self.strands: StrandBuffers | None = None
         self.head = None
+        self.head_transform = np.eye(4)
         self._head_gpu = None
         self._vaos: dict = {}
         self._frames_dirty = True
@@ -253,6 +254,18 @@ class Renderer:
         vbo = self.ctx.buffer(np.ascontiguousarray(data).tobytes())
         ibo = self.ctx.buffer(mesh.faces.astype(np.int32).tobytes())
         self._head_gpu = (vbo, ibo)
+
+    def set_head_transform(self, matrix) -> None:
+        """The head mesh's rigid local -> world 4x4 (a simulator's head motion), metres."""
+        m = np.asarray(matrix, dtype=np.float64)
+        if m.shape != (4, 4) or not np.all(np.isfinite(m)):
+            raise UsageError("the head transform must be a finite 4x4 matrix")
+        self.head_transform = m
+
+    def draw_head(self, prog) -> None:
+        """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current transform."""
+        prog["u_head_model"].write(np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
+        self.head_vao(prog).render()
 
     def head_vao(self, prog):
         key = ("head", id(prog))

@@ -26,4 +26,4 @@ class HeadPass(Pass):
         set_uniform(prog, "u_skin", tuple(s.skin_color))
         hair = r.hair_color()
         set_uniform(prog, "u_scalp_color", tuple(0.8 * c + 0.2 * k for c, k in zip(hair, s.skin_color)))
-        r.head_vao(prog).render()
+        r.draw_head(prog)

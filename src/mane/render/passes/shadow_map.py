@@ -38,7 +38,7 @@ class ShadowMapPass(Pass):
             prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
                            defines={"PASS": 1, "SHADOWS": 0})
             set_view(prog, frame.light_view)
-            r.head_vao(prog).render()
+            r.draw_head(prog)
         if r.strands is not None and self.hair_casts():
             draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
         frame.targets["shadow_map"] = self.texture
