@@ -20,8 +20,9 @@ Python side::
 
 Models (``MODELS``): kajiya_kay 0, marschner 1, marschner_lut 2, sadeghi 3,
 scheuermann 4, karis 5. Multiple scattering (``MULTIPLE_SCATTERING``): none 0, karis 1,
-dual 2 (reserved for Zinke 2008 dual scattering: not implemented, falls back to karis);
-"auto" = karis.
+dual 2 (Zinke et al. 2008 dual scattering from tables of this material's Marschner lobes,
+see dual_scattering.py / dual_scattering.glsl; bind() binds the ``hair_dual_lut`` texture to
+unit ``LUT_UNIT_DUAL``); "auto" = karis.
 
 Units: ``roughness`` is the longitudinal width beta_R in radians, ``shift`` the
 longitudinal shift alpha_R in radians (Marschner 2003 / Hunz 2016 Table 1: alpha_TT =
@@ -30,6 +31,7 @@ longitudinal shift alpha_R in radians (Marschner 2003 / Hunz 2016 Table 1: alpha
 """
 from __future__ import annotations
 
+import functools
 import math
 import weakref
 from dataclasses import dataclass, field
@@ -60,6 +62,7 @@ MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
 # Texture units bind() uses for the LUT model (the renderer keeps its own below these).
 LUT_UNIT_M = 14
 LUT_UNIT_N = 15
+LUT_UNIT_DUAL = 7   # free in the renderer (OSM takes 8..15 with 32 slices, 16+ extra shadows)
 
 
 def _glsl_float(x: float) -> str:
@@ -95,6 +98,14 @@ class ShadingSettings:
     energy_clamp    Marschner: the shifted lobes never gain energy (see luts.py)
     multiple_scattering  "auto", "none", "karis" or "dual"
     lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
+    dual_hair_opacity   dual scattering: the fraction of light one hair in front blocks, so
+                    that a deep-opacity transmittance t means n = log t / log(1 - opacity)
+                    hairs towards the light. 0.65 = 1 - exp(-shadow_density * strand_opacity)
+                    for the RenderSettings defaults (3.0, 0.35); keep them in step.
+    dual_density_front  Zinke's d_f (forward-scattering density factor, 0.6-0.8 for hair)
+    dual_density_back   Zinke's d_b (back-scattering density factor)
+    dual_max_hairs  cap on n (transmittance 0, e.g. the head's shadow, gives this many)
+    dual_size       dual-scattering table resolution (texels per row, 7 rows)
     """
 
     model: str = "marschner"
@@ -115,6 +126,11 @@ class ShadingSettings:
     energy_clamp: bool = True
     multiple_scattering: str = "auto"
     lut_size: int = 256
+    dual_hair_opacity: float = 0.65
+    dual_density_front: float = 0.7
+    dual_density_back: float = 0.7
+    dual_max_hairs: float = 64.0
+    dual_size: int = 64
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -127,6 +143,14 @@ class ShadingSettings:
             raise ValueError("eta must be > 1")
         if int(self.lut_size) < 8:
             raise ValueError("lut_size must be >= 8")
+        if not 0 < self.dual_hair_opacity < 1:
+            raise ValueError("dual_hair_opacity must be in (0, 1)")
+        if not (0 <= self.dual_density_front <= 1 and 0 <= self.dual_density_back <= 1):
+            raise ValueError("dual_density_front / dual_density_back must be in [0, 1]")
+        if not self.dual_max_hairs > 0:
+            raise ValueError("dual_max_hairs must be > 0")
+        if int(self.dual_size) < 8:
+            raise ValueError("dual_size must be >= 8")
 
     # ---------------------------------------------------------------- derived values
     @property
@@ -163,6 +187,10 @@ class ShadingSettings:
             "HAIR_GLINT_WIDTH": _glsl_float(self.glint_width),
             "HAIR_SHIFT_NOISE": _glsl_float(self.noise),
             "HAIR_ENERGY_CLAMP": int(bool(self.energy_clamp)),
+            "HAIR_DUAL_DF": _glsl_float(self.dual_density_front),
+            "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
+            "HAIR_DUAL_HAIR_OPACITY": _glsl_float(self.dual_hair_opacity),
+            "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
         }
 
     def material_uniforms(self, prefix: str = "u_material") -> dict:
@@ -199,10 +227,27 @@ class ShadingSettings:
             caustic_limit=self.caustic_limit, energy_clamp=self.energy_clamp,
             size=self.lut_size)
 
+    def dual_key(self) -> tuple:
+        return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
+                float(self.shift), float(self.glint), float(self.caustic_width),
+                float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
+                float(self.specular), float(self.dual_density_back), int(self.dual_size))
+
+    def dual_tables(self):
+        """Zinke 2008 tables (dual_scattering.DualTables) of this material, cached."""
+        return _dual_tables(self.dual_key())
+
+    def dual_lut(self) -> np.ndarray:
+        """(7, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
+        from .dual_scattering import build_dual_lut
+
+        return build_dual_lut(self.dual_tables())
+
     def bind(self, program, ctx, *, prefix: str = "u_material", unit_m: int = LUT_UNIT_M,
-             unit_n: int = LUT_UNIT_N) -> None:
+             unit_n: int = LUT_UNIT_N, unit_dual: int = LUT_UNIT_DUAL) -> None:
         """Set the material uniforms that ``program`` uses and, for the LUT model, bind the
-        lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``."""
+        lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``;
+        for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``."""
         for name, value in self.material_uniforms(prefix).items():
             if name in program:
                 program[name].value = value
@@ -214,6 +259,41 @@ class ShadingSettings:
                 program["hair_lut_m"].value = unit_m
             if "hair_lut_n" in program:
                 program["hair_lut_n"].value = unit_n
+        if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
+            dual_lut_texture(ctx, self).use(unit_dual)
+            if "hair_dual_lut" in program:
+                program["hair_dual_lut"].value = unit_dual
+
+
+@functools.lru_cache(maxsize=32)
+def _dual_tables(key: tuple):
+    from .dual_scattering import precompute_dual
+
+    (sigma_a, eta, roughness, shift, glint, caustic_width, caustic_fade, caustic_limit, energy_clamp,
+     specular, d_b, size) = key
+    return precompute_dual(np.asarray(sigma_a, np.float64), eta=eta, beta_r=roughness, alpha_r=shift,
+                           glint=glint, caustic_width=caustic_width, caustic_fade=caustic_fade,
+                           caustic_limit=caustic_limit, energy_clamp=energy_clamp, specular=specular,
+                           d_b=d_b, size=size)
+
+
+_dual_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def dual_lut_texture(ctx, settings: ShadingSettings):
+    """The ``hair_dual_lut`` moderngl texture: (dual_size x 7) RGBA32F, linear filtering,
+    clamped; cached per context and ``settings.dual_key()``."""
+    import moderngl
+
+    cache = _dual_cache.setdefault(ctx, {})
+    key = settings.dual_key()
+    if key not in cache:
+        lut = settings.dual_lut()
+        tex = ctx.texture((lut.shape[1], lut.shape[0]), 4, np.ascontiguousarray(lut, np.float32).tobytes(), dtype="f4")
+        tex.repeat_x = tex.repeat_y = False
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        cache[key] = tex
+    return cache[key]
 
 
 _lut_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -284,7 +364,7 @@ def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingS
 __all__ = [
     "MODELS", "MULTIPLE_SCATTERING", "ShadingSettings", "HAIR_SHADING_GLSL", "SHADER_DIR",
     "melanin_to_sigma_a", "color_to_sigma_a", "sigma_a_to_color", "build_marschner_luts",
-    "lut_textures", "evaluate_glsl",
+    "lut_textures", "evaluate_glsl", "dual_lut_texture", "LUT_UNIT_DUAL",
 ]
 
 

@@ -50,8 +50,8 @@
 #define HAIR_MODEL HAIR_MODEL_MARSCHNER
 #endif
 
-// Multiple scattering: 0 none, 1 Karis 2016 approximation (default), 2 reserved for Zinke
-// 2008 dual scattering (NOT implemented yet: it currently falls back to Karis's term).
+// Multiple scattering: 0 none, 1 Karis 2016 approximation (default), 2 Zinke 2008 dual
+// scattering (dual_scattering.glsl; needs the hair_dual_lut texture, ShadingSettings.bind()).
 #define HAIR_MS_NONE 0
 #define HAIR_MS_KARIS 1
 #define HAIR_MS_DUAL 2

@@ -8,8 +8,10 @@
 //   fake normal N = normalize(V - T (T.V)); kk = 1 - |T.L|; wrap = saturate((N.L + 1) / 4)
 //   S_ms = sqrt(C) * (1/pi) * mix(wrap, kk, 0.33) * pow(C / luminance(C), 1 - transmittance)
 //   ALU ~30.
-// HAIR_MS_DUAL: reserved for Zinke et al. 2008 dual scattering (dual_scattering.glsl is a
-//   placeholder that returns the Karis term).
+// HAIR_MS_DUAL (Zinke, Yuksel, Weber and Keyser 2008, dual scattering, Algorithm 1 with the
+//   deep opacity map's transmittance giving the number of hairs towards the light): global
+//   forward scattering + local back-scattering from precomputed tables (dual_scattering.glsl,
+//   dual_scattering.py; uniform sampler2D hair_dual_lut). ~7 fetches + ~130 ALU per light.
 #ifndef MANE_HAIR_MULTIPLE_SCATTERING_GLSL
 #define MANE_HAIR_MULTIPLE_SCATTERING_GLSL
 
