@@ -59,10 +59,12 @@ MODELS: dict[str, int] = {
 }
 MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
 
-# Texture units bind() uses for the LUT model (the renderer keeps its own below these).
-LUT_UNIT_M = 14
-LUT_UNIT_N = 15
-LUT_UNIT_DUAL = 7   # free in the renderer (OSM takes 8..15 with 32 slices, 16+ extra shadows)
+# Texture units bind() uses. The renderer's: 0-2 shadow map and head, 3 deep opacity, 4 ADSM,
+# 5 density, 8-15 opacity shadow maps (32 slices), 16-23 extra shadow-casting lights.
+# Every stage has at least 32 units (OpenGL 4.3 asks for 16; llvmpipe and NVIDIA give 32).
+LUT_UNIT_M = 24
+LUT_UNIT_N = 25
+LUT_UNIT_DUAL = 7
 
 
 def _glsl_float(x: float) -> str:
