@@ -125,6 +125,35 @@ def test_shape_matches_twin(gl, local_k, bend_k):
     assert_close(padded(sim, "positions"), want)
 
 
+@pytest.mark.parametrize("S, N", [(70, 16), (33, 64), (40, 3)])
+def test_shape_and_dftl_match_twins_across_work_groups(gl, S, N):
+    """More strands than one work group, a last group that is partly empty, long strands
+    (64 points), and a pinned particle mid-strand (it leads DFTL and stops the shape sweep's
+    carried correction)."""
+    rest = ref.helix_strands(S=S, N=N)
+    settings = SimSettings(local_shape_stiffness=0.4, bending_stiffness=0.5, shape_iterations=2)
+    sim = make_sim(gl, rest, settings)
+    x = perturbed(rest, 0.002, 11)
+    x[:, 0] = ref.apply(HEAD, rest[:, 0])
+    st = sim.state
+    rp = st.read("rest_positions")
+    rp[5 * N + N // 2, 3] = 0.0                     # strand 5: a pinned particle in the middle
+    st.write("rest_positions", rp)
+    put(sim, "positions", x)
+    st.head = HEAD
+    assert sim.run_pass("shape", st, 1 / 120)
+    want = ref.shape(x, inv_mass(sim), rest, HEAD, 0.4, 0.5, 2)
+    assert_close(padded(sim, "positions"), want)
+    y = perturbed(rest, 0.01, 12)
+    y[:, 0] = x[:, 0]
+    put(sim, "positions", y)
+    sim.run_pass("length", st, 1 / 120)
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    want_x, want_d = ref.dftl(y, inv_mass(sim), seg, rest, HEAD)
+    assert_close(padded(sim, "positions"), want_x)
+    assert_close(padded(sim, "corrections"), want_d, scale=float(np.abs(want_x).max()))
+
+
 def test_local_shape_keeps_and_restores_bind_pose(gl):
     """The rest pose under the head is a fixed point; repeated sweeps return to it."""
     rest = ref.helix_strands(S=2, N=16)

@@ -325,6 +325,9 @@ class Bench:
             "passes_ms": ordered,
             "pass_source": getattr(inner, "source", "moderngl time query"),
             "kernel_sum_ms": sum(ordered.values()) if ordered else None,
+            # the step's GPU time that no pass section holds (collider upload, gaps between
+            # dispatches): step_ms.mean = kernel_sum_ms + other_ms
+            "other_ms": (gpu_stats["mean"] - sum(ordered.values())) if ordered and gpu_stats.get("mean") else None,
             "nan_recoveries": sim.nan_recoveries,
             "warnings": list(sim.warnings),
         }
@@ -378,70 +381,108 @@ class Bench:
                     self.grid_friction(sim.state)
                 sim.release()
 
-    def _grid_breakdown(self, state, resolution: int, method: str, iters: int) -> dict:
-        """bounds / clear / splat / normalise / gather of one GridFriction, ms (means over iters)."""
+    # stages of GridFriction, in the order the grid friction table shows them
+    GRID_STAGES = ("bounds", "bin", "splat", "normalise", "gather")
+
+    def _grid_breakdown(self, state, resolution: int, method: str, iters: int, **options) -> dict:
+        """bounds / bin / splat / normalise / gather / other of one GridFriction, ms (means over iters).
+
+        Every dispatch (draw) is its own profiler section, through GridFriction's ``_run`` hook;
+        the binned splat's count, scan and scatter are summed as ``bin``. ``total`` is one section
+        around the whole friction step, and ``other`` = total - the stages: barriers and state
+        changes between dispatches (for raster, also the framebuffer clear and blend set-up), so
+        the columns add up to ``total``. ``clear`` is timed separately: an explicit clear of the
+        voxels (raster: the FBO clear that ``splat`` does first; atomic: a clear dispatch on the
+        accumulator, which mane otherwise fuses into normalise).
+        """
         from ..sim.bounds import GridBounds
         from ..sim.grid_friction import GridFriction
 
         ctx, prof = self.ctx, self.prof
-        gf = GridFriction(ctx, resolution, method)
+        gf = GridFriction(ctx, resolution, method, **options)
         bounds = GridBounds(ctx)   # GridFriction's own defaults: relative margin 0.05, cubic
         pos, vel, n = state.positions, state.velocities, state.num_particles
+        stage_of = {"count": "bin", "scan": "bin", "scatter": "bin"}
+        plain_run, plain_render = gf._run, gf._run_render
         try:
             gf.apply(pos, vel, n, 0.1)   # compile
             ctx.finish()
-            if method == "atomic":
-                gf._splat = _Timed(gf._splat, prof, "splat")
-            else:
-                gf._vao = _Timed(gf._vao, prof, "splat")
-            gf._normalize = _Timed(gf._normalize, prof, "normalise")
+            samples: dict[str, list] = {}
+
+            def timed_run(stage, shader, groups_x):
+                with prof.section(f"grid.{stage}"):
+                    plain_run(stage, shader, groups_x)
+
+            def timed_render(mode, vertices):
+                with prof.section("grid.splat"):
+                    plain_render(mode, vertices)
+
+            gf._run, gf._run_render = timed_run, timed_render
             prof.reset()
             wall = []
             for _ in range(iters):
                 ctx.finish()
                 t = time.perf_counter()
-                with prof.section("total"):
-                    with prof.section("bounds"):
+                with prof.section("grid.total"):
+                    with prof.section("grid.bounds"):
                         bounds.update(pos, n)
-                    with prof.section("splat_normalise"):   # raster: includes the FBO clear
-                        gf.splat(pos, vel, n, bounds)
-                    with prof.section("gather"):
-                        gf.gather(pos, vel, n, 0.1)
+                    gf.splat(pos, vel, n, bounds)
+                    gf.gather(pos, vel, n, 0.1)
                 ctx.finish()
                 wall.append((time.perf_counter() - t) * 1e3)
                 # clear voxels by itself (raster: the FBO clear that splat does first;
-                # atomic: an explicit clear of the accumulator, which mane fuses into normalise)
-                with prof.section("clear"):
+                # atomic: a GPU clear of the accumulator, which mane fuses into normalise)
+                with prof.section("grid.clear_voxels"):
                     if method == "raster":
                         with ctx.scope(gf._fbo):
                             gf._fbo.clear(0.0, 0.0, 0.0, 0.0)
                     else:
-                        gf.accumulator.clear()
-            means = prof.means(wait=True)
+                        gf.clear_accumulator()
+            prof.flush()
+            for name in prof.names():
+                if name.startswith("grid."):
+                    samples[name[5:]] = prof.samples(name)
         finally:
+            gf._run, gf._run_render = plain_run, plain_render
+            info = {"float_atomics": gf.float_atomics, "splat_schedule": gf.splat_schedule,
+                    "vertex_layer": gf.vertex_layer}
             gf.release()
             bounds.release()
-        out = {k: means.get(k) for k in ("bounds", "clear", "splat", "normalise", "gather", "total")}
-        out["splat_normalise"] = means.get("splat_normalise")
-        out["wall_ms"] = stats(wall)
-        clear_inside = out["clear"] if method == "raster" else 0.0
-        parts = [out[k] for k in ("bounds", "splat_normalise", "gather")]
-        if all(p is not None for p in parts):
-            out["voxel_calculations"] = max(0.0, sum(parts) - (clear_inside or 0.0))
+        per_iter = {k: sum(v) / iters for k, v in samples.items()}   # sums of a stage's dispatches
+        out = {k: None for k in self.GRID_STAGES}
+        for stage, ms in per_iter.items():
+            key = stage_of.get(stage, stage)
+            if key in out:
+                out[key] = (out[key] or 0.0) + ms
+        if method == "raster" or gf.splat_schedule == "direct":
+            out["bin"] = 0.0
+        out["total"] = per_iter.get("total")
+        out["clear"] = per_iter.get("clear_voxels")
+        parts = [out[k] for k in self.GRID_STAGES]
+        if out["total"] is not None and all(p is not None for p in parts):
+            out["other"] = max(0.0, out["total"] - sum(parts))
+            out["stage_sum"] = sum(parts)
         else:
-            out["voxel_calculations"] = None
+            out["other"] = out["stage_sum"] = None
+        out["wall_ms"] = stats(wall)
+        # Woodhouse's "voxel calculations": the friction step less the voxel clear he counts apart
+        # (raster: the FBO clear inside splat; atomic: none, it is fused into normalise)
+        clear_inside = (out["clear"] or 0.0) if method == "raster" else 0.0
+        out["voxel_calculations"] = None if out["total"] is None else max(0.0, out["total"] - clear_inside)
         out["clear_fused_into_normalise"] = method == "atomic"
+        out.update(info)
         return out
 
     def grid_friction(self, state) -> None:
         S, N = state.num_strands, state.points_per_strand
         for R in self.cfg["grid_res"]:
-            for method in ("atomic", "raster"):
-                name = f"{R}^3 {method} ({S}x{N})"
-                fields = dict(resolution=R, method=method, strands=S, vertices=N, particles=S * N)
+            for method, options in (("atomic", {}), ("atomic", {"splat": "direct"}), ("raster", {})):
+                label = method if not options else f"{method} {options['splat']}"
+                name = f"{R}^3 {label} ({S}x{N})"
+                fields = dict(resolution=R, method=method, variant=label, strands=S, vertices=N, particles=S * N)
                 with self._guard("grid_friction", name, **fields):
                     self._row("grid_friction", name, **fields,
-                              **self._grid_breakdown(state, R, method, self.cfg["grid_iters"]))
+                              **self._grid_breakdown(state, R, method, self.cfg["grid_iters"], **options))
 
     def woodhouse(self) -> None:
         from ..sim import SimSettings
@@ -752,7 +793,8 @@ def format_text(result: dict) -> str:
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
     step_cols = [("step mean", _stat("step_ms", "mean"), "{:.3f}"), ("median", _stat("step_ms", "median"), "{:.3f}"),
                  ("p95", _stat("step_ms", "p95"), "{:.3f}"), ("wall", _stat("wall_ms", "mean"), "{:.3f}"),
-                 ("pipelined", "pipelined_ms", "{:.3f}"), ("kernels", "kernel_sum_ms", "{:.3f}")]
+                 ("pipelined", "pipelined_ms", "{:.3f}"), ("kernels", "kernel_sum_ms", "{:.3f}"),
+                 ("other", "other_ms", "{:.3f}")]
     pass_cols = [(p, _pass(p), "{:.3f}") for p in ("integrate", "shape", "length", "collide", "sdf",
                                                     "velocity", "friction", "guard")]
     out.append("")
@@ -783,11 +825,16 @@ def format_text(result: dict) -> str:
         title="Woodhouse Table 5.2 categories (his 242 x 8 workload, and smoothed to 16)"))
     out.append("")
     out.append(table(ok("grid_friction"), [
-        ("config", "name", "{}"), ("bounds", "bounds", "{:.3f}"), ("clear", "clear", "{:.3f}"),
+        ("config", "name", "{}"), ("format", lambda r: ("float" if r.get("float_atomics") else "fixed64")
+                                   if r["method"] == "atomic" else ("vs-layer" if r.get("vertex_layer") else "geom"),
+                                   "{}"),
+        ("bounds", "bounds", "{:.3f}"), ("bin", "bin", "{:.3f}"),
         ("splat", "splat", "{:.3f}"), ("normalise", "normalise", "{:.3f}"), ("gather", "gather", "{:.3f}"),
-        ("total", "total", "{:.3f}"), ("wall", _stat("wall_ms", "mean"), "{:.3f}")],
-        title="Grid friction: atomic vs raster splat (atomic's clear is fused into normalise; "
-              "shown as an explicit clear)"))
+        ("other", "other", "{:.3f}"), ("total", "total", "{:.3f}"), ("wall", _stat("wall_ms", "mean"), "{:.3f}"),
+        ("clear", "clear", "{:.3f}")],
+        title="Grid friction: atomic (binned / direct) vs raster splat; bounds + bin + splat + normalise + "
+              "gather + other = total (other: barriers, state changes, raster's FBO clear); clear: an explicit "
+              "voxel clear timed apart (atomic fuses it into normalise)"))
     out.append("")
     out.append(table(ok("flip"), [("config", "name", "{}"), ("GPU apply", _stat("apply_ms", "mean"), "{:.3f}"),
                                   ("median", _stat("apply_ms", "median"), "{:.3f}"),

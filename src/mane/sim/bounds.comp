@@ -27,15 +27,19 @@ layout(local_size_x = 256) in;
 shared ivec3 s_min[256];
 shared ivec3 s_max[256];
 void main() {
-    uint i = gl_GlobalInvocationID.x;
     uint t = gl_LocalInvocationID.x;
     ivec3 kmin = ivec3(KEY_POS_INF);
     ivec3 kmax = ivec3(KEY_NEG_INF);
-    if (i < num_particles) {
+    // PER_INVOCATION particles per invocation (coalesced: stride 256), fewer groups to reduce
+    uint first = gl_WorkGroupID.x * 256u * uint(PER_INVOCATION) + t;
+    for (uint r = 0u; r < uint(PER_INVOCATION); ++r) {
+        uint i = first + r * 256u;
+        if (i >= num_particles) break;
         vec3 p = positions[i].xyz;
         if (!any(isnan(p)) && !any(isinf(p))) {
-            kmin = ivec3(float_key(p.x), float_key(p.y), float_key(p.z));
-            kmax = kmin;
+            ivec3 k = ivec3(float_key(p.x), float_key(p.y), float_key(p.z));
+            kmin = min(kmin, k);
+            kmax = max(kmax, k);
         }
     }
     s_min[t] = kmin;

@@ -28,6 +28,7 @@ from ..errors import UsageError
 HERE = Path(__file__).resolve().parent
 BOUNDS_BINDING = 7          # the binding every grid kernel reads the box from
 BOUNDS_BYTES = 64
+PER_INVOCATION = 8          # particles each invocation of the reduction reads
 KEY_POS_INF = 0x7F800000
 KEY_NEG_INF = np.int32(np.uint32(0x807FFFFF).view(np.int32))
 
@@ -97,7 +98,8 @@ class GridBounds:
         self.min_extent = float(min_extent)
         self.buffer = ctx.buffer(reserve=BOUNDS_BYTES)
         self._reset_keys(lo=np.zeros(3), hi=np.full(3, self.min_extent))
-        self._reduce = compute_shader(ctx, HERE / "bounds.comp", {"STAGE_REDUCE": 1})
+        self._reduce = compute_shader(ctx, HERE / "bounds.comp",
+                                      {"STAGE_REDUCE": 1, "PER_INVOCATION": PER_INVOCATION})
         self._finalize = compute_shader(ctx, HERE / "bounds.comp", {"STAGE_FINALIZE": 1})
 
     def _reset_keys(self, lo, hi) -> None:
@@ -114,7 +116,7 @@ class GridBounds:
         self.buffer.bind_to_storage_buffer(BOUNDS_BINDING)
         if n:
             set_uniforms(self._reduce, num_particles=n)
-            self._reduce.run(groups(n, 256))
+            self._reduce.run(groups(n, 256 * PER_INVOCATION))
             storage_barrier(self.ctx)
         set_uniforms(self._finalize, margin=self.margin, relative_margin=self.relative_margin,
                      min_extent=self.min_extent, cubic=int(self.cubic))

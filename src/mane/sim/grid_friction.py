@@ -8,14 +8,32 @@ Each step, on the GPU only:
 
 1. **splat**: every particle adds its mass m and momentum m v to the 8 nodes of its cell
    with trilinear (tent) weights w = (1-|dx|)(1-|dy|)(1-|dz|) (Woodhouse §1.5, Petrovic):
-   - ``method="atomic"``: one compute invocation per particle, ``atomicAdd`` into an SSBO in
-     64-bit fixed point made of two 32-bit words (a carry from the low word goes to the high
-     one). Each contribution is rounded to 2^-32 (of a mass unit, or mass unit * m/s); the
-     sums are exact and independent of order; a node holds up to 2^31 mass units.
-   - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Particles are drawn as points;
-     a geometry shader emits each particle's 8 corners as 1-pixel points on the ``gl_Layer``
-     slices of a layered RGBA32F 3D texture attached to a framebuffer, and GL_ONE/GL_ONE
-     additive blending sums (m v, m) in float32.
+   - ``method="atomic"``: ``atomicAdd`` into an SSBO accumulator (``grid_accum.glsl``) in
+     one of two number formats, chosen from the context (``float_atomics=None``):
+       * float32 ``atomicAdd`` where ``GL_NV_shader_atomic_float`` exists (NVIDIA, Mesa);
+       * else 64-bit fixed point made of two 32-bit words (a carry from the low word goes to
+         the high one). Each contribution is rounded to 2^-32 (of a mass unit, or mass unit *
+         m/s); the sums are exact and independent of order; a node holds up to 2^31 mass units.
+     and in one of two schedules (``splat=``):
+       * ``"binned"`` (default up to 129^3 nodes): particles are counted and sorted by tile of
+         8^3 cells (3 small dispatches), then each work group sums a balanced chunk of sorted
+         particles into its tile's 9^3 nodes in shared memory and adds only the touched nodes
+         to the accumulator (``splat_binned.comp``). Global atomics drop from 32 per particle
+         to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
+         serialise in L2.
+       * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
+         (``splat_atomic.comp``).
+   - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
+     drawn as 1-pixel points on the ``gl_Layer`` slices of a layered RGBA32F 3D texture
+     attached to a framebuffer (the vertex shader picks the layer where
+     ``GL_ARB_shader_viewport_layer_array`` / ``GL_AMD_vertex_shader_layer`` exist; else a
+     geometry shader emits the 8 points), and GL_ONE/GL_ONE additive blending sums (m v, m)
+     in float32. Its cost is the blending: every point is a read-modify-write of a 16-byte
+     RGBA32F pixel in primitive order, so the thousands of points that land on one node near
+     the scalp are blended one after another. At 100k x 32 (3.2M particles, 25.6M points) on
+     an H200 the draw takes 78 / 104 / 141 ms at 16^3 / 32^3 / 64^3 whether the layer comes
+     from the vertex or the geometry shader (the draw is blend-bound, not geometry-bound),
+     against 0.4-0.5 ms for the binned atomic splat. Kept for comparison (Woodhouse 2017).
 2. **normalise**: node velocity V = sum(m w v) / sum(m w) (zero where there is no mass).
 3. **gather**: v <- (1 - f) v + f V(x), V(x) trilinear. Pinned particles (w = 0) keep their
    velocity (they still splat, with ``pinned_mass``).
@@ -37,6 +55,22 @@ from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups,
 
 HERE = Path(__file__).resolve().parent
 METHODS = ("atomic", "raster")
+SPLATS = ("binned", "direct")
+FLOAT_ATOMICS_EXTENSION = "GL_NV_shader_atomic_float"
+VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_shader_layer")
+TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
+MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
+PPT = 4               # binned count / scatter: particles per invocation
+CHUNK = 4096          # binned splat: sorted particles per work group
+
+
+def _extensions(ctx) -> frozenset:
+    try:
+        from ..gpu.capabilities import get_capabilities
+
+        return get_capabilities(ctx).extensions
+    except Exception:  # capabilities unavailable: what moderngl lists
+        return frozenset(getattr(ctx, "extensions", ()) or ())
 METHOD_ALIASES = {"splat": "atomic", "scatter": "atomic", "gpu": "atomic",
                   "rasterize": "raster", "rasterise": "raster", "optimised_gpu": "raster",
                   "optimized_gpu": "raster"}
@@ -121,7 +155,8 @@ class GridFriction:
     def __init__(self, ctx, resolution: int = 32, method: str = "atomic", *,
                  mass_unit: float = 1.0, pinned_mass: float = 1.0,
                  bounds_margin: float = 0.0, bounds_relative_margin: float = 0.05,
-                 bounds_cubic: bool = True):
+                 bounds_cubic: bool = True, float_atomics: bool | None = None,
+                 splat: str | None = None, chunk: int = CHUNK, vertex_layer: bool | None = None):
         from ..gpu.glsl import compute_shader, program
 
         resolution = int(resolution)
@@ -138,26 +173,81 @@ class GridFriction:
         self.mass_unit = float(mass_unit)
         self.pinned_mass = float(pinned_mass)
         self.num_nodes = resolution ** 3
+        exts = _extensions(ctx)
         defines = {"GRID_RES": resolution, "BOUNDS_BINDING": BOUNDS_BINDING}
         self._own_bounds = GridBounds(ctx, margin=bounds_margin, relative_margin=bounds_relative_margin,
                                       cubic=bounds_cubic)
         self.bounds: GridBounds = self._own_bounds
         self.grid = ctx.buffer(reserve=self.num_nodes * 16)        # vec4(v, mass) per node
         self._gather = compute_shader(ctx, HERE / "grid_gather.comp", defines)
+        self.float_atomics = False
+        self.splat_schedule = None
+        self.vertex_layer = False
         if method == "atomic":
-            self.accumulator = ctx.buffer(reserve=self.num_nodes * 32)  # 4 x 64-bit per node
-            self.accumulator.clear()
-            self._splat = compute_shader(ctx, HERE / "splat_atomic.comp", defines)
+            has_float = FLOAT_ATOMICS_EXTENSION in exts
+            if float_atomics is None:
+                float_atomics = has_float
+            elif float_atomics and not has_float:
+                raise GLFeatureError(f"GridFriction(float_atomics=True) needs {FLOAT_ATOMICS_EXTENSION}, "
+                                     "which this OpenGL lacks; leave float_atomics=None for fixed point")
+            self.float_atomics = bool(float_atomics)
+            tiles_axis = -(-(resolution - 1) // TILE_CELLS)
+            if splat is None:
+                splat = "binned" if tiles_axis <= MAX_TILES_AXIS else "direct"
+            if splat not in SPLATS:
+                raise UsageError(f"GridFriction splat must be one of {SPLATS}, got {splat!r}")
+            if splat == "binned" and tiles_axis > MAX_TILES_AXIS:
+                raise UsageError(f"the binned splat takes resolutions up to "
+                                 f"{MAX_TILES_AXIS * TILE_CELLS + 1}; use splat='direct'")
+            if int(chunk) < 256:
+                raise UsageError("GridFriction chunk must be >= 256 particles")
+            self.splat_schedule = splat
+            self.chunk = int(chunk)
+            words = 4 if self.float_atomics else 8
+            acc_defines = dict(defines, ACC_FLOAT=int(self.float_atomics))
+            # created zeroed on the GPU side: never clear it with Buffer.clear(), which maps it
+            # for CPU writes (after that NVIDIA's driver keeps it in system memory: 60x slower)
+            self.accumulator = ctx.buffer(bytes(self.num_nodes * words * 4))
+            if splat == "binned":
+                self.num_tiles = tiles_axis ** 3
+                self._tiles = ctx.buffer(bytes((3 * self.num_tiles + 1) * 4))
+                self._order = None
+                self._order_capacity = 0
+                binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
+                              CHUNK=self.chunk)
+                self._stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
+                                                     dict(binned, **{f"STAGE_{name.upper()}": 1}))
+                                for name in ("count", "scan", "scatter", "splat")}
+                self._splat = self._stages["splat"]
+            else:
+                self._splat = compute_shader(ctx, HERE / "splat_atomic.comp", acc_defines)
             self._normalize = compute_shader(ctx, HERE / "grid_normalize.comp",
-                                             dict(defines, METHOD_ATOMIC=1))
+                                             dict(acc_defines, METHOD_ATOMIC=1))
         else:
             self.texture = ctx.texture3d((resolution,) * 3, 4, dtype="f4")
             self._fbo, self._fbo_glo = layered_framebuffer(ctx, self.texture)
-            self._raster = program(ctx, vertex=HERE / "splat_raster.vert", geometry=HERE / "splat_raster.geom",
-                                   fragment=HERE / "splat_raster.frag", defines=defines)
+            layer_ext = next((e for e in VERTEX_LAYER_EXTENSIONS if e in exts), None)
+            if vertex_layer is None:
+                vertex_layer = layer_ext is not None
+            elif vertex_layer and layer_ext is None:
+                raise GLFeatureError("GridFriction(vertex_layer=True) needs one of "
+                                     f"{', '.join(VERTEX_LAYER_EXTENSIONS)}")
+            self.vertex_layer = bool(vertex_layer)
+            if self.vertex_layer:
+                self._raster = program(ctx, vertex=HERE / "splat_raster_layer.vert",
+                                       fragment=HERE / "splat_raster.frag",
+                                       defines=dict(defines, **{f"USE_{layer_ext}": 1}))
+            else:
+                self._raster = program(ctx, vertex=HERE / "splat_raster.vert", geometry=HERE / "splat_raster.geom",
+                                       fragment=HERE / "splat_raster.frag", defines=defines)
             self._vao = ctx.vertex_array(self._raster, [])
             self._normalize = compute_shader(ctx, HERE / "grid_normalize.comp",
                                              dict(defines, METHOD_ATOMIC=0))
+        self._clear = compute_shader(ctx, HERE / "grid_clear.comp", {})
+
+    def _run(self, stage: str, shader, groups_x: int) -> None:
+        """One dispatch of a stage (the benchmark wraps this to time each stage)."""
+        shader.run(group_x=int(groups_x))
 
     # ------------------------------------------------------------------ steps
     def splat(self, positions, velocities, num_particles: int, bounds: GridBounds | None = None) -> None:
@@ -174,9 +264,11 @@ class GridFriction:
         masses = dict(pinned_mass=self.pinned_mass / self.mass_unit, inv_mass_unit=1.0 / self.mass_unit)
         if self.method == "atomic":
             self.accumulator.bind_to_storage_buffer(2)
-            if n:
+            if n and self.splat_schedule == "binned":
+                self._binned_splat(n, masses)
+            elif n:
                 set_uniforms(self._splat, num_particles=n, **masses)
-                self._splat.run(groups(n, 128))
+                self._run("splat", self._splat, groups(n, 128))
                 storage_barrier(ctx)
         else:
             self._raster_splat(n, masses)
@@ -187,8 +279,39 @@ class GridFriction:
         else:
             self.texture.use(0)
             set_uniforms(self._normalize, splat_texture=0)
-        self._normalize.run(groups(self.num_nodes, 256))
+        self._run("normalise", self._normalize, groups(self.num_nodes, 256))
         storage_barrier(ctx)
+
+    def _binned_splat(self, n: int, masses: dict) -> None:
+        """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
+        ctx = self.ctx
+        if self._order_capacity < n:
+            if self._order is not None:
+                self._order.release()
+            self._order_capacity = max(n, 1024)
+            self._order = ctx.buffer(reserve=2 * self._order_capacity * 4)
+        self._tiles.bind_to_storage_buffer(4)
+        self._order.bind_to_storage_buffer(5)
+        per_group = 256 * PPT
+        for name in ("count", "scan", "scatter", "splat"):
+            sh = self._stages[name]
+            set_uniforms(sh, num_particles=n, **masses)
+            count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
+                     "splat": groups(n, self.chunk)}[name]
+            self._run(name, sh, count)
+            storage_barrier(ctx)
+
+    def clear_accumulator(self) -> None:
+        """Zero the atomic accumulator on the GPU (``splat``'s normalise already leaves it zero;
+        this is for the benchmark's explicit clear and for recovery). Never ``Buffer.clear()``:
+        moderngl maps the buffer for it, and NVIDIA's driver then moves it to system memory."""
+        if self.method != "atomic":
+            return
+        words = self.accumulator.size // 4
+        self.accumulator.bind_to_storage_buffer(2)
+        set_uniforms(self._clear, num_words=words)
+        self._run("clear", self._clear, groups(words, 256))
+        storage_barrier(self.ctx)
 
     def _raster_splat(self, n: int, masses: dict) -> None:
         import moderngl
@@ -206,11 +329,17 @@ class GridFriction:
                 ctx.blend_func = moderngl.ONE, moderngl.ONE
                 ctx.blend_equation = moderngl.FUNC_ADD
                 ctx.point_size = 1.0
-                self._vao.render(mode=moderngl.POINTS, vertices=n)
+                if self.vertex_layer:   # 8 corner points per particle, layer set by the vertex shader
+                    self._run_render(moderngl.POINTS, 8 * n)
+                else:                   # 1 point per particle, 8 emitted by the geometry shader
+                    self._run_render(moderngl.POINTS, n)
         ctx.viewport, ctx.point_size = saved
         ctx.blend_func = moderngl.DEFAULT_BLENDING
         ctx.blend_equation = moderngl.FUNC_ADD
         ctx.memory_barrier(moderngl.TEXTURE_FETCH_BARRIER_BIT | moderngl.FRAMEBUFFER_BARRIER_BIT)
+
+    def _run_render(self, mode, vertices: int) -> None:
+        self._vao.render(mode=mode, vertices=int(vertices))
 
     def gather(self, positions, velocities, num_particles: int, friction: float) -> None:
         """v <- (1 - friction) v + friction V(x) with the grid left by the last ``splat``."""
@@ -222,7 +351,7 @@ class GridFriction:
         velocities.bind_to_storage_buffer(1)
         self.grid.bind_to_storage_buffer(3)
         set_uniforms(self._gather, num_particles=n, friction=float(friction))
-        self._gather.run(groups(n, 128))
+        self._run("gather", self._gather, groups(n, 128))
         storage_barrier(self.ctx)
 
     def apply(self, positions, *args, **kwargs) -> None:
@@ -260,6 +389,10 @@ class GridFriction:
         self._own_bounds.release()
         if self.method == "atomic":
             self.accumulator.release()
+            if self.splat_schedule == "binned":
+                self._tiles.release()
+                if self._order is not None:
+                    self._order.release()
         else:
             self._vao.release()
             self._fbo.release()

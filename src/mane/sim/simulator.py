@@ -111,6 +111,7 @@ class Simulator:
             self.reset()
         self.warnings: list[str] = []
         self._warned: set[str] = set()
+        self._shaders: dict = {}
         self._grid = None
         self._grid_key = None
         self._flip = None
@@ -155,8 +156,14 @@ class Simulator:
             self.warnings.append(message)
 
     def _shader(self, name: str, **defines):
-        st = self.state
-        return compute_shader(self.ctx, HERE / f"{name}.comp", {"NV": st.points_per_strand, **defines})
+        """The pass's program, cached per simulator (``compute_shader``'s own cache resolves
+        paths and stats every source file on each call: CPU time in every pass of every step)."""
+        key = (name, self.state.points_per_strand, tuple(sorted(defines.items())))
+        shader = self._shaders.get(key)
+        if shader is None:
+            shader = compute_shader(self.ctx, HERE / f"{name}.comp", {"NV": self.state.points_per_strand, **defines})
+            self._shaders[key] = shader
+        return shader
 
     # ------------------------------------------------------------------ inputs
     def set_head_transform(self, matrix, state: SimState | None = None) -> None:

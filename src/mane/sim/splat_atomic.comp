@@ -1,13 +1,15 @@
 #version 430 core
-// Grid friction, atomic splat: each particle adds m*w and m*w*v to its 8 nodes in 64-bit fixed point.
+#if ACC_FLOAT
+#extension GL_NV_shader_atomic_float : require
+#endif
+// Grid friction, direct atomic splat: each particle adds m*w and m*w*v to its 8 nodes' global
+// accumulator (grid_accum.glsl: float atomics or 64-bit fixed point). Every particle does 32
+// global atomics (64 with fixed point); splat_binned.comp sums in shared memory first.
 layout(local_size_x = 128) in;
 
 layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
-// per node 8 words: mass, momentum x, y, z; each a (low, high) pair
-layout(std430, binding = 2) coherent buffer Accumulator { uint acc[]; };
-#define FIXED_ACC acc
-#include "fixed64.glsl"
+#include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 
 uniform uint num_particles;
@@ -26,10 +28,6 @@ void main() {
         ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
         float mw = m * corner_weight(s.frac, corner);
         if (mw == 0.0) continue;
-        uint base = node_index(s.base + corner) * 8u;
-        fixed_add(base + 0u, mw);
-        fixed_add(base + 2u, mw * v.x);
-        fixed_add(base + 4u, mw * v.y);
-        fixed_add(base + 6u, mw * v.z);
+        acc_add(node_index(s.base + corner), mw, mw * v);
     }
 }

@@ -1,0 +1,254 @@
+#version 430 core
+#if ACC_FLOAT
+#extension GL_NV_shader_atomic_float : require
+#endif
+// Grid friction, binned atomic splat: the same sums as splat_atomic.comp, but particles are first
+// binned by tile (TILE_CELLS^3 cells, (TILE_CELLS + 1)^3 nodes) and each tile's particles are summed
+// in shared memory; only the tile's touched nodes then go to the global accumulator. This turns
+// 32 global atomics per particle (hot nodes near the scalp take thousands each) into shared-memory
+// atomics, plus a few per tile node. Stages (one define each), every one a dispatch:
+//
+//   STAGE_COUNT    per particle: tile id (kept in TILE_OF(i) for the scatter, so both stages agree
+//                  whatever the compiler does to the arithmetic); a shared histogram per work
+//                  group, then one global atomicAdd per (group, touched tile) into COUNT(t)
+//   STAGE_SCAN     one work group: exclusive prefix sum of the counts -> START(t) and CURSOR(t);
+//                  START(NUM_TILES) = particles binned; clears the counts for the next step
+//   STAGE_SCATTER  per particle: its rank in the group's shared histogram plus the group's slot
+//                  range (one atomicAdd on CURSOR(t) per touched tile) -> ORDER(slot) = particle
+//   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group: for every tile segment of
+//                  the chunk, clear a shared node tile, add each particle's 8 corners to it, flush
+//                  the touched nodes to the accumulator (grid_accum.glsl's format). A particle whose
+//                  stencil the splat finds outside its tile (it cannot, unless the compiler rounds
+//                  the two stages differently) goes straight to the accumulator.
+//
+// A particle that brings no mass (pinned with pinned_mass 0) or whose position is not finite is
+// not binned (the direct splat would clamp a NaN onto some node; the NaN guard resets it anyway).
+// In fixed point the shared sums are the same 64-bit words as the direct splat's, so the result is
+// bit-identical to it; with float atomics it equals it up to float rounding (order-dependent).
+
+layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
+// [0, T): counts, [T, 2T]: starts (START(T) = total), [2T + 1, 3T + 1): cursors
+layout(std430, binding = 4) buffer Tiles { uint tiles[]; };
+// [0, n): tile of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by tile
+layout(std430, binding = 5) buffer Order { uint order[]; };
+#include "grid_accum.glsl"
+#include "grid_nodes.glsl"
+
+// TILE_CELLS, TILES_AXIS (ceil((GRID_RES - 1) / TILE_CELLS)), CHUNK and PPT are injected.
+#define NUM_TILES uint(TILES_AXIS * TILES_AXIS * TILES_AXIS)
+#define COUNT(t) tiles[(t)]
+#define START(t) tiles[NUM_TILES + (t)]
+#define CURSOR(t) tiles[2u * NUM_TILES + 1u + (t)]
+#define TILE_OF(i) order[(i)]
+#define ORDER(slot) order[num_particles + (slot)]
+const uint NO_TILE = 0xffffffffu;
+
+uniform uint num_particles;
+uniform float pinned_mass;
+uniform float inv_mass_unit;
+
+bool finite3(vec3 v) {
+    uvec3 e = floatBitsToUint(v) & uvec3(0x7f800000u);
+    return all(notEqual(e, uvec3(0x7f800000u)));
+}
+
+// The tile that holds particle i's stencil, or NO_TILE when the particle is not splatted.
+uint particle_tile(uint i) {
+    vec4 p = positions[i];
+    if (!(particle_mass(p.w, pinned_mass, inv_mass_unit) > 0.0) || !finite3(p.xyz)) return NO_TILE;
+    ivec3 t = clamp(node_stencil(p.xyz).base / TILE_CELLS, ivec3(0), ivec3(TILES_AXIS - 1));
+    return uint(t.x + TILES_AXIS * (t.y + TILES_AXIS * t.z));
+}
+
+#if STAGE_COUNT || STAGE_SCATTER
+layout(local_size_x = 256) in;
+shared uint s_hist[NUM_TILES];
+#endif
+
+#if STAGE_COUNT
+void main() {
+    uint lid = gl_LocalInvocationID.x;
+    for (uint t = lid; t < NUM_TILES; t += 256u) s_hist[t] = 0u;
+    barrier();
+    uint first = gl_WorkGroupID.x * 256u * uint(PPT) + lid;
+    for (uint r = 0u; r < uint(PPT); ++r) {
+        uint i = first + r * 256u;
+        if (i >= num_particles) break;
+        uint t = particle_tile(i);
+        TILE_OF(i) = t;
+        if (t != NO_TILE) atomicAdd(s_hist[t], 1u);
+    }
+    barrier();
+    for (uint t = lid; t < NUM_TILES; t += 256u) {
+        uint c = s_hist[t];
+        if (c != 0u) atomicAdd(COUNT(t), c);
+    }
+}
+#endif
+
+#if STAGE_SCAN
+layout(local_size_x = 1024) in;
+shared uint s_sum[1024];
+void main() {
+    uint lid = gl_LocalInvocationID.x;
+    const uint PER = (NUM_TILES + 1023u) / 1024u;
+    uint t0 = lid * PER;
+    uint mine = 0u;
+    for (uint k = 0u; k < PER; ++k)
+        if (t0 + k < NUM_TILES) mine += COUNT(t0 + k);
+    s_sum[lid] = mine;
+    barrier();
+    for (uint off = 1u; off < 1024u; off <<= 1) {   // Hillis-Steele inclusive scan
+        uint add = lid >= off ? s_sum[lid - off] : 0u;
+        barrier();
+        s_sum[lid] += add;
+        barrier();
+    }
+    uint run = s_sum[lid] - mine;
+    for (uint k = 0u; k < PER; ++k) {
+        uint t = t0 + k;
+        if (t < NUM_TILES) {
+            uint c = COUNT(t);
+            START(t) = run;
+            CURSOR(t) = run;
+            COUNT(t) = 0u;
+            run += c;
+        }
+    }
+    if (lid == 1023u) START(NUM_TILES) = s_sum[1023];
+}
+#endif
+
+#if STAGE_SCATTER
+void main() {
+    uint lid = gl_LocalInvocationID.x;
+    for (uint t = lid; t < NUM_TILES; t += 256u) s_hist[t] = 0u;
+    barrier();
+    uint first = gl_WorkGroupID.x * 256u * uint(PPT) + lid;
+    uint tile[PPT];
+    uint rank[PPT];
+    for (uint r = 0u; r < uint(PPT); ++r) {
+        uint i = first + r * 256u;
+        tile[r] = i < num_particles ? TILE_OF(i) : NO_TILE;
+        rank[r] = 0u;
+        if (tile[r] != NO_TILE) rank[r] = atomicAdd(s_hist[tile[r]], 1u);
+    }
+    barrier();
+    for (uint t = lid; t < NUM_TILES; t += 256u) {   // the group's slots in each touched tile
+        uint c = s_hist[t];
+        if (c != 0u) s_hist[t] = atomicAdd(CURSOR(t), c);
+    }
+    barrier();
+    for (uint r = 0u; r < uint(PPT); ++r)
+        if (tile[r] != NO_TILE) ORDER(s_hist[tile[r]] + rank[r]) = first + r * 256u;
+}
+#endif
+
+#if STAGE_SPLAT
+layout(local_size_x = 256) in;
+#define TN (TILE_CELLS + 1)
+#define TILE_NODES uint(TN * TN * TN)
+// structure of arrays: word w of node j at s_acc[w * TILE_NODES + j], so that a warp's lanes,
+// adding to different nodes, spread over the 32 banks (4 or 8 words per node interleaved would
+// put every lane's word w on one of 8 or 4 banks)
+#if ACC_FLOAT
+shared float s_acc[TILE_NODES * 4u];
+#else
+shared uint s_acc[TILE_NODES * 8u];
+#endif
+#define S_ACC(w, j) s_acc[(w) * TILE_NODES + (j)]
+
+void tile_add(uint j, float m, vec3 mv) {
+#if ACC_FLOAT
+    atomicAdd(S_ACC(0u, j), m);
+    atomicAdd(S_ACC(1u, j), mv.x);
+    atomicAdd(S_ACC(2u, j), mv.y);
+    atomicAdd(S_ACC(3u, j), mv.z);
+#else
+    vec4 value = vec4(m, mv);
+    for (uint k = 0u; k < 4u; ++k) {
+        uvec2 w = fixed_words(value[k]);
+        if (w != uvec2(0u)) {
+            uint old = atomicAdd(S_ACC(2u * k, j), w.x);
+            uint carry = (old + w.x < old) ? 1u : 0u;
+            atomicAdd(S_ACC(2u * k + 1u, j), w.y + carry);
+        }
+    }
+#endif
+}
+
+void tile_flush(uint j, uint node) {
+#if ACC_FLOAT
+    vec4 a = vec4(S_ACC(0u, j), S_ACC(1u, j), S_ACC(2u, j), S_ACC(3u, j));
+    if (a != vec4(0.0)) {
+        uint b = node * 4u;
+        for (uint k = 0u; k < 4u; ++k)
+            if (a[k] != 0.0) atomicAdd(acc[b + k], a[k]);
+    }
+#else
+    for (uint k = 0u; k < 4u; ++k) {
+        uvec2 w = uvec2(S_ACC(2u * k, j), S_ACC(2u * k + 1u, j));
+        if (w != uvec2(0u)) FIXED_ADD_WORDS(acc, node * 8u + 2u * k, w)
+    }
+#endif
+}
+
+void main() {
+    uint lid = gl_LocalInvocationID.x;
+    uint total = START(NUM_TILES);
+    uint pos = gl_WorkGroupID.x * uint(CHUNK);
+    if (pos >= total) return;                  // the whole group: no barrier is skipped by part of it
+    uint last = min(pos + uint(CHUNK), total);
+    // the tile whose slots hold pos: the last t with START(t) <= pos (binary search; empty tiles
+    // have START(t) == START(t + 1))
+    uint lo = 0u, hi = NUM_TILES;               // START(lo) <= pos < START(hi)
+    while (hi - lo > 1u) {
+        uint mid = (lo + hi) >> 1;
+        if (START(mid) <= pos) lo = mid; else hi = mid;
+    }
+    uint t = lo;
+    while (pos < last) {                       // group-uniform: every invocation takes the same path
+        while (START(t + 1u) <= pos) ++t;
+        uint seg_end = min(last, START(t + 1u));
+        ivec3 origin = ivec3(int(t) % TILES_AXIS, (int(t) / TILES_AXIS) % TILES_AXIS,
+                             int(t) / (TILES_AXIS * TILES_AXIS)) * TILE_CELLS;
+#if ACC_FLOAT
+        for (uint j = lid; j < TILE_NODES * 4u; j += 256u) s_acc[j] = 0.0;
+#else
+        for (uint j = lid; j < TILE_NODES * 8u; j += 256u) s_acc[j] = 0u;
+#endif
+        barrier();
+        // each invocation takes a contiguous run of slots: neighbouring slots are mostly
+        // neighbouring particles of one strand (same cell), so interleaving them across lanes
+        // would make a warp's shared atomics collide on the same node
+        uint per = (seg_end - pos + 255u) / 256u;
+        uint run_end = min(seg_end, pos + (lid + 1u) * per);
+        for (uint slot = pos + lid * per; slot < run_end; ++slot) {
+            uint i = ORDER(slot);
+            vec4 p = positions[i];
+            float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
+            vec3 v = velocities[i].xyz;
+            NodeStencil s = node_stencil(p.xyz);
+            ivec3 local = s.base - origin;     // in [0, TILE_CELLS - 1]^3
+            bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
+            for (int c = 0; c < 8; ++c) {
+                ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+                float mw = m * corner_weight(s.frac, corner);
+                if (mw == 0.0) continue;
+                ivec3 l = local + corner;
+                if (inside) tile_add(uint(l.x + TN * (l.y + TN * l.z)), mw, mw * v);
+                else acc_add(node_index(s.base + corner), mw, mw * v);
+            }
+        }
+        barrier();
+        for (uint j = lid; j < TILE_NODES; j += 256u) {
+            ivec3 l = ivec3(int(j) % TN, (int(j) / TN) % TN, int(j) / (TN * TN));
+            ivec3 n = origin + l;
+            if (all(lessThan(n, ivec3(GRID_RES)))) tile_flush(j, node_index(n));
+        }
+        barrier();
+        pos = seg_end;
+    }
+}
+#endif
