@@ -23,6 +23,8 @@ HELP = "run benchmarks (sim) and print or write JSON"
 # target -> (module, one-line help)
 TARGETS: dict[str, tuple[str, str]] = {
     "sim": ("mane.bench.sim_bench", "strand solver: GPU ms per pass and per step, grids, FLIP, bandwidth"),
+    "render": ("mane.bench.render_bench", "strand renderer: GPU ms per pass and per frame; the seeds' sweeps "
+                                          "(strands x shading, shadows x map x PCF, guides, divisions, LOD, MSAA)"),
 }
 
 
