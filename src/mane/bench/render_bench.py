@@ -464,7 +464,6 @@ class Bench:
         W, N = int(cfg["warmup"]), int(cfg["frames"])
         budget = float(cfg["config_budget_s"]) * float(budget_scale)
         self._release_error = None
-        bound = getattr(ctx, "fbo", None)
         r = Renderer(s, ctx=ctx, profile=True, profiler_source=self.profiler_source)
         try:
             r.set_strands(groom)
@@ -565,12 +564,6 @@ class Bench:
             except Exception as exc:
                 self._release_error = f"{type(exc).__name__}: {exc}"
                 self._log(f"  Renderer.release failed: {self._release_error}")
-            # Renderer.release leaves ctx.fbo on its released framebuffer, and a later ctx.scope()
-            # (the simulator's raster splat, ...) would .use() it on exit: put back what was bound
-            try:
-                ctx.fbo = bound
-            except Exception:
-                pass
 
     def _gapless(self, r, cam, lights, n: int, submit_ms) -> dict:
         rp = r.profiler

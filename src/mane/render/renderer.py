@@ -29,6 +29,7 @@ from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
+from .passes.oit_pass import OitPass
 from .settings import RenderSettings
 from .strand_buffers import StrandBuffers
 
@@ -124,6 +125,7 @@ class Renderer:
         self.strands: StrandBuffers | None = None
         self.head = None
         self.head_transform = np.eye(4)
+        self._initial_fbo = self.ctx.fbo
         self._head_gpu = None
         self._vaos: dict = {}
         self._frames_dirty = True
@@ -133,9 +135,12 @@ class Renderer:
         if self.samples < int(self.settings.msaa):
             self.warnings.append(f"{self.settings.msaa}x MSAA asked for; this OpenGL gives at most "
                                  f"{max_samples} samples, using {self.samples}")
+        if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
+            # the OIT methods keep fragments per pixel: single-sampled (coverage alpha anti-aliases)
+            self.samples = 1
         self.passes: list[Pass] = [FramesPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
-                                   HeadPass(self), HairPass(self), ResolvePass(self)]
+                                   HeadPass(self), HairPass(self), OitPass(self), ResolvePass(self)]
         self.last_frame: Frame | None = None
         # multi / hybrid interpolation (mane.render.multi_strand) and distance LOD
         self._guide_weights = None
@@ -476,9 +481,23 @@ class Renderer:
             "geometry": self.settings.geometry,
             "shading": self.shading.name + (" (stand-in)" if self.shading.fallback else ""),
             "instances_per_guide_segment": math.ceil(int(self.settings.strands_per_guide) / MAX_ISOLINES),
+            **self.oit_stats(),
         }
 
+    def oit_stats(self) -> dict:
+        """The transparency method's numbers: ``oit``, ``oit_bytes`` (its GPU memory now), ..."""
+        for p in self.passes:
+            if p.name == "oit":
+                return p.stats()
+        return {"oit": "none", "oit_bytes": 0}
+
     def release(self) -> None:
+        # Give the context back its framebuffer: moderngl's ctx.fbo would otherwise
+        # point at one of ours once released, and break the next ctx.scope().
+        if self._initial_fbo is not None:
+            self._initial_fbo.use()
+        else:
+            self.ctx.fbo = None
         for p in self.passes:
             p.release()
         for v in self._targets.values():
