@@ -256,7 +256,8 @@ def test_cache_hits_and_keys(tmp_path):
     assert compute_shader(ctx, a, defines={"X": 1}) is not s1 and ctx.built == 2
 
 
-def test_cache_rebuilds_when_an_included_file_changes(tmp_path):
+def test_cache_rebuilds_when_an_included_file_changes(tmp_path, monkeypatch):
+    monkeypatch.setattr(glsl, "RECHECK_SECONDS", 0.0)
     ctx = FakeContext()
     inc = write(tmp_path / "inc.glsl", "const float K = 1.0;\n")
     a = write(tmp_path / "a.comp", '#version 430\n#include "inc.glsl"\nvoid main() {}\n')

@@ -11,6 +11,7 @@ original file and line:
 from __future__ import annotations
 
 import re
+import time
 import weakref
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -172,23 +173,37 @@ def _stamps(files) -> tuple:
     return tuple(out)
 
 
+# How often a cached program looks at its files' modification times (seconds): edits to a
+# shader are picked up while a viewer runs, without a stat() per file on every draw call.
+RECHECK_SECONDS = 1.0
+
+
 def _key(kind: str, paths, defines, include_dirs, extra=()) -> tuple:
-    return (kind, tuple(str(Path(p).resolve()) for p in paths),
+    # Paths are used as given (callers pass absolute paths beside their module): resolving
+    # them on every call cost more than the draw it served.
+    return (kind, tuple(str(p) for p in paths),
             tuple(sorted(((str(k), repr(v)) for k, v in (defines or {}).items()))),
-            tuple(str(Path(d).resolve()) for d in include_dirs), tuple(extra))
+            tuple(str(d) for d in include_dirs), tuple(extra))
 
 
 def _cached(ctx, key):
-    """The compiled object for ``key`` if none of the files it was built from (includes too) changed."""
+    """The compiled object for ``key`` unless a file it was built from (includes too) changed."""
     entry = _cache.get(ctx, {}).get(key)
-    if entry is not None and _stamps(f for f, _ in entry[0]) == entry[0]:
-        return entry[1]
-    return None
+    if entry is None:
+        return None
+    stamps, obj, checked = entry
+    now = time.monotonic()
+    if now - checked < RECHECK_SECONDS:
+        return obj
+    if _stamps(f for f, _ in stamps) != stamps:
+        return None
+    _cache[ctx][key] = (stamps, obj, now)
+    return obj
 
 
 def _store(ctx, key, sources, obj):
     files = sorted({f for src in sources for f in src.files}, key=str)
-    _cache.setdefault(ctx, {})[key] = (_stamps(files), obj)
+    _cache.setdefault(ctx, {})[key] = (_stamps(files), obj, time.monotonic())
     return obj
 
 
