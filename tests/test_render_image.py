@@ -94,7 +94,7 @@ def test_shadow_map_depth_matches_a_numpy_projection(gl):
     r = make(gl, None, sphere(R, (0.0, 0.0, 0.0)), shadows="shadow_map", shadow_map_size=64)
     try:
         frame = r.render(CAM, [L])
-        depth = r.passes[1].read()
+        depth = r.get_pass("shadow_map").read()
     finally:
         r.release()
     lv = frame.light_view
@@ -126,7 +126,7 @@ def test_deep_opacity_layers(gl):
              clump_radius=0.02)
     try:
         frame = r.render(CAM, [L])
-        dom = r.passes[2].read()
+        dom = r.get_pass("deep_opacity").read()
         lit = r.read_image()
     finally:
         r.release()

@@ -25,6 +25,8 @@ TARGETS: dict[str, tuple[str, str]] = {
     "sim": ("mane.bench.sim_bench", "strand solver: GPU ms per pass and per step, grids, FLIP, bandwidth"),
     "render": ("mane.bench.render_bench", "strand renderer: GPU ms per pass and per frame; the seeds' sweeps "
                                           "(strands x shading, shadows x map x PCF, guides, divisions, LOD, MSAA)"),
+    "oit": ("mane.bench.oit_bench", "hair transparency: GPU ms and bytes per OIT method x shadow method x "
+                                    "viewport x groom (Hunz Figs. 41-42); the DBK-buffer target"),
 }
 
 

@@ -63,6 +63,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--curl", default=None, help="render-time curl RADIUS_M[,TURNS] (e.g. 0.003,6)")
     parser.add_argument("--lod", default=None, help="distance LOD START,END metres (e.g. 1,5): fewer segments "
                                                     "and strands, wider strands with distance")
+    parser.add_argument("--oit", default="none", help="hair transparency: none, sorted_blending, random_subsets, "
+                                                     "a_buffer, k_buffer, dbk_buffer, shortcut (default none)")
+    parser.add_argument("--oit-k", type=int, default=None, help="OIT fragments sorted per pixel (default 8; 0: all)")
+    parser.add_argument("--oit-opacity", type=float, default=None,
+                        help="strand opacity in the camera view for --oit (times coverage; default 1)")
 
 
 def _load_scene(args):
@@ -129,6 +134,11 @@ def run(args) -> int:
             assert len(kw["hair_color"]) == 3
         except (ValueError, AssertionError):
             raise UsageError(f"--color must be R,G,B, got {args.color!r}") from None
+    kw["oit"] = getattr(args, "oit", "none") or "none"
+    if getattr(args, "oit_k", None) is not None:
+        kw["oit_k"] = args.oit_k
+    if getattr(args, "oit_opacity", None) is not None:
+        kw["oit_opacity"] = args.oit_opacity
     settings = RenderSettings(**kw)
 
     t0 = time.perf_counter()

@@ -29,6 +29,7 @@ from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
+from .passes.expand import ExpandPass
 from .passes.oit_pass import OitPass
 from .settings import RenderSettings
 from .strand_buffers import StrandBuffers
@@ -104,6 +105,7 @@ class FramesPass(Pass):
 
     def run(self, frame: Frame) -> None:
         self.renderer.strands.update_frames()
+        self.renderer._geometry_version += 1   # pipeline="compute": expand again
         # a simulator's buffer changes behind our back: rebuild every frame
         self.renderer._frames_dirty = not self.renderer.strands.owns_positions
 
@@ -129,6 +131,7 @@ class Renderer:
         self._head_gpu = None
         self._vaos: dict = {}
         self._frames_dirty = True
+        self._geometry_version = 0
         self._targets: dict = {}
         self.frames_rendered = 0
         self.warnings: list[str] = []
@@ -138,7 +141,7 @@ class Renderer:
         if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
             # the OIT methods keep fragments per pixel: single-sampled (coverage alpha anti-aliases)
             self.samples = 1
-        self.passes: list[Pass] = [FramesPass(self), ShadowMapPass(self), DeepOpacityPass(self),
+        self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
                                    HeadPass(self), HairPass(self), OitPass(self), ResolvePass(self)]
         self.last_frame: Frame | None = None
@@ -188,6 +191,7 @@ class Renderer:
         if self._strand_table is not None:
             self._strand_table.release()
             self._strand_table = None
+        self._geometry_version = getattr(self, "_geometry_version", 0) + 1
 
     def strand_table(self):
         """The multi / hybrid strand records on the GPU (built on first use)."""
@@ -411,6 +415,8 @@ class Renderer:
         lights = list(lights) if lights is not None else default_lights()
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
+        if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
+            self._single_sample()   # settings switched to an OIT method after construction (a viewer)
         frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
         self.lod_eye = frame.view.eye
         if lights and self.settings.shadows != "none":
@@ -483,6 +489,12 @@ class Renderer:
             "instances_per_guide_segment": math.ceil(int(self.settings.strands_per_guide) / MAX_ISOLINES),
             **self.oit_stats(),
         }
+
+    def _single_sample(self) -> None:
+        for key in ("hdr", "hdr_resolved"):
+            for o in self._targets.pop(key, ()):
+                o.release()
+        self.samples = 1
 
     def oit_stats(self) -> dict:
         """The transparency method's numbers: ``oit``, ``oit_bytes`` (its GPU memory now), ..."""

@@ -14,12 +14,15 @@ from ..errors import UsageError
 
 INTERPOLATIONS = ("catmull_rom", "bspline", "bezier")
 GEOMETRIES = ("ribbons", "lines")
+PIPELINES = ("compute", "tessellation")
 INTERPOLATION_MODES = ("single", "multi", "hybrid")
 SHADOWS = ("none", "shadow_map", "deep_opacity", "adsm", "opacity_maps", "density")
 DENSITY_SOURCES = ("auto", "strands", "simulator")
 TONE_MAPS = ("aces", "reinhard", "none")
 AA_MODES = ("none", "msaa2", "msaa4", "msaa8", "ssaa2", "msaa4+ssaa2")
 MAX_TESS_LEVEL = 64   # the GL minimum for GL_MAX_TESS_GEN_LEVEL; llvmpipe and NVIDIA give 64
+OIT_METHODS = ("none", "sorted_blending", "random_subsets", "a_buffer", "k_buffer", "dbk_buffer", "shortcut")
+KBUFFER_MODES = ("auto", "atomic32", "atomic64", "interlock")
 
 
 @dataclass(frozen=True)
@@ -89,6 +92,16 @@ class RenderSettings:
     # --- geometry
     geometry: str = "ribbons"
     """"ribbons": camera-facing quads from a geometry shader; "lines": GL_LINES."""
+    pipeline: str = "compute"
+    """How the strands reach the rasteriser: "compute" (a compute pass writes every rendered
+    strand's tessellated points once per frame, shared by all passes, which draw them by
+    vertex pulling: instanced strips, no tessellation or geometry stages; TressFX's way) or
+    "tessellation" (isolines + geometry-shader ribbons in every pass). Distance LOD and the
+    OIT methods always use "tessellation"."""
+    depth_prepass: bool = True
+    """With MSAA: draw the hair's depth first (alpha to coverage), then shade it with the depth
+    test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible strand
+    instead of once per overlapping strand."""
     width: float = 0.0006
     """Strand width (m) at the root (ribbons)."""
     width_tip: float = 0.35
@@ -160,13 +173,54 @@ class RenderSettings:
     """1, or 2: render at twice the size per axis and resolve with Chen's 5-tap filter."""
     tone_mapping: str = "aces"
     exposure: float = 1.0
+    # --- order-independent transparency (mane.render.oit)
+    oit: str = "none"
+    """Hair transparency: "none" (depth-tested premultiplied blending, or alpha to coverage with
+    MSAA), "sorted_blending" (guide segments sorted by view depth on the GPU, blended back to
+    front), "random_subsets" (oit_k subsets, the nearest fragment of each, sorted per pixel),
+    "a_buffer" (per-pixel linked lists of every fragment), "k_buffer" (the oit_k nearest per
+    pixel), "dbk_buffer" (Hunz's depth-bounded lists over an opaque layer) or "shortcut"
+    (TressFX: the 3 nearest plus the total transmittance). Any method but "none" renders
+    single-sampled (the hair's own coverage alpha anti-aliases it)."""
+    oit_k: int = 8
+    """Fragments sorted per pixel: the A-buffer's and DBK-buffer's resolve (0: all of them),
+    the K-buffer's slots, the number of random subsets. The rest of a list is blended
+    unsorted behind the k nearest."""
+    oit_opacity: float = 1.0
+    """Strand opacity in the camera view for the OIT methods (Hunz's alpha_s), times the
+    coverage alpha; 1 keeps the coverage alpha alone."""
+    oit_nodes_per_pixel: float = 8.0
+    """First size of the A-buffer / DBK-buffer node pool, in nodes per pixel; it grows (to what
+    the frame needed, plus a quarter) after a frame that overflowed."""
+    oit_max_bytes: int = 0
+    """Upper bound on the node pool, bytes (0: what the GPU allows)."""
+    oit_auto_shift: bool = True
+    """DBK-buffer: choose the layer's depth shift every frame from the previous frame's
+    fragment depths, so that the layer reaches where the transmittance falls below
+    oit_threshold (about k = log(oit_threshold) / log(1 - alpha) fragments)."""
+    oit_depth_shift: float = 0.02
+    """DBK-buffer: the layer's depth (m) behind the nearest hair when oit_auto_shift is off
+    (and the first frame's guess when it is on)."""
+    oit_threshold: float = 0.02
+    """DBK-buffer automatic shift: the transmittance the layer should reach."""
+    oit_shift_quantile: float = 0.95
+    """DBK-buffer automatic shift: the fraction of hair pixels whose layer reaches that
+    transmittance (the shift is this quantile of the per-pixel depths needed)."""
+    oit_dbk_behind: str = "blend"
+    """DBK-buffer: the hair behind the layer is drawn "opaque" (Hunz) or "blend"-ed with its
+    alpha (depth-tested, unsorted) before the layer's lists are blended over it."""
+    oit_kbuffer: str = "auto"
+    """K-buffer insertion: "atomic32" (two geometry passes: 32-bit depth keys kept by atomicMin
+    bubbling, then the colours of the kept keys), "atomic64" (one pass: 64-bit depth|colour
+    keys, GL_NV_shader_atomic_int64), "interlock" (one pass: fragment shader interlock) or
+    "auto" (atomic64, else interlock, else atomic32)."""
 
     def __post_init__(self) -> None:
         w, h = (int(v) for v in self.size)
         if not (8 <= w <= 8192 and 8 <= h <= 8192):
             raise UsageError(f"image size must be within 8..8192 pixels per side, got {self.size}")
         object.__setattr__(self, "size", (w, h))
-        for name, allowed in (("interpolation", INTERPOLATIONS), ("geometry", GEOMETRIES),
+        for name, allowed in (("interpolation", INTERPOLATIONS), ("geometry", GEOMETRIES), ("pipeline", PIPELINES),
                               ("shadows", SHADOWS), ("tone_mapping", TONE_MAPS),
                               ("interpolation_mode", INTERPOLATION_MODES)):
             if getattr(self, name) not in allowed:
@@ -216,6 +270,22 @@ class RenderSettings:
         if any(len(c) != 6 or min(c[3:]) <= 0 for c in cols):
             raise UsageError("colliders are ellipsoids (cx, cy, cz, rx, ry, rz) with positive radii")
         object.__setattr__(self, "colliders", cols)
+        if self.oit not in OIT_METHODS:
+            raise UsageError(f"oit must be one of {', '.join(OIT_METHODS)}; got {self.oit!r}")
+        if self.oit_dbk_behind not in ("opaque", "blend"):
+            raise UsageError(f"oit_dbk_behind must be 'opaque' or 'blend'; got {self.oit_dbk_behind!r}")
+        if self.oit_kbuffer not in KBUFFER_MODES:
+            raise UsageError(f"oit_kbuffer must be one of {', '.join(KBUFFER_MODES)}; got {self.oit_kbuffer!r}")
+        if not 0 <= int(self.oit_k) <= 64 or (self.oit in ("k_buffer", "random_subsets") and int(self.oit_k) < 1):
+            raise UsageError(f"oit_k must be in 0..64 (1..64 for the K-buffer and random subsets), got {self.oit_k}")
+        if not 0.0 < float(self.oit_opacity) <= 1.0:
+            raise UsageError(f"oit_opacity must be in (0, 1], got {self.oit_opacity}")
+        if not 0.05 <= float(self.oit_nodes_per_pixel) <= 1024:
+            raise UsageError(f"oit_nodes_per_pixel must be in 0.05..1024, got {self.oit_nodes_per_pixel}")
+        if int(self.oit_max_bytes) < 0 or not float(self.oit_depth_shift) > 0:
+            raise UsageError("oit_max_bytes must be >= 0 and oit_depth_shift > 0")
+        if not (0.0 < float(self.oit_threshold) < 1.0 and 0.0 < float(self.oit_shift_quantile) <= 1.0):
+            raise UsageError("oit_threshold must be in (0, 1) and oit_shift_quantile in (0, 1]")
 
     def replace(self, **changes) -> "RenderSettings":
         return replace(self, **changes)

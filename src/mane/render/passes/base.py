@@ -107,6 +107,14 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     frag = HERE / ("hair_fallback.frag" if shading.fallback else "hair.frag")
     if fragment_file is not None:
         frag = fragment_file
+    from .expand import pulls
+
+    if pulls(renderer, capture=capture, geometry_file=geometry_file):
+        # pipeline="compute": vertex pulling from the expanded strands (passes/expand.py)
+        prog = program(renderer.ctx, vertex=HERE / "hair_pull.vert", fragment=frag, defines=defines,
+                       include_dirs=[RENDER_DIR])
+        prog.mane_pulls = True
+        return prog
     geom = geometry_file if geometry_file is not None else HERE / "hair.geom"
     return program(renderer.ctx, vertex=HERE / "hair.vert", tess_control=HERE / "hair.tesc",
                    tess_evaluation=HERE / "hair.tese", geometry=geom, fragment=frag,
@@ -118,15 +126,39 @@ def subdivisions(settings, points_per_strand: int) -> int:
     return int(min(MAX_ISOLINES, max(1, math.ceil(settings.segments / max(1, points_per_strand - 1)))))
 
 
-def draw_hair(renderer, prog, view: View, lod_eye=None) -> None:
+def draw_hair(renderer, prog, view: View, lod_eye=None, vao=None) -> None:
     """One draw of every guide's patches (instanced by 64 isolines); multi/hybrid
     interpolation: one patch per guide segment and group of 64 rendered strands. ``lod_eye``:
-    where the distance LOD measures from (default: the renderer's camera of this frame)."""
+    where the distance LOD measures from (default: the renderer's camera of this frame). ``vao``:
+    one with an index buffer draws the patches in its order (sorted blending)."""
     s = renderer.settings
     st = renderer.strands
     ctx = renderer.ctx
     N = st.points_per_strand
     set_view(prog, view)
+    if getattr(prog, "mane_pulls", False):   # pipeline="compute"
+        renderer.get_pass("expand").draw(prog, lines=(s.geometry == "lines"))
+        return
+    set_strand_uniforms(renderer, prog, view, lod_eye)
+    st.bind()
+    vao = vao if vao is not None else renderer.empty_vao(prog)
+    ctx.patch_vertices = 4
+    if s.interpolation_mode != "single":
+        table = renderer.strand_table()
+        table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+        set_uniform(prog, "u_num_render", int(table.count))
+        groups = math.ceil(table.count / MAX_ISOLINES)
+        vao.render(moderngl.PATCHES, vertices=groups * (N - 1) * 4, instances=1)
+        return
+    instances = math.ceil(int(s.strands_per_guide) / MAX_ISOLINES)
+    vao.render(moderngl.PATCHES, vertices=st.num_segments * 4, instances=instances)
+
+
+def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) -> None:
+    """The strand uniforms of strand_common.glsl / strand_eval.glsl (a program or compute shader)."""
+    s = renderer.settings
+    st = renderer.strands
+    N = st.points_per_strand
     for name, value in (("u_n", N), ("u_num_guides", st.num_guides),
                         ("u_strands_per_guide", int(s.strands_per_guide)),
                         ("u_subdivisions", subdivisions(s, N)), ("u_keep_guide", int(s.keep_guide))):
@@ -139,25 +171,14 @@ def draw_hair(renderer, prog, view: View, lod_eye=None) -> None:
         set_uniform(prog, name, float(value))
     if lod_eye is None:
         lod_eye = getattr(renderer, "lod_eye", None)
-    if lod_eye is None:
+    if lod_eye is None and view is not None:
         lod_eye = view.eye
-    set_uniform(prog, "u_lod_eye", tuple(float(x) for x in lod_eye))
+    if lod_eye is not None:
+        set_uniform(prog, "u_lod_eye", tuple(float(x) for x in lod_eye))
     set_uniform(prog, "u_lod_range", (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
                                       float(s.lod_width_multiplier) if s.lod else 1.0))
     set_uniform(prog, "u_lod_segments", (float(s.lod_segment_percent), float(s.lod_min_segments)))
     set_uniform(prog, "u_segments", int(s.segments))
-    st.bind()
-    vao = renderer.empty_vao(prog)
-    ctx.patch_vertices = 4
-    if s.interpolation_mode != "single":
-        table = renderer.strand_table()
-        table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
-        set_uniform(prog, "u_num_render", int(table.count))
-        groups = math.ceil(table.count / MAX_ISOLINES)
-        vao.render(moderngl.PATCHES, vertices=groups * (N - 1) * 4, instances=1)
-        return
-    instances = math.ceil(int(s.strands_per_guide) / MAX_ISOLINES)
-    vao.render(moderngl.PATCHES, vertices=st.num_segments * 4, instances=instances)
 
 
 def bind_lighting(renderer, prog, frame: Frame) -> None:

@@ -32,6 +32,7 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
+invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
 
 #if CAPTURE
 // Test hook: every emitted segment appended to a buffer (8 vec4 per segment).

@@ -2,11 +2,14 @@
 
 Blending is premultiplied (ONE, ONE_MINUS_SRC_ALPHA) with the depth test and writes on, so
 sub-pixel strands (coverage alpha < 1) fade into what lies behind them; with MSAA the
-coverage goes to the sample mask instead (alpha to coverage), which needs no order.
+coverage goes to the sample mask instead (alpha to coverage), which needs no order; then a
+depth pre-pass (settings.depth_prepass) lets the shading run once per pixel and visible strand.
 """
 from __future__ import annotations
 
-from .base import PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program, set_uniform
+from .base import HERE, PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program, set_uniform
+
+EARLY_Z = True   # the shading pass after the pre-pass: layout(early_fragment_tests)
 
 
 class HairPass(Pass):
@@ -14,18 +17,19 @@ class HairPass(Pass):
     reads = ("strands", "shadow_map", "dom")
     writes = ("hdr",)
 
-    def enabled(self, frame: Frame) -> bool:
-        return self.renderer.strands is not None
+    def enabled(self, frame: Frame) -> bool:   # with an OIT method, OitPass draws the hair
+        return self.renderer.strands is not None and getattr(self.renderer.settings, "oit", "none") == "none"
 
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
-        prog = hair_program(r, PASS_SHADE)
+        msaa = r.samples > 1
+        prepass = msaa and bool(getattr(r.settings, "depth_prepass", False))
+        prog = hair_program(r, PASS_SHADE, extra_defines={"EARLY_Z": 1} if prepass and EARLY_Z else None)
         r.shading.bind(prog, ctx, r.settings)
         bind_lighting(r, prog, frame)
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)
-        msaa = r.samples > 1
         if msaa:
             ctx.disable(ctx.BLEND)
             ctx.enable_direct(0x809E)  # GL_SAMPLE_ALPHA_TO_COVERAGE
@@ -34,7 +38,25 @@ class HairPass(Pass):
             ctx.enable(ctx.BLEND)
             ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
         set_uniform(prog, "u_premultiply", int(not msaa))
+        if prepass:
+            # depth first (alpha to coverage, a trivial fragment shader, no colour), then shade
+            # once per pixel and visible strand: LEQUAL, no depth writes (early depth test),
+            # alpha to coverage again (Mesa writes the pre-pass's depth to every covered
+            # sample; the same alpha gives the same mask)
+            depth = hair_program(r, PASS_SHADE, fragment_file=HERE / "hair_depth.frag")
+            fbo = r.hdr_fbo()
+            fbo.color_mask = (False, False, False, False)
+            fbo.use()
+            draw_hair(r, depth, frame.view)
+            fbo.color_mask = (True, True, True, True)
+            fbo.depth_mask = False
+            fbo.use()
+            ctx.depth_func = "<="
         draw_hair(r, prog, frame.view)
+        if prepass:
+            fbo.depth_mask = True
+            fbo.use()
+            ctx.depth_func = "<"
         if msaa:
             ctx.disable_direct(0x809E)
             ctx.disable_direct(0x809F)

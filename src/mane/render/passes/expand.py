@@ -1,0 +1,133 @@
+"""pipeline="compute": every rendered strand's tessellated points in one buffer (TressFX's
+"compute-tessellate, then vertex-pull").
+
+A compute dispatch (strand_expand.comp, the tessellation evaluation stage's own code in
+strand_eval.glsl) writes (S + 1) points per rendered strand, S = (guide points - 1) *
+subdivisions, as 2 vec4: (position, width), (unit tangent, strand random). Every pass that
+draws the hair (shadow map, deep opacity, opacity maps, ADSM, hair) then draws one instanced
+strip per strand from it (hair_pull.vert): no tessellation or geometry stage in any pass,
+and the curve work done once a frame instead of once a pass. The points depend on the
+guides and the settings only (not on the view), so they are rebuilt only when the frames
+are (new positions, a simulator's buffer every frame) or the strand table changes.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from ...gpu.glsl import compute_shader
+from .base import HERE, STRAND_TABLE_BINDING, Frame, Pass, set_strand_uniforms, subdivisions
+
+EXPANDED_BINDING = 3
+LOCAL_SIZE = 128
+MAX_GROUPS_X = 65535
+
+
+class ExpandPass(Pass):
+    name = "expand"
+    reads = ("strands", "frames")
+    writes = ("expanded",)
+
+    def __init__(self, renderer):
+        super().__init__(renderer)
+        self.buffer = None
+        self.points = 0        # per rendered strand
+        self.strands = 0       # rendered strands
+        self._key = None
+
+    def enabled(self, frame: Frame) -> bool:
+        r = self.renderer
+        return r.strands is not None and pulls(r) and self._key != self.key()
+
+    def run(self, frame: Frame) -> None:
+        self.ensure()
+
+    def key(self):
+        r = self.renderer
+        return (id(r.strands), id(r.settings), id(r._strand_table), getattr(r, "_geometry_version", 0))
+
+    def ensure(self) -> None:
+        """Expand now unless the buffer is up to date."""
+        key = self.key()
+        if key == self._key and self.buffer is not None:
+            return
+        r, ctx = self.renderer, self.ctx
+        s, st = r.settings, r.strands
+        N = st.points_per_strand
+        sub = subdivisions(s, N)
+        multi = s.interpolation_mode != "single"
+        defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
+                   "LOD": 0}
+        cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
+        if multi:
+            table = r.strand_table()
+            table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+            strands = int(table.count)
+            set_strand_uniforms(r, cs)
+            _set(cs, "u_num_render", strands)
+            key = self.key()   # the table may just have been built
+        else:
+            strands = st.num_guides * int(s.strands_per_guide)
+            set_strand_uniforms(r, cs)
+        points = (N - 1) * sub + 1
+        nbytes = max(strands * points * 32, 32)
+        if self.buffer is None or self.buffer.size != nbytes:
+            if self.buffer is not None:
+                self.buffer.release()
+            self.buffer = ctx.buffer(reserve=nbytes)
+        _set(cs, "u_num_strands", strands)
+        st.bind()
+        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        groups = math.ceil(strands * points / LOCAL_SIZE)
+        gx = min(groups, MAX_GROUPS_X)
+        cs.run(max(gx, 1), max(1, math.ceil(groups / MAX_GROUPS_X)))
+        ctx.memory_barrier()
+        self.points, self.strands, self._key = points, strands, key
+
+    def read(self) -> np.ndarray:
+        """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random."""
+        self.ensure()
+        data = np.frombuffer(self.buffer.read(size=self.strands * self.points * 32), np.float32)
+        return data.reshape(self.strands, self.points, 8).copy()
+
+    def draw(self, prog, lines: bool) -> None:
+        """Every rendered strand: one instance of a strip through its points."""
+        import moderngl
+
+        self.ensure()
+        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        _set(prog, "u_points_per_strand", self.points)
+        vao = self.renderer.empty_vao(prog)
+        if lines:
+            vao.render(moderngl.LINE_STRIP, vertices=self.points, instances=self.strands)
+        else:
+            vao.render(moderngl.TRIANGLE_STRIP, vertices=2 * self.points, instances=self.strands)
+
+    def release(self) -> None:
+        if self.buffer is not None:
+            self.buffer.release()
+            self.buffer = None
+        self._key = None
+
+
+def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:
+    """Whether the hair is drawn from the expanded buffer (pipeline="compute"): not with the
+    distance LOD, a capture, a pass's own geometry stage or an OIT method (those keep the
+    tessellation pipeline)."""
+    s = renderer.settings
+    return (getattr(s, "pipeline", "tessellation") == "compute" and not s.lod and not capture
+            and geometry_file is None and getattr(s, "oit", "none") == "none")
+
+
+def _ids():
+    from .base import INTERPOLATION_IDS, MULTI_IDS
+
+    return {"interp": INTERPOLATION_IDS, "multi": MULTI_IDS}
+
+
+def _set(prog, name, value) -> None:
+    try:
+        prog[name].value = value
+    except KeyError:
+        pass

@@ -1,0 +1,56 @@
+#version 430
+// pipeline="compute": the hair by vertex pulling, no tessellation or geometry stage. One
+// instance per rendered strand; its points come from strand_expand.comp's buffer.
+// Ribbons: a triangle strip of 2 vertices per point, either side of the curve along
+// cross(T, V), exactly hair.geom's corners (widened to u_min_pixel_width pixels, the
+// coverage in g_alpha); GEOMETRY_LINES: a line strip through the points.
+layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+uniform int u_points_per_strand;
+
+uniform mat4 u_view_proj;
+uniform vec3 u_eye;           // perspective views: the eye
+uniform vec3 u_view_dir;      // unit forward of the view
+uniform int u_ortho;          // 1: orthographic (directional shadow views)
+uniform float u_pixel_size;   // world size of a pixel at unit depth (perspective) or anywhere (ortho)
+uniform float u_min_pixel_width;
+
+out vec3 g_pos;
+out vec3 g_tangent;
+out float g_s;
+out float g_rand;
+out float g_alpha;
+out float g_depth;            // view depth (m) along u_view_dir
+invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
+
+void main() {
+#if GEOMETRY_LINES
+    int j = gl_VertexID;
+#else
+    int j = gl_VertexID >> 1;
+#endif
+    int i = gl_InstanceID * u_points_per_strand + j;
+    vec4 pw = expanded[2 * i];
+    vec4 tr = expanded[2 * i + 1];
+    vec3 P = pw.xyz;
+    vec3 T = normalize(tr.xyz);
+    float a = 1.0;
+    float depth = max(dot(P - u_eye, u_view_dir), 1e-4);
+    float pixel = u_ortho != 0 ? u_pixel_size : u_pixel_size * depth;
+    float w = pw.w;
+    float wmin = u_min_pixel_width * pixel;
+    if (w < wmin) { a = w / wmin; w = wmin; }
+#if !GEOMETRY_LINES
+    vec3 V = u_ortho != 0 ? -u_view_dir : normalize(u_eye - P);
+    vec3 side = cross(T, V);
+    if (dot(side, side) < 1e-10) side = cross(T, abs(T.y) < 0.9 ? vec3(0, 1, 0) : vec3(1, 0, 0));
+    side = normalize(side);
+    P += ((gl_VertexID & 1) == 0 ? -0.5 : 0.5) * w * side;
+#endif
+    g_pos = P;
+    g_tangent = T;
+    g_s = float(j) / float(u_points_per_strand - 1);
+    g_rand = tr.w;
+    g_alpha = a;
+    g_depth = dot(P - u_eye, u_view_dir);
+    gl_Position = u_view_proj * vec4(P, 1.0);
+}
