@@ -325,8 +325,17 @@ def test_profiling_reports_pass_times(gl, rest):
     for _ in range(3):
         sim.step()
     times = sim.pass_times()
+    folded = sim.folded_passes()  # their work is timed under the pass that does it
+    assert folded == {"shape": "length", "collide": "length", "sdf": "length", "velocity": "length"}
     for name in ("integrate", "shape", "length", "collide", "velocity", "guard"):
-        assert name in times and times[name] >= 0
+        assert (name in times and times[name] >= 0) != (name in folded)
+    sim.settings = replace(sim.settings, fused_strand_solve=False)
+    for _ in range(2):
+        sim.step()
+    times = sim.pass_times()
+    assert set(sim.folded_passes()) == {"collide", "sdf"}
+    for name in ("shape", "velocity"):
+        assert times[name] >= 0
 
 
 # ---------------------------------------------------------------------- head motion

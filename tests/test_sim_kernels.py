@@ -131,7 +131,8 @@ def test_shape_and_dftl_match_twins_across_work_groups(gl, S, N):
     (64 points), and a pinned particle mid-strand (it leads DFTL and stops the shape sweep's
     carried correction)."""
     rest = ref.helix_strands(S=S, N=N)
-    settings = SimSettings(local_shape_stiffness=0.4, bending_stiffness=0.5, shape_iterations=2)
+    settings = SimSettings(local_shape_stiffness=0.4, bending_stiffness=0.5, shape_iterations=2,
+                           fused_strand_solve=False)  # the length pass alone
     sim = make_sim(gl, rest, settings)
     x = perturbed(rest, 0.002, 11)
     x[:, 0] = ref.apply(HEAD, rest[:, 0])
@@ -246,19 +247,166 @@ def test_steps_match_twin(gl, method):
                            local_shape_stiffness=0.01, bending_stiffness=0.2, shape_iterations=2,
                            global_shape_stiffness=0.05, global_shape_range=0.3,
                            long_range_attachment=method == "pbd")
-    cols = [Sphere(center=(0.03, 0.92, 0.06), radius=0.04, friction=0.2),
+    cols = [Sphere(center=(0.03, 0.895, -0.015), radius=0.025, friction=0.2),
             Capsule(a=(0.0, 0.95, -0.05), b=(0.1, 0.95, -0.05), radius=0.03, mode="penalty", stiffness=500.0)]
     sim = make_sim(gl, rest, settings, cols)
     w = inv_mass(sim)
     assert max(c.depth(rest.reshape(-1, 3)).max() for c in cols) > -0.01  # close to the hair
     x, prev, v = rest.copy(), rest.copy(), np.zeros_like(rest)
+    free = (rest.copy(), rest.copy(), np.zeros_like(rest))
     h, t = settings.dt, 0.0
     for _ in range(10):
         sim.step()
         x, prev, v = ref.step(x, prev, v, rest, w, np.eye(4), h, settings, cols, t)
+        free = ref.step(*free, rest, w, np.eye(4), h, settings, cols[1:], t)
         t += h
+    assert np.abs(free[0] - x).max() > 1e-3, "the sphere should have touched the hair"
     got = padded(sim, "positions")
     assert np.abs(got - rest).max() > 0.01, "the strands should have moved"
     assert_close(got, x, scale=float(np.abs(x).max()))
     # velocities are position differences over dt: their float32 error scales with |x| / dt
     assert_close(padded(sim, "velocities"), v, scale=float(np.abs(x).max()) / h)
+
+
+# ---------------------------------------------------------------------- collisions in the sweeps
+def head_scene(S=12, N=12, length=0.2, radius=0.1, center=(0.0, 1.6, 0.0)):
+    """Strands from roots on a sphere's upper cap, first along the surface (tangent), so
+    that gravity drapes them over it."""
+    rng = np.random.default_rng(21)
+    c = np.asarray(center)
+    out = []
+    for s in range(S):
+        th, ph = rng.uniform(0.15, 1.0), rng.uniform(0, 2 * np.pi)
+        n = np.array([np.sin(th) * np.cos(ph), np.cos(th), np.sin(th) * np.sin(ph)])
+        t = (n[1] * n - [0.0, 1.0, 0.0]) / np.sin(th)  # unit tangent pointing down the sphere
+        d = 0.3 * n + t
+        out.append(c + radius * n + np.linspace(0, length, N)[:, None] * d / np.linalg.norm(d))
+    return np.array(out)
+
+
+def sdf_params(sim, st=None):
+    """The simulator's mesh colliders as the twin's dicts (at the state's last step)."""
+    from mane.sim import MeshCollider
+
+    st = st or sim.state
+    meshes = [c for c in sim.colliders if isinstance(c, MeshCollider)]
+    return [dict(values=c._sdf.values.astype(np.float64), lo=c._sdf.lo.astype(np.float32).astype(np.float64),
+                 h=np.float32(c._sdf.h).astype(np.float64), world=w, prev_world=pw, margin=c.margin,
+                 friction=c.friction) for c, w, pw in zip(meshes, st.mesh_worlds, st.mesh_prev_worlds)]
+
+
+def collision_setup(gl, settings, mesh=True):
+    """Strands over a head (a sphere and a mesh SDF just outside it, both riding on the head),
+    a capsule and an ellipsoid in the hair, predicted positions pressed into all of them."""
+    from mane.bench.sim_bench import head_mesh
+    from mane.sim import MeshCollider
+
+    rest = head_scene()
+    x = ref.apply(HEAD_SMALL, rest)
+    centre = ref.apply(HEAD_SMALL, np.array([0.0, 1.6, 0.0]))
+    r = np.random.default_rng(5).uniform(0.095, 0.13, size=x.shape[:2])[..., None]
+    x = centre + (x - centre) / np.linalg.norm(x - centre, axis=2, keepdims=True) * r
+    x[:, 0] = ref.apply(HEAD_SMALL, rest[:, 0])
+
+    def outside(s, k, dist):  # a point over particle k of strand s, dist from the centre
+        u = x[s, k] - centre
+        return centre + dist * u / np.linalg.norm(u)
+
+    c6, c9 = outside(6, 6, 0.135), outside(9, 7, 0.14)
+    cols = [Sphere(center=(0.0, 1.6, 0.0), radius=0.1, friction=0.3, follow_head=True),
+            Capsule(a=c6 - (0.05, 0.0, 0.0), b=c6 + (0.05, 0.01, 0.0), radius=0.025, friction=0.5),
+            Ellipsoid(transform=_at(*c9) @ head_motion.rotation((0, 0, 1), 0.3),
+                      radii=(0.03, 0.035, 0.03), friction=0.0, margin=0.001)]
+    if mesh:
+        cols.append(MeshCollider(head_mesh(center=(0.0, 1.6, 0.0), radii=(0.105, 0.1, 0.105)), resolution=32,
+                                 margin=0.002, friction=0.2, follow_head=True))
+    sim = make_sim(gl, rest, settings, cols)
+    st = sim.state
+    st.head = HEAD_SMALL
+    sim.upload_colliders(st)
+    sim.upload_colliders(st)  # previous = current transforms
+    prev = ref.apply(HEAD_SMALL, rest) + np.random.default_rng(6).normal(scale=0.002, size=rest.shape)
+    put(sim, "positions", x)
+    put(sim, "prev_positions", prev)
+    return sim, rest, cols, x, prev
+
+
+def _at(x, y, z):
+    m = np.eye(4)
+    m[:3, 3] = (x, y, z)
+    return m
+
+
+HEAD_SMALL = head_motion.about_pivot(head_motion.rotation((1.0, 0.0, 0.2), 0.15), (0.0, 1.45, 0.0))
+
+
+def test_dftl_collides_inside_the_sweep(gl):
+    """The length pass alone: DFTL with primitives and a mesh SDF inside its sweep, against
+    the twin; lengths exact and no particle left inside at the same time."""
+    sim, rest, cols, x, prev = collision_setup(gl, SimSettings(fused_strand_solve=False))
+    w = inv_mass(sim)
+    assert sim.run_pass("length")
+    got = padded(sim, "positions")
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    want, want_d = ref.dftl(x, w, seg, rest, HEAD_SMALL, prev, cols[:3], sdf_params(sim))
+    moved = np.linalg.norm(want - x, axis=2) > 1e-3
+    assert moved.sum() > 20
+    assert_close(got, want)
+    assert_close(padded(sim, "corrections"), want_d, scale=float(np.abs(want).max()))
+    assert sim.max_length_error() < 1e-5
+    assert sim.max_penetration() < 2e-6
+    depth_mesh = cols[3].margin - cols[3]._sdf.sample(ref.apply(np.linalg.inv(sim.state.mesh_worlds[0]),
+                                                                got.reshape(-1, 3)))
+    assert depth_mesh[w.reshape(-1) > 0].max() < 2e-4  # the SDF's own round-off: trilinear of a 32^3 grid
+
+
+@pytest.mark.parametrize("iterations, pipeline, group", [(2, 1, 64), (2, 2, 64), (3, 2, 32), (5, 1, 128),
+                                                       (5, 4, 64), (1, 4, 64)])
+def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
+    """One kernel (shape sweeps pipelined, more of them through memory, DFTL with the
+    collisions, velocities) against the twins of the separate passes, and against the
+    separate passes on the GPU."""
+    settings = SimSettings(local_shape_stiffness=0.3, bending_stiffness=0.4, shape_iterations=iterations,
+                           dftl_damping=0.8, max_speed=4.0)
+    sim, rest, cols, x, prev = collision_setup(gl, settings)
+    sim.shape_pipeline, sim.strand_group_size = pipeline, group
+    w = inv_mass(sim)
+    st = sim.state
+    st.write("rest_positions", _pin_middle(st.read("rest_positions"), st.points_per_strand, strand=3))
+    w = inv_mass(sim)
+    h = 1 / 240
+    assert sim.folded_passes() == {"collide": "length", "sdf": "length", "shape": "length", "velocity": "length"}
+    assert sim.run_pass("length", st, h)
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    shaped = ref.shape(x, w, rest, HEAD_SMALL, 0.3, 0.4, iterations)
+    want, want_d = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols[:3], sdf_params(sim))
+    want_v = ref.velocity(want, prev, want_d, w, h, 0.8, 4.0)
+    got, got_v = padded(sim, "positions"), padded(sim, "velocities")
+    assert_close(got, want)
+    assert_close(got_v, want_v, scale=float(np.abs(want).max()) / h)
+    without_mesh = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols[:3])[0]
+    assert np.abs(without_mesh - want).max() > 1e-3  # the mesh SDF took part
+    # the same with the separate passes
+    sep = replace(settings, fused_strand_solve=False)
+    sim.settings = sep
+    put(sim, "positions", x)
+    for name in ("shape", "length", "velocity"):
+        sim.run_pass(name, st, h)
+    assert_close(padded(sim, "positions"), got)
+    assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
+
+
+def _pin_middle(rp, N, strand):
+    rp = rp.copy()
+    rp[strand * N + N // 2, 3] = 0.0
+    return rp
+
+
+def test_pbd_collides_between_iterations(gl):
+    settings = SimSettings(length_method="pbd", pbd_iterations=6)
+    sim, rest, cols, x, prev = collision_setup(gl, settings)
+    assert sim.run_pass("length")
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    want = ref.pbd(x, inv_mass(sim), seg, 6, False, None, prev, cols[:3], sdf_params(sim), head=HEAD_SMALL)
+    assert_close(padded(sim, "positions"), want)
+    assert sim.max_penetration() < 2e-6  # the iterations end with the projection

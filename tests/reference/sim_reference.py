@@ -258,8 +258,30 @@ def shape(x, w, rest, head, local_k, bend_k, iterations):
     return p
 
 
-def dftl(x, w, seg_len, rest, head):
-    """Follow-the-leader: returns (positions, corrections d)."""
+def back_to_length(a, l, p, q, n):
+    """Particle at distance l from its leader a after a collision moved it from p to q (outward
+    normal n): nearest q on the plane through q normal to n, else toward q."""
+    ha = (a - q) @ n
+    if abs(ha) < l:
+        c = a - ha * n
+        u = q - c
+        lu = np.linalg.norm(u)
+        if not lu > 1e-6 * l:
+            u = p - c
+            u = u - (u @ n) * n
+            lu = np.linalg.norm(u)
+        if lu > 1e-12:
+            return c + math.sqrt(l * l - ha * ha) * u / lu
+    f = q - a
+    lf = np.linalg.norm(f)
+    return a + l * f / lf if lf > 1e-12 else q
+
+
+def dftl(x, w, seg_len, rest, head, prev=None, colliders=(), sdfs=(), prev_worlds=None, contact_iterations=2):
+    """Follow-the-leader with the collisions inside the sweep: each particle is placed at its
+    rest length from its leader, then (up to ``contact_iterations`` times while inside a
+    collider) projected out and put back at its length on the contact's tangent plane.
+    Returns (positions, corrections d = final - predicted - collision pushes)."""
     S, N, _ = x.shape
     p = x.copy()
     d = np.zeros_like(x)
@@ -275,14 +297,24 @@ def dftl(x, w, seg_len, rest, head):
             else:
                 u = H @ (rest[s, k] - rest[s, k - 1])
                 u = u / np.linalg.norm(u)
-            new = p[s, k - 1] + seg_len[s, k - 1] * u
-            d[s, k] = new - x[s, k]
+            a, l = p[s, k - 1], seg_len[s, k - 1]
+            new = a + l * u
+            push = np.zeros(3)
+            for _ in range(contact_iterations if (colliders or sdfs) else 0):
+                q, n, moved = project_out(new, prev[s, k], colliders, head, sdfs, prev_worlds)
+                if not moved:
+                    break
+                push += q - new
+                new = back_to_length(a, l, new, q, n)
+            d[s, k] = new - x[s, k] - push
             p[s, k] = new
     return p, d
 
 
-def pbd(x, w, seg_len, iterations, tether=False, arc=None):
-    """Distance constraints, segments from even k then from odd k, per iteration."""
+def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=(), sdfs=(), prev_worlds=None,
+        head=None):
+    """Distance constraints, segments from even k then from odd k, per iteration; then the
+    tether; then every free particle projected out of the colliders."""
     S, N, _ = x.shape
     p = x.copy()
 
@@ -311,6 +343,11 @@ def pbd(x, w, seg_len, iterations, tether=False, arc=None):
                     L = np.linalg.norm(d)
                     if L > arc[s, k] and L > 1e-12:
                         p[s, k] = p[s, 0] + d * arc[s, k] / L
+        if colliders or sdfs:
+            for s in range(S):
+                for k in range(N):
+                    if w[s, k] > 0:
+                        p[s, k] = project_out(p[s, k], prev[s, k], colliders, head, sdfs, prev_worlds)[0]
     return p
 
 
@@ -343,6 +380,81 @@ def collide(x, prev, w, colliders, head, prev_worlds=None):
     return p
 
 
+def project_out(p, x0, colliders, head, sdfs=(), prev_worlds=None):
+    """One free particle (start of step x0) out of the projection primitives, then the mesh
+    SDFs, each in turn, with friction: (new position, last contact's outward normal, moved)."""
+    p = np.array(p, dtype=np.float64)
+    normal, moved = np.zeros(3), False
+    for ci, c in enumerate(colliders):
+        world, kind, radii, h, mode, mu, _ = collider_params(c, head)
+        if mode != "projection":
+            continue
+        pw = world if prev_worlds is None else prev_worlds[ci]
+        R, t = world[:3, :3], world[:3, 3]
+        pl = R.T @ (p - t)
+        depth, n, sl = local_depth(pl, kind, radii, h)
+        if depth <= 0:
+            continue
+        nw = R @ n
+        p = p + R @ (sl - pl)
+        if mu > 0:
+            rel = apply(pw, sl) - x0
+            tang = rel - (rel @ nw) * nw
+            lt = np.linalg.norm(tang)
+            p -= tang if lt <= mu * depth else tang * (mu * depth / lt)
+        normal, moved = nw, True
+    for sdf in sdfs:
+        world, prev_world = np.asarray(sdf["world"], float), np.asarray(sdf.get("prev_world", sdf["world"]), float)
+        margin, mu = sdf["margin"], sdf["friction"]
+        inv, pinv = np.linalg.inv(world), np.linalg.inv(prev_world)
+        x = apply(inv, p)
+        dist = sdf_value(sdf, x)
+        if not dist < margin:
+            continue
+        n = sdf_normal(sdf, x)
+        depth = margin - dist
+        x = x + depth * n
+        disp = x - apply(pinv, x0)
+        tang = disp - (disp @ n) * n
+        slip = np.linalg.norm(tang)
+        if slip > 0:
+            x = x - min(mu * depth / slip, 1.0) * tang
+        for _ in range(2):
+            dist = sdf_value(sdf, x)
+            if not dist < margin:
+                break
+            x = x + (margin - dist) * sdf_normal(sdf, x)
+        p = apply(world, x)
+        nw = world[:3, :3] @ n
+        if np.linalg.norm(nw) > 0:
+            normal = nw / np.linalg.norm(nw)
+        moved = True
+    return p, normal, moved
+
+
+def sdf_value(sdf, x):
+    """Trilinear sample of sdf["values"] (nodes at lo + ijk h), clamped, plus the distance to the box."""
+    values, lo, h = sdf["values"], np.asarray(sdf["lo"], float), float(sdf["h"])
+    res = np.array(values.shape)
+    g = (x - lo) / h
+    gc = np.clip(g, 0, res - 1)
+    b = np.minimum(np.floor(gc).astype(int), res - 2)
+    f = gc - b
+    v = 0.0
+    for c in range(8):
+        o = np.array([c & 1, (c >> 1) & 1, (c >> 2) & 1])
+        wgt = np.where(o == 1, f, 1 - f)
+        v += wgt.prod() * float(values[tuple(b + o)])
+    return v + np.linalg.norm(g - gc) * h
+
+
+def sdf_normal(sdf, x):
+    e = 0.5 * float(sdf["h"])
+    g = np.array([sdf_value(sdf, x + e * ax) - sdf_value(sdf, x - e * ax) for ax in np.eye(3)])
+    n = np.linalg.norm(g)
+    return g / n if n > 1e-12 else np.zeros(3)
+
+
 def velocity(x, prev, d, w, dt, s_damping, max_speed):
     v = (x - prev) / dt
     if s_damping > 0:
@@ -351,8 +463,9 @@ def velocity(x, prev, d, w, dt, s_damping, max_speed):
     return np.where(sp > max_speed, v * max_speed / np.maximum(sp, 1e-300), v)
 
 
-def step(x, prev, v, rest, w, head, dt, settings, colliders=(), time=0.0):
-    """One full step (no hair-hair passes, guard inert on finite data)."""
+def step(x, prev, v, rest, w, head, dt, settings, colliders=(), time=0.0, sdfs=()):
+    """One full step (no hair-hair passes, guard inert on finite data); the collisions happen
+    inside the length constraint's sweep (DFTL) or iterations (PBD)."""
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
     arc = np.concatenate([np.zeros((len(rest), 1)), np.cumsum(seg, axis=1)], axis=1)
     x, prev = integrate(x, prev, v, rest, w, head, dt, settings, colliders, time)
@@ -360,13 +473,14 @@ def step(x, prev, v, rest, w, head, dt, settings, colliders=(), time=0.0):
         x = shape(x, w, rest, head, settings.local_shape_stiffness, settings.bending_stiffness,
                   settings.shape_iterations)
     d = np.zeros_like(x)
+    prims = [c for c in colliders if c.mode == "projection"]
     if settings.length_method == "dftl":
-        x, d = dftl(x, w, seg, rest, head)
+        x, d = dftl(x, w, seg, rest, head, prev, prims, sdfs)
         s_damp = settings.dftl_damping
     else:
-        x = pbd(x, w, seg, settings.pbd_iterations, settings.long_range_attachment, arc)
+        x = pbd(x, w, seg, settings.pbd_iterations, settings.long_range_attachment, arc, prev, prims, sdfs,
+                head=head)
         s_damp = 0.0
-    x = collide(x, prev, w, colliders, head)
     v = velocity(x, prev, d, w, dt, s_damp, settings.max_speed)
     return x, prev, v
 

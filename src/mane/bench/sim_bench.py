@@ -10,8 +10,13 @@ normals of a spherical scalp cap (radius 0.1 m at (0, 1.6, 0)), the head nodding
     one sphere collider, velocity, NaN guard.
 ``full_solver``
     DFTL + local shape and bending + 8 capsules + a mesh SDF (64^3, of a procedural head) +
-    64^3 grid friction (atomic, and raster for comparison) at 100k x 32 (quick: 256 x 16).
-    ``targets`` compares it with the issue's 1.0 ms per step.
+    64^3 grid friction (atomic, and raster for comparison) at 100k x 32 (quick: 256 x 16),
+    with the fused strand solve (the default), then with separate passes ("... separate").
+    ``targets`` compares the fused atomic one with the issue's 1.0 ms per step.
+
+Passes that the simulator folds into another (``Simulator.folded_passes()``: shape,
+collide, sdf and velocity into length with the fused strand solve) are listed with 0 ms
+in ``passes_ms`` and named in ``folded_passes``; their time is in the pass doing the work.
 ``woodhouse``
     Woodhouse (2017) Table 5.2's categories on his workload, 242 strands x 8 particles and
     smoothed to 16, with his 25^3 voxel grid, both splat methods: strand dynamics =
@@ -308,6 +313,11 @@ class Bench:
         if inner is not None and hasattr(inner, "flush"):
             inner.flush()
         passes = dict(sim.pass_times())
+        # passes another one does the work of (Simulator.folded_passes: the fused strand
+        # solve, collisions inside the length sweep) are listed with 0 ms
+        folded = dict(sim.folded_passes()) if hasattr(sim, "folded_passes") else {}
+        for name in folded:
+            passes.setdefault(name, 0.0)
         self.pass_names_seen.update(passes)
         ordered = {name: passes[name] for name in PASSES if name in passes}
         ordered.update({k: v for k, v in passes.items() if k not in ordered})
@@ -323,6 +333,8 @@ class Bench:
             "pipelined_ms": pipelined,
             "profiled_wall_ms": stats(profiled),
             "passes_ms": ordered,
+            "folded_passes": folded,
+            "strand_solve": ("fused" if folded.get("shape") == "length" else "separate"),
             "pass_source": getattr(inner, "source", "moderngl time query"),
             "kernel_sum_ms": sum(ordered.values()) if ordered else None,
             # the step's GPU time that no pass section holds (collider upload, gaps between
@@ -360,21 +372,25 @@ class Bench:
         """The issue's target configuration, then grid friction atomic vs raster on its particles."""
         from ..sim import MeshCollider
 
+        from dataclasses import replace
+
         for S, N in self.cfg["full_solver"]:
             sim = None
             last = (S, N) == tuple(self.cfg["full_solver"][-1])
-            for method in ("atomic", "raster"):
-                name = f"{S}x{N} {method}"
+            # the fused strand solve with both grid methods, then the separate passes
+            for method, fused in (("atomic", True), ("raster", True), ("atomic", False)):
+                name = f"{S}x{N} {method}" + ("" if fused else " separate")
                 fields = dict(strands=S, vertices=N, particles=S * N, grid_method=method,
                               grid_resolution=self.cfg["full_grid_res"], sdf_resolution=self.cfg["sdf_res"],
                               capsules=8)
+                settings = replace(self._full_settings(method), fused_strand_solve=fused)
                 with self._guard("full_solver", name, **fields):
                     if sim is None:
                         colliders = body_capsules() + [MeshCollider(head_mesh(), resolution=self.cfg["sdf_res"],
                                                                     padding=0.02, margin=0.002, friction=0.2)]
-                        sim = self._simulator(S, N, colliders, self._full_settings(method))
+                        sim = self._simulator(S, N, colliders, settings)
                     else:
-                        sim.settings = self._full_settings(method)
+                        sim.settings = settings
                     self._row("full_solver", name, **fields, **self._time_sim(sim))
             if sim is not None:
                 if last:
@@ -647,12 +663,14 @@ class Bench:
     def _renderer(self) -> str:
         return str(self.ctx.info.get("GL_RENDERER", "unknown"))
 
-    def run_all(self) -> None:
-        self.dftl_core()
-        self.full_solver()
-        self.woodhouse()
-        self.flip()
-        self.chen_shares()
+    SECTIONS = ("dftl_core", "full_solver", "woodhouse", "flip", "chen_shares")
+
+    def run_all(self, sections=None) -> None:
+        """Every section, or those named (``full_solver`` includes ``grid_friction``)."""
+        for name in sections or self.SECTIONS:
+            if name not in self.SECTIONS:
+                raise ValueError(f"unknown section {name!r}; sections: {', '.join(self.SECTIONS)}")
+            getattr(self, name)()
 
 
 # --------------------------------------------------------------------------- analysis
@@ -696,7 +714,8 @@ def integrate_bandwidth(state, integrate_ms: float | None, renderer: str) -> dic
 
 
 def _targets(rows: list[dict], mode: str) -> dict:
-    full = [r for r in rows if r["bench"] == "full_solver" and r.get("grid_method") == "atomic"]
+    full = [r for r in rows if r["bench"] == "full_solver" and r.get("grid_method") == "atomic"
+            and not r["name"].endswith(" separate")]
     at_target = [r for r in full if r.get("strands") == TARGET_STRANDS and r.get("vertices") == TARGET_VERTICES]
     out = {"full_solver_100k_x32_ms": None, "target_ms": TARGET_MS, "met": False,
            "metric": "mean GPU time of a whole step (GpuProfiler section around Simulator.step: "
@@ -743,11 +762,12 @@ def _bandwidth(rows: list[dict]) -> dict:
     return out
 
 
-def run(ctx, mode: str = "default", progress=None) -> dict:
-    """Every section of ``mode`` ("quick", "default", "full"): the JSON object."""
+def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
+    """Every section of ``mode`` ("quick", "default", "full"), or only ``sections``
+    (``Bench.SECTIONS``): the JSON object."""
     bench = Bench(ctx, mode, progress)
     cfg = bench.cfg
-    bench.run_all()
+    bench.run_all(sections)
     from ..sim import PASSES
 
     unknown = sorted(bench.pass_names_seen - set(PASSES))
@@ -805,6 +825,10 @@ def format_text(result: dict) -> str:
     out.append("")
     out.append(table(ok("full_solver"), [("config", "name", "{}")] + step_cols + pass_cols,
                      title="Full solver (DFTL + shape + 8 capsules + SDF + grid friction)"))
+    for r in ok("full_solver"):
+        if r.get("folded_passes"):
+            out.append(f"  {r['name']}: " + ", ".join(f"{k} in {v}" for k, v in r["folded_passes"].items())
+                       + " (0 ms above: timed in the pass that does the work)")
     t = result["targets"]
     val = t.get("full_solver_100k_x32_ms")
     out.append(f"  target: 100k x 32 full solver <= {t['target_ms']} ms per step: "

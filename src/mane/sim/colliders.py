@@ -3,10 +3,13 @@
 Each primitive is a shape in its own rigid frame (``transform``: 4x4, local -> world,
 rotation + translation only) and one of two responses:
 
-- ``mode="projection"`` (default): after the length constraint a particle inside is
-  moved to the surface (plus ``margin``), then Coulomb-style friction removes the
-  tangential part ``t`` of its displacement relative to the collider over the step:
-  all of it when ``|t| <= friction * depth`` (static), else ``friction * depth`` of it.
+- ``mode="projection"`` (default): inside the length constraint (DFTL's sweep, as it
+  places each particle; between PBD's iterations) a particle inside is moved to the
+  surface (plus ``margin``), then Coulomb-style friction removes the tangential part
+  ``t`` of its displacement relative to the collider over the step: all of it when
+  ``|t| <= friction * depth`` (static), else ``friction * depth`` of it. DFTL then puts
+  the particle back at its rest length from its leader on the contact's tangent plane,
+  so lengths stay exact and the particle outside (``contact.glsl``, ``strand_solve.comp``).
 - ``mode="penalty"`` (Realtime Vulkan Hair): a zero-rest-length spring pulls a particle
   inside toward the surface: ``a += stiffness * depth * normal`` (``stiffness`` in 1/s^2,
   per unit mass), added to the forces before the constraints. Softer, needs small steps.

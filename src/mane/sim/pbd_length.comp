@@ -4,8 +4,13 @@
 // start at even k, then those at odd k (Gauss-Seidel by colour), each with
 //   C = |p_a - p_b| - l,  dp_a = -w_a / (w_a + w_b) C n,  dp_b = +w_b / (w_a + w_b) C n
 // and, with long-range attachment, clamps every particle to within its rest arc length
-// of the root (a unilateral tether).
+// of the root (a unilateral tether); then, with colliders (PRIMS, NSDF: contact.glsl),
+// projects every free particle out of them, with friction. The iterations end with that
+// projection, so no particle is left inside; the next iteration's distance constraints
+// pull the strand back toward its lengths around the colliders.
 #include "sim_common.glsl"
+#include "collide.glsl"
+#include "contact.glsl"
 
 // SPG (strands per group) and GROUP_SIZE = NV * SPG are injected by the simulator
 // (GLSL 4.30 takes no expressions in layout qualifiers).
@@ -36,6 +41,10 @@ void main() {
     uint i = s * uint(NV) + k;
     uint root = ls * uint(NV);
     float l_next = 0.0, arc = 0.0;
+#if PRIMS > 0 || NSDF > 0
+    vec3 x0 = vec3(0.0);
+    if (live) x0 = prev_positions[i].xyz;
+#endif
     if (live) {
         sp[lid] = vec4(positions[i].xyz, rest_positions[i].w);
         if (k + 1u < uint(NV)) l_next = rest_info[i + 1u].x;
@@ -59,6 +68,14 @@ void main() {
             memoryBarrierShared();
             barrier();
         }
+#if PRIMS > 0 || NSDF > 0
+        if (live && sp[lid].w > 0.0) {
+            vec3 p = sp[lid].xyz, n;
+            if (project_out(p, x0, n)) sp[lid].xyz = p;
+        }
+        memoryBarrierShared();
+        barrier();
+#endif
     }
     if (live) positions[i] = vec4(sp[lid].xyz, positions[i].w);
 }

@@ -76,6 +76,11 @@ class SimSettings:
     """s_damping of DFTL's velocity correction v_i += s * (-d_{i+1}) / dt, in [0, 1].
     (A strand hanging at rest keeps a velocity along itself of about s g dt / (1 - s);
     FTL removes it every step, so it never shows as motion.)"""
+    fused_strand_solve: bool = True
+    """DFTL only: run local shape, bending, DFTL with the collisions and the velocity update
+    as one per-strand kernel (the 'length' pass; each strand is read and written once per
+    step) instead of the separate shape, length and velocity passes. Same results up to
+    float round-off."""
     long_range_attachment: bool = False
     """tether every particle to its root with its rest arc length (PBD only: DFTL's
     exact lengths already keep every particle within its arc length)."""

@@ -11,13 +11,24 @@ One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is sk
 
     integrate  forces, prediction, pinned follicles, global shape    (per particle)
     shape      local shape + bending, Gauss-Seidel sweeps            (per strand)
-    length     DFTL (per strand) or odd/even PBD (shared memory)     (per strand group)
-    collide    projection colliders + friction                       (per particle)
-    sdf        mesh colliders (mane.sim.sdf, when present)
+    length     DFTL (per strand) or odd/even PBD (shared memory)     (per strand group),
+               with the projection colliders and mesh SDFs inside: DFTL projects each
+               particle out as its sweep places it and puts it back at its rest length from
+               its leader (lengths stay exact); PBD projects between its iterations
+    collide    projection colliders + friction, after the fact       (per particle)
+    sdf        mesh colliders after the fact (mane.sim.sdf, when present)
     velocity   v = (x - x_prev) / dt (+ DFTL correction)             (per particle)
     friction   hair-hair grid friction (mane.sim.grid_friction, when present)
     volume     FLIP volume (mane.sim.flip, when present)
-    guard      NaN / absurd-value recovery                           (per strand)
+    guard      NaN / absurd-value recovery        (per particle, strands in shared memory)
+
+Some passes are folded into another (``Simulator.folded_passes()``, pass -> the one that
+does its work) and not run by ``substep``: ``collide`` and ``sdf`` into ``length`` always
+(only mesh colliders beyond the first ``MAX_SWEEP_SDFS`` are left to the sdf pass), and
+with DFTL and ``settings.fused_strand_solve`` (the default) also ``shape`` and ``velocity``:
+then one per-strand kernel (``strand_solve.comp``) streams each strand once per step
+through shape, DFTL, collisions and the velocity update. ``run_pass`` still runs a folded
+pass's own kernel on its own (tests, diagnostics).
 
 The simulator keeps no dynamic state of its own: everything that changes from step to
 step lives in its ``SimState`` (``sim.state``), and every method takes ``state=`` to
@@ -44,6 +55,10 @@ from .state import BINDINGS, MAX_POINTS_PER_STRAND, SimState, transform_points
 HERE = Path(__file__).resolve().parent
 PASSES = ("integrate", "shape", "length", "collide", "sdf", "velocity", "friction", "volume", "guard")
 DEFAULT_POINTS_PER_STRAND = 16
+MAX_SWEEP_SDFS = 4
+"""mesh colliders handled inside the length pass's sweeps (texture units 5..8); more go
+to the sdf pass after it."""
+SDF_UNIT0 = 5
 
 
 def _optional(module: str, name: str):
@@ -66,6 +81,15 @@ def _set(shader, name: str, value) -> None:
     uniform.value = value
 
 
+def _write(shader, name: str, data: bytes) -> None:
+    """Raw bytes into a (uniform array) uniform, if the kernel has it."""
+    try:
+        uniform = shader[name]
+    except KeyError:
+        return
+    uniform.write(data)
+
+
 @dataclass
 class SimSnapshot:
     """A copy of a SimState's contents (CPU side), for ``Simulator.restore``."""
@@ -78,6 +102,7 @@ class SimSnapshot:
     steps: int
     accumulator: float
     collider_worlds: list | None = None
+    mesh_worlds: list | None = None
 
 
 @dataclass
@@ -237,11 +262,13 @@ class Simulator:
             self.substep(st, h, head)
 
     def substep(self, st: SimState, h: float, head: np.ndarray) -> None:
-        """Every pass once, with step ``h`` seconds and the head at ``head``."""
+        """Every pass once (but the folded ones), with step ``h`` seconds and the head at ``head``."""
         st.head = np.asarray(head, dtype=np.float64)
         self.upload_colliders(st)
+        folded = self.folded_passes()
         for name in PASSES:
-            self.run_pass(name, st, h)
+            if name not in folded:
+                self.run_pass(name, st, h)
         st.time += h
         st.steps += 1
         st.last_dt = h
@@ -254,6 +281,18 @@ class Simulator:
         buf.write(data.tobytes())
         st.collider_worlds = worlds
         st.num_colliders = len(worlds)
+        meshes = [c.world_transform(st.head) for c in self.colliders if isinstance(c, MeshCollider)]
+        prev = st.mesh_worlds if st.mesh_worlds is not None and len(st.mesh_worlds) == len(meshes) else meshes
+        st.mesh_prev_worlds, st.mesh_worlds = prev, meshes
+
+    def folded_passes(self) -> dict:
+        """Passes that ``substep`` does not run because another does their work: name -> that pass."""
+        folded = {"collide": "length", "sdf": "length"}
+        if sum(isinstance(c, MeshCollider) for c in self.colliders) > MAX_SWEEP_SDFS:
+            del folded["sdf"]
+        if self.settings.length_method == "dftl" and self.settings.fused_strand_solve:
+            folded.update(shape="length", velocity="length")
+        return folded
 
     # ------------------------------------------------------------------ passes
     def _bind(self, st: SimState) -> None:
@@ -308,36 +347,108 @@ class Simulator:
         self._dispatch("integrate", sh, self._particle_groups(st))
         return True
 
-    def _pass_shape(self, st: SimState, h: float) -> bool:
+    # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp)
+    shape_pipeline = 1
+    """shape iterations pipelined in one pass over a strand (1..4; the others take a pass
+    each, through memory). More stages mean more registers per thread: on an H200 at 100k x
+    32 (full solver, 2 iterations) 1 was fastest: fused length pass 0.62 ms, 0.80 with 2."""
+    strand_group_size = 64
+    """work group size of the per-strand kernels (one thread per strand)."""
+
+    def _shape_on(self) -> bool:
         s = self.settings
-        if s.local_shape_stiffness <= 0 and s.bending_stiffness <= 0:
-            return False
-        sh = self._shader("shape")
+        return s.local_shape_stiffness > 0 or s.bending_stiffness > 0
+
+    def _strand_solve(self, st: SimState, h: float, *, shape: bool, dftl: bool, velocity: bool,
+                      contact: bool) -> None:
+        s = self.settings
+        prims = self._sweep_prims(st) if contact else 0
+        sdfs = self._sweep_sdfs(st) if contact else []
+        stages = max(1, min(int(self.shape_pipeline), 4, s.shape_iterations)) if shape else 1
+        sh = self._shader("strand_solve", SHAPE=int(shape), DFTL=int(dftl), VELOCITY=int(velocity),
+                          PRIMS=prims, NSDF=len(sdfs), STAGES=stages, LOCAL_SIZE=int(self.strand_group_size))
         _set(sh, "num_strands", st.num_strands)
+        _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "head", _mat4(st.head))
         _set(sh, "local_stiffness", iteration_stiffness(s.local_shape_stiffness, s.shape_iterations))
         _set(sh, "bending_stiffness", iteration_stiffness(s.bending_stiffness, s.shape_iterations))
         _set(sh, "iterations", s.shape_iterations)
-        self._dispatch("shape", sh, self._strand_groups(st))
+        _set(sh, "dt", h)
+        _set(sh, "dftl_damping", s.dftl_damping)
+        _set(sh, "max_speed", s.max_speed)
+        self._bind_sdfs(sh, sdfs)
+        groups = (st.num_strands + self.strand_group_size - 1) // self.strand_group_size
+        self._dispatch("length" if dftl else "shape", sh, groups)
+
+    def _sweep_prims(self, st: SimState) -> int:
+        """The PRIMS define of the sweeps: colliders in the buffer, 0 without a projection one."""
+        if not any(isinstance(c, Collider) and c.mode == "projection" for c in self.colliders):
+            return 0
+        if st.collider_worlds is None:
+            self.upload_colliders(st)
+        return st.num_colliders
+
+    def _sweep_sdfs(self, st: SimState) -> list:
+        """(MeshSDF, world, previous world, collider) of the mesh colliders the sweeps handle."""
+        meshes = [(i, c) for i, c in enumerate(c for c in self.colliders if isinstance(c, MeshCollider))]
+        if not meshes:
+            return []
+        MeshSDF = _optional("mane.sim.sdf", "MeshSDF")
+        if MeshSDF is None:
+            self._warn("sdf", "mesh colliders skipped: mane.sim.sdf is not available")
+            return []
+        if st.mesh_worlds is None or len(st.mesh_worlds) != len(meshes):
+            self.upload_colliders(st)
+        out = []
+        for i, c in meshes[:MAX_SWEEP_SDFS]:
+            if c._sdf is None:
+                c._sdf = MeshSDF.bake(self.ctx, c.mesh, resolution=c.resolution, padding=c.padding)
+            out.append((c._sdf, st.mesh_worlds[i], st.mesh_prev_worlds[i], c))
+        return out
+
+    def _bind_sdfs(self, sh, sdfs: list) -> None:
+        if not sdfs:
+            return
+        n = len(sdfs)
+
+        def mats(ms):
+            return np.concatenate([np.asarray(m, np.float64).T.reshape(-1) for m in ms]).astype(np.float32).tobytes()
+
+        for j, (sdf, _, _, _) in enumerate(sdfs):
+            sdf.texture.use(SDF_UNIT0 + j)
+        _write(sh, "sdf_tex", np.arange(SDF_UNIT0, SDF_UNIT0 + n, dtype=np.int32).tobytes())
+        _write(sh, "sdf_lo_h", np.array([[*sdf.lo, sdf.h] for sdf, _, _, _ in sdfs], np.float32).tobytes())
+        _write(sh, "sdf_params", np.array([[c.margin, c.friction, 0, 0] for *_, c in sdfs], np.float32).tobytes())
+        _write(sh, "sdf_world_to_local", mats(np.linalg.inv(w) for _, w, _, _ in sdfs))
+        _write(sh, "sdf_local_to_world", mats(w for _, w, _, _ in sdfs))
+        _write(sh, "sdf_prev_world_to_local", mats(np.linalg.inv(p) for _, _, p, _ in sdfs))
+
+    def _pass_shape(self, st: SimState, h: float) -> bool:
+        if not self._shape_on():
+            return False
+        self._strand_solve(st, h, shape=True, dftl=False, velocity=False, contact=False)
         return True
 
     def _pass_length(self, st: SimState, h: float) -> bool:
         s = self.settings
         if s.length_method == "dftl":
-            sh = self._shader("dftl")
-            _set(sh, "num_strands", st.num_strands)
-            _set(sh, "head", _mat4(st.head))
-            self._dispatch("length", sh, self._strand_groups(st))
+            fused = s.fused_strand_solve
+            self._strand_solve(st, h, shape=fused and self._shape_on(), dftl=True, velocity=fused, contact=True)
             return True
         spg = max(1, 64 // st.points_per_strand)
-        sh = self._shader("pbd_length", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
+        sdfs = self._sweep_sdfs(st)
+        sh = self._shader("pbd_length", SPG=spg, GROUP_SIZE=spg * st.points_per_strand,
+                          PRIMS=self._sweep_prims(st), NSDF=len(sdfs))
         _set(sh, "num_strands", st.num_strands)
+        _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "iterations", s.pbd_iterations)
         _set(sh, "tether", int(s.long_range_attachment))
+        self._bind_sdfs(sh, sdfs)
         self._dispatch("length", sh, (st.num_strands + spg - 1) // spg)
         return True
 
     def _pass_collide(self, st: SimState, h: float) -> bool:
+        """Projection colliders after the fact (``substep`` does this inside ``length``)."""
         if not any(isinstance(c, Collider) and c.mode == "projection" for c in self.colliders):
             return False
         sh = self._shader("collide")
@@ -347,7 +458,11 @@ class Simulator:
         return True
 
     def _pass_sdf(self, st: SimState, h: float) -> bool:
+        """Mesh colliders after the fact: all of them when run on its own, those beyond
+        ``MAX_SWEEP_SDFS`` in ``substep`` (the sweeps of ``length`` do the others)."""
         meshes = [c for c in self.colliders if isinstance(c, MeshCollider)]
+        if "sdf" not in self.folded_passes():
+            meshes = meshes[MAX_SWEEP_SDFS:]
         if not meshes:
             return False
         MeshSDF = _optional("mane.sim.sdf", "MeshSDF")
@@ -412,12 +527,13 @@ class Simulator:
         s = self.settings
         if not s.nan_guard:
             return False
-        sh = self._shader("nan_guard")
+        spg = max(1, 64 // st.points_per_strand)
+        sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
         _set(sh, "num_strands", st.num_strands)
         _set(sh, "head", _mat4(st.head))
         _set(sh, "max_stretch", s.max_stretch)
         _set(sh, "max_speed_abs", 10.0 * s.max_speed)
-        self._dispatch("guard", sh, self._strand_groups(st))
+        self._dispatch("guard", sh, (st.num_strands + spg - 1) // spg)
         return True
 
     # ------------------------------------------------------------------ timing
@@ -474,7 +590,8 @@ class Simulator:
         names = ("positions", "prev_positions", "velocities", "corrections", "guard")
         return SimSnapshot({n: st.read(n) for n in names}, st.length_scale.copy(), st.head.copy(),
                            st.head_target.copy(), st.time, st.steps, st.accumulator,
-                           None if st.collider_worlds is None else [w.copy() for w in st.collider_worlds])
+                           None if st.collider_worlds is None else [w.copy() for w in st.collider_worlds],
+                           None if st.mesh_worlds is None else [w.copy() for w in st.mesh_worlds])
 
     def restore(self, snap: SimSnapshot, state: SimState | None = None) -> None:
         st = state or self.state
@@ -488,6 +605,8 @@ class Simulator:
         st.head, st.head_target = snap.head.copy(), snap.head_target.copy()
         st.time, st.steps, st.accumulator = snap.time, snap.steps, snap.accumulator
         st.collider_worlds = None if snap.collider_worlds is None else [w.copy() for w in snap.collider_worlds]
+        st.mesh_worlds = None if snap.mesh_worlds is None else [w.copy() for w in snap.mesh_worlds]
+        st.mesh_prev_worlds = st.mesh_worlds
 
     # ------------------------------------------------------------------ invariants
     def _padded(self, st: SimState, positions=None) -> np.ndarray:

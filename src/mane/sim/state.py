@@ -214,6 +214,10 @@ class SimState:
     """world transforms of the primitive colliders at the last step (for their motion)."""
     num_colliders: int = 0
     """primitive colliders in the colliders buffer."""
+    mesh_worlds: list | None = None
+    """world transforms of the mesh colliders at the last step (for their motion)."""
+    mesh_prev_worlds: list | None = None
+    """... and at the step before."""
 
     @property
     def num_particles(self) -> int:
@@ -264,6 +268,7 @@ class SimState:
         self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
         self.time, self.steps, self.accumulator, self.last_dt = 0.0, 0, 0.0, 0.0
         self.collider_worlds = None
+        self.mesh_worlds = self.mesh_prev_worlds = None
 
     # ---- read back
     def read(self, name: str) -> np.ndarray:

@@ -1,0 +1,143 @@
+// Collision projection of one particle, for use inside the strand solvers' sweeps
+// (strand_solve.comp: DFTL; pbd_length.comp: between iterations). Needs sim_common.glsl and
+// collide.glsl first. Two kinds of collider, in this order:
+//  - the projection-mode primitives of the colliders buffer (collide.glsl), each in turn:
+//    a particle inside moves to its surface point, then Coulomb-style friction removes the
+//    tangential part t of its displacement relative to the collider over the step: all of
+//    it when |t| <= mu * depth, else mu * depth of it (as collide.comp);
+//    PRIMS (a define) is the number of colliders in the buffer, 0 for none in projection
+//    mode: a first test of all of them, unrolled and side by side, finds the particles
+//    that touch none (most), which skip the sequential projections;
+//  - NSDF (0..4, a define) mesh signed distance fields (sdf.py's MeshSDF), each in turn:
+//    in the mesh's frame, sdf < margin moves out by margin - sdf along the normalised
+//    central-difference gradient, friction as above relative to the mesh, then up to two
+//    more projections (as sdf_collide.comp).
+#ifndef NSDF
+#define NSDF 0
+#endif
+#ifndef PRIMS
+#define PRIMS 0
+#endif
+
+#if NSDF > 0
+uniform sampler3D sdf_tex[NSDF];
+uniform vec4 sdf_lo_h[NSDF];                // mesh frame: xyz first node, w node spacing h
+uniform vec4 sdf_params[NSDF];              // x margin, y friction
+uniform mat4 sdf_world_to_local[NSDF];
+uniform mat4 sdf_local_to_world[NSDF];
+uniform mat4 sdf_prev_world_to_local[NSDF];  // the mesh's frame at the previous step
+
+// Trilinear texelFetch sample (sdf_sample.glsl's, for a texture of the array).
+float sdf_at(sampler3D tex, vec3 lo, float h, vec3 x) {
+    ivec3 res = textureSize(tex, 0);
+    vec3 g = (x - lo) / h;
+    vec3 gc = clamp(g, vec3(0.0), vec3(res - 1));
+    ivec3 b = min(ivec3(floor(gc)), res - 2);
+    vec3 f = gc - vec3(b);
+    float v = 0.0;
+    for (int c = 0; c < 8; ++c) {
+        ivec3 o = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        vec3 w = mix(vec3(1.0) - f, f, vec3(o));
+        v += w.x * w.y * w.z * texelFetch(tex, b + o, 0).r;
+    }
+    return v + length(g - gc) * h;
+}
+
+vec3 sdf_grad(sampler3D tex, vec3 lo, float h, vec3 x) {
+    float e = 0.5 * h;
+    vec3 g = vec3(sdf_at(tex, lo, h, x + vec3(e, 0, 0)) - sdf_at(tex, lo, h, x - vec3(e, 0, 0)),
+                  sdf_at(tex, lo, h, x + vec3(0, e, 0)) - sdf_at(tex, lo, h, x - vec3(0, e, 0)),
+                  sdf_at(tex, lo, h, x + vec3(0, 0, e)) - sdf_at(tex, lo, h, x - vec3(0, 0, e)));
+    float len = length(g);
+    return len > 1e-12 ? g / len : vec3(0.0);
+}
+
+// Distance from x to the SDF's box (local frame); the field is >= it there (the box is
+// padded around the mesh), so a particle farther than the margin needs no samples.
+float sdf_box_distance(sampler3D tex, vec3 lo, float h, vec3 x) {
+    vec3 hi = lo + h * vec3(textureSize(tex, 0) - 1);
+    return length(x - clamp(x, lo, hi));
+}
+#endif
+
+#if PRIMS
+// Whether p is inside any projection-mode primitive (never false when collider_depth > 0).
+bool prims_touch(vec3 p) {
+    bool any_in = false;
+    for (int ci = 0; ci < PRIMS; ++ci) {
+        Collider c = colliders[ci];
+        vec3 pl = transform_point(c.world_to_local, p);
+        vec3 radii = c.size.xyz + vec3(c.size.w);
+        bool inside;
+        if (int(c.shape.x) == 1) {
+            vec3 u = pl / radii;
+            inside = dot(u, u) < 1.0;
+        } else {
+            vec3 q = vec3(0.0, int(c.shape.x) == 2 ? clamp(pl.y, -c.shape.z, c.shape.z) : 0.0, 0.0);
+            inside = length(pl - q) < radii.x;
+        }
+        any_in = any_in || (inside && int(c.shape.y) == 0);
+    }
+    return any_in;
+}
+#endif
+
+// Project world point p (free particle, start-of-step position x0) out of every collider.
+// True when it moved; normal is then the outward unit normal (world) of the last contact.
+bool project_out(inout vec3 p, vec3 x0, out vec3 normal) {
+    normal = vec3(0.0);
+    bool moved = false;
+#if PRIMS
+    if (prims_touch(p)) for (int ci = 0; ci < PRIMS; ++ci) {
+        Collider c = colliders[ci];
+        if (int(c.shape.y) != 0) continue;
+        vec3 pl = transform_point(c.world_to_local, p);
+        vec3 n, sl;
+        float depth = collider_depth(c, pl, n, sl);
+        if (!(depth > 0.0)) continue;
+        mat3 to_world = transpose(mat3(c.world_to_local));
+        vec3 nw = normalize(to_world * n);
+        p += to_world * (sl - pl);
+        float mu = c.response.x;
+        if (mu > 0.0) {
+            vec3 rel = transform_point(c.prev_local_to_world, sl) - x0;
+            vec3 t = rel - dot(rel, nw) * nw;
+            float lt = length(t);
+            float lim = mu * depth;
+            p -= lt <= lim ? t : t * (lim / lt);
+        }
+        normal = nw;
+        moved = true;
+    }
+#endif
+#if NSDF > 0
+    for (int m = 0; m < NSDF; ++m) {
+        vec3 lo = sdf_lo_h[m].xyz;
+        float h = sdf_lo_h[m].w;
+        float margin = sdf_params[m].x;
+        vec3 x = transform_point(sdf_world_to_local[m], p);
+        if (sdf_box_distance(sdf_tex[m], lo, h, x) > margin) continue;
+        float d = sdf_at(sdf_tex[m], lo, h, x);
+        if (!(d < margin)) continue;
+        vec3 n = sdf_grad(sdf_tex[m], lo, h, x);
+        float depth = margin - d;
+        x += depth * n;
+        vec3 xp = transform_point(sdf_prev_world_to_local[m], x0);
+        vec3 disp = x - xp;
+        vec3 t = disp - dot(disp, n) * n;
+        float slip = length(t);
+        if (slip > 0.0) x -= min(sdf_params[m].y * depth / slip, 1.0) * t;
+        for (int k = 0; k < 2; ++k) {
+            d = sdf_at(sdf_tex[m], lo, h, x);
+            if (!(d < margin)) break;
+            x += (margin - d) * sdf_grad(sdf_tex[m], lo, h, x);
+        }
+        p = transform_point(sdf_local_to_world[m], x);
+        vec3 nw = mat3(sdf_local_to_world[m]) * n;
+        float ln = length(nw);
+        normal = ln > 0.0 ? nw / ln : normal;
+        moved = true;
+    }
+#endif
+    return moved;
+}

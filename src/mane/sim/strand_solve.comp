@@ -1,0 +1,361 @@
+#version 430 core
+// The per-strand solver: one thread per strand streams its strand root to tip, keeping only
+// the last vertices and each sweep's carried state in registers (no per-thread arrays, which
+// NVIDIA puts in local memory when indexed dynamically), as a pipeline of stages that each
+// vertex goes through in turn. Compile-time switches (the simulator picks them):
+//
+//  SHAPE (0/1): `iterations` Gauss-Seidel sweeps of local shape then bending, each with the
+//    per-iteration stiffness (1 - (1 - k)^(1/n), converted on the CPU):
+//    local shape (after TressFX): a frame F starts as head * root bind frame and is carried
+//      root to tip. Segment k -> k+1 is turned about p_k by the fraction k_it of its angle to
+//      F * ref_{k+1} (its bind-pose vector in that frame) and its length moves the same
+//      fraction toward the rest length; the rest of the strand moves rigidly with it (an
+//      angular spring at every joint: fixing one joint leaves the angles further down alone,
+//      so n sweeps of k_it remove exactly 1 - (1 - k_it)^n = k of every joint's error,
+//      independent of n). F then follows the segment by the smallest rotation taking its x
+//      axis onto it. Stiffness 1 rebuilds the bind pose in one sweep.
+//    bending: a joint bent beyond its rest angle (between segments k-1 and k) is unbent the
+//      fraction k_it of the excess, turning segment k (and, rigidly, the strand below it)
+//      about p_k in the plane of the two segments. No preferred direction: straight hair
+//      stays straight, kinks are limited; a joint straighter than at rest is left alone
+//      (curls are local shape's job). Same per-iteration argument.
+//    A sweep's correction of the strand below a joint is carried lazily (x -> R x + t) and
+//    applied as the sweep reaches each vertex, so sweep i+1 can follow sweep i one vertex
+//    behind: STAGES sweeps run pipelined in one pass over the strand; with more iterations
+//    than STAGES, the earlier ones take extra passes (through memory). The results are
+//    those of the sweeps one after the other.
+//  DFTL (0/1): Dynamic Follow-The-Leader (Müller, Kim, Chentanez 2012) with the collisions
+//    inside the sweep, root to tip, pinned particles staying and leading:
+//      p_k = p_{k-1} + l_k * normalize(x_k - p_{k-1})      (x_k: the predicted position)
+//      then, CONTACT_ITERATIONS times while p_k is inside a collider (contact.glsl):
+//        q = p_k projected out (with friction), n the contact normal;
+//        p_k = the point at distance l_k from p_{k-1} nearest q on the plane through q
+//              normal to n (back_to_length)
+//    so the segment keeps its length exactly and, the plane being outside a convex
+//    collider, ends outside it (a leader deep inside can make both impossible: the length
+//    wins). d_k = p_k - x_k less the collision pushes is kept for the velocity correction.
+//    A segment of zero length takes the direction of its rest segment under the head.
+//  PRIMS (colliders in the buffer, 0 for no projection-mode one), NSDF (0..4): the
+//    colliders of the sweep (primitives of the colliders buffer in projection mode; mesh SDFs).
+//  VELOCITY (0/1): v = (x - x_prev) / dt, plus DFTL's correction v_k += -s d_{k+1} / dt for
+//    free particles below the tip, |v| <= max_speed (velocity.comp's update, done as soon
+//    as d_{k+1} is known).
+#include "sim_common.glsl"
+#include "collide.glsl"
+#include "contact.glsl"
+
+#ifndef SHAPE
+#define SHAPE 0
+#endif
+#ifndef DFTL
+#define DFTL 0
+#endif
+#ifndef VELOCITY
+#define VELOCITY 0
+#endif
+#ifndef STAGES
+#define STAGES 1
+#endif
+#define CONTACT (PRIMS > 0 || NSDF > 0)
+#define CONTACT_ITERATIONS 2
+#ifndef LOCAL_SIZE
+#define LOCAL_SIZE 64
+#endif
+
+layout(local_size_x = LOCAL_SIZE) in;
+
+uniform mat4 head;
+uniform float local_stiffness;    // per iteration
+uniform float bending_stiffness;  // per iteration
+uniform int iterations;
+uniform float dt;
+uniform float dftl_damping;
+uniform float max_speed;
+
+#if SHAPE
+// atan(y / x) for y >= 0 to float precision (Cephes atanf; Mesa's atan is ~3e-6 off).
+float atan_positive(float t) {
+    float y0 = 0.0;
+    if (t > 2.414213562373095) {
+        y0 = 1.5707963267948966;
+        t = -1.0 / t;
+    } else if (t > 0.4142135623730950) {
+        y0 = 0.7853981633974483;
+        t = (t - 1.0) / (t + 1.0);
+    }
+    float z = t * t;
+    return y0 + ((((8.05374449538e-2 * z - 1.38776856032e-1) * z + 1.99777106478e-1) * z
+                  - 3.33329491539e-1) * z * t + t);
+}
+
+float angle_of(float sn, float cs) {  // atan2(sn, cs) for sn >= 0
+    if (cs > 0.0) return atan_positive(sn / cs);
+    if (cs < 0.0) return 3.141592653589793 - atan_positive(sn / -cs);
+    return 1.5707963267948966;
+}
+
+// Rotation by angle (radians) about the unit axis (Rodrigues).
+mat3 axis_rotation(vec3 axis, float angle) {
+    float c = cos(angle), s = sin(angle);
+    mat3 K = mat3(vec3(0.0, axis.z, -axis.y), vec3(-axis.z, 0.0, axis.x), vec3(axis.y, -axis.x, 0.0));
+    return mat3(1.0) + s * K + (1.0 - c) * (K * K);
+}
+
+// Rotation by the fraction f of the angle from a to b, about a x b.
+mat3 rotate_toward(vec3 a, vec3 b, float f) {
+    float la = length(a), lb = length(b);
+    if (!(la > 1e-12) || !(lb > 1e-12)) return mat3(1.0);
+    a /= la;
+    b /= lb;
+    vec3 axis = cross(a, b);
+    float sn = length(axis);
+    float cs = dot(a, b);
+    if (sn < 1e-9) {
+        if (cs > 0.0) return mat3(1.0);
+        axis = abs(a.x) < 0.9 ? cross(a, vec3(1.0, 0.0, 0.0)) : cross(a, vec3(0.0, 1.0, 0.0));
+        sn = length(axis);
+    }
+    return axis_rotation(axis / sn, f * angle_of(length(cross(a, b)), cs));
+}
+
+// One iteration's sweeps (local shape, then bending) as they pass down a strand; positions
+// relative to the root.
+struct Sweep {
+    mat3 F;             // local shape: the bind frame carried to the current segment
+    mat3 Rl;            // local shape's correction of the strand below: x -> Rl x + tl
+    vec3 tl;
+    mat3 Rb;            // bending's
+    vec3 tb;
+    vec3 l1;            // local shape's result at the previous vertex
+    vec3 b1;            // bending's result at the previous vertex
+    vec3 b0;            // ... and the one before
+};
+
+Sweep sweep_start(mat3 F0) {
+    return Sweep(F0, mat3(1.0), vec3(0.0), mat3(1.0), vec3(0.0), vec3(0.0), vec3(0.0), vec3(0.0));
+}
+
+// Vertex k + 1 (position q) through the sweep; returns its new position.
+vec3 sweep_vertex(inout Sweep S, uint k, vec3 q, bool free_, float seg_rest, vec3 ref, float rest_angle) {
+    if (local_stiffness > 0.0) {
+        vec3 pk = S.l1;
+        if (free_) {
+            q = S.Rl * q + S.tl;
+            vec3 a = q - pk;
+            vec3 b = S.F * ref;
+            mat3 R = rotate_toward(a, b, local_stiffness);
+            vec3 ra = R * a;
+            float la = length(a);
+            vec3 stretch = la > 1e-12 ? ra * (local_stiffness * (length(b) / la - 1.0)) : vec3(0.0);
+            q = pk + ra + stretch;
+            S.Rl = R * S.Rl;
+            S.tl = R * (S.tl - pk) + pk + stretch;
+        } else {
+            S.Rl = mat3(1.0);  // a pinned particle carries nothing past it
+            S.tl = vec3(0.0);
+        }
+        vec3 d = q - pk;
+        float len = length(d);
+        if (seg_rest > 1e-12 && len > 1e-12) {
+            vec3 u = normalize(transpose(S.F) * (d / len));
+            S.F = S.F * min_rotation_from_x(u);
+        }
+        S.l1 = q;
+    }
+    if (bending_stiffness > 0.0) {
+        if (k >= 1u) {
+            if (free_) {
+                q = S.Rb * q + S.tb;
+                vec3 e0 = S.b1 - S.b0;
+                vec3 a = q - S.b1;
+                vec3 n = cross(e0, a);
+                float sn = length(n);
+                float l0 = length(e0), la = length(a);
+                if (l0 > 1e-12 && la > 1e-12 && sn > 1e-9 * l0 * la) {
+                    float err = angle_of(sn, dot(e0, a)) - rest_angle;
+                    // unilateral: joints bent beyond their rest angle are unbent; joints
+                    // straighter than at rest are left alone (bending them back toward a
+                    // curl pumps energy into the strand; curls are local shape's job)
+                    if (err < 0.0) err = 0.0;
+                    mat3 R = axis_rotation(n / sn, -bending_stiffness * err);
+                    q = S.b1 + R * a;
+                    S.Rb = R * S.Rb;
+                    S.tb = R * (S.tb - S.b1) + S.b1;
+                }
+            } else {
+                S.Rb = mat3(1.0);
+                S.tb = vec3(0.0);
+            }
+        }
+        S.b0 = S.b1;
+        S.b1 = q;
+    }
+    return q;
+}
+
+// Vertex k + 1 through `count` (1..STAGES) pipelined sweeps.
+vec3 sweep_stages(inout Sweep S0, inout Sweep S1, inout Sweep S2, inout Sweep S3, int count,
+                  uint k, vec3 q, bool free_, vec4 info, vec3 ref) {
+    q = sweep_vertex(S0, k, q, free_, info.x, ref, info.z);
+#if STAGES > 1
+    if (count > 1) q = sweep_vertex(S1, k, q, free_, info.x, ref, info.z);
+#endif
+#if STAGES > 2
+    if (count > 2) q = sweep_vertex(S2, k, q, free_, info.x, ref, info.z);
+#endif
+#if STAGES > 3
+    if (count > 3) q = sweep_vertex(S3, k, q, free_, info.x, ref, info.z);
+#endif
+    return q;
+}
+#endif
+
+#if DFTL && CONTACT
+// Particle k back at distance l from its leader a after a collision moved it from p to q
+// (outward normal n there): the point at distance l from a nearest q on the plane through
+// q normal to n (for a convex collider that plane is outside it, so the particle ends both
+// at its length and outside), or, when the sphere of radius l about a does not reach the
+// plane, the point at distance l from a toward q.
+vec3 back_to_length(vec3 a, float l, vec3 p, vec3 q, vec3 n) {
+    float ha = dot(a - q, n);  // height of the leader over the plane
+    vec3 f = q - a;
+    if (abs(ha) < l) {
+        vec3 c = a - ha * n;   // centre of the circle where the sphere meets the plane
+        vec3 u = q - c;
+        float lu = length(u);
+        if (!(lu > 1e-6 * l)) {  // q right under its leader: along p's side instead
+            u = p - c;
+            u -= dot(u, n) * n;
+            lu = length(u);
+        }
+        if (lu > 1e-12) return c + sqrt(l * l - ha * ha) * (u / lu);
+    }
+    float lf = length(f);
+    return lf > 1e-12 ? a + l * (f / lf) : q;
+}
+#endif
+
+void main() {
+    uint s = gl_GlobalInvocationID.x;
+    if (s >= num_strands) return;
+    uint base = s * uint(NV);
+    mat3 H = mat3(head);
+    vec3 origin = positions[base].xyz;  // the shape sweeps work relative to the root (less round-off)
+    int count = 1;
+#if SHAPE
+    mat3 F0 = H * mat3(root_frames[3u * s].xyz, root_frames[3u * s + 1u].xyz, root_frames[3u * s + 2u].xyz);
+    Sweep S0 = sweep_start(F0), S1 = S0, S2 = S0, S3 = S0;
+    // all but the last STAGES iterations: passes of STAGES pipelined sweeps, through memory
+    int done = 0;
+    for (; iterations - done > STAGES; done += STAGES) {
+        S0 = sweep_start(F0); S1 = S0; S2 = S0; S3 = S0;
+        for (uint k = 1u; k < uint(NV); ++k) {
+            uint i = base + k;
+            vec4 x = positions[i];
+            vec3 q = sweep_stages(S0, S1, S2, S3, STAGES, k - 1u, x.xyz - origin, rest_positions[i].w > 0.0,
+                                  rest_info[i], shape_refs[i].xyz);
+            positions[i] = vec4(q + origin, x.w);
+        }
+    }
+    count = iterations - done;
+    S0 = sweep_start(F0); S1 = S0; S2 = S0; S3 = S0;
+#endif
+#if DFTL
+    vec3 prev = origin;                     // p_{k-1}, final
+    vec3 rest_prev = rest_positions[base].xyz;
+    corrections[base] = vec4(0.0);
+#if VELOCITY
+    vec3 vx = origin;                       // particle k-1: final position, start of the step,
+    vec3 vx0 = prev_positions[base].xyz;    // free
+    bool vfree = rest_positions[base].w > 0.0;
+#endif
+#endif
+    // the last pass: the remaining sweeps, DFTL, collisions, velocities; the next vertex's
+    // data is loaded while this one is worked on
+    vec4 nx = positions[base + 1u], nrest = rest_positions[base + 1u], ninfo = rest_info[base + 1u];
+#if SHAPE
+    vec4 nref = shape_refs[base + 1u];
+#endif
+#if DFTL && (CONTACT || VELOCITY)
+    vec4 nprev = prev_positions[base + 1u];
+#endif
+    for (uint k = 1u; k < uint(NV); ++k) {
+        uint i = base + k;
+        vec4 x = nx, rest = nrest, info = ninfo;
+#if SHAPE
+        vec3 ref = nref.xyz;
+#endif
+#if DFTL && (CONTACT || VELOCITY)
+        vec3 x0 = nprev.xyz;
+#endif
+        if (k + 1u < uint(NV)) {
+            nx = positions[i + 1u];
+            nrest = rest_positions[i + 1u];
+            ninfo = rest_info[i + 1u];
+#if SHAPE
+            nref = shape_refs[i + 1u];
+#endif
+#if DFTL && (CONTACT || VELOCITY)
+            nprev = prev_positions[i + 1u];
+#endif
+        }
+        bool free_ = rest.w > 0.0;
+        vec3 xp = x.xyz;  // predicted position
+#if SHAPE
+        xp = sweep_stages(S0, S1, S2, S3, count, k - 1u, xp - origin, free_, info, ref) + origin;
+#endif
+#if DFTL
+        vec3 p = xp;
+        vec3 d = vec3(0.0);
+        if (free_) {
+            vec3 e = xp - prev;
+            float len = length(e);
+            vec3 dir;
+            if (!finite3(e)) {
+                dir = e;  // let NaN through: the guard resets the strand
+            } else if (len > 1e-12) {
+                dir = e / len;
+            } else {
+                vec3 r = H * (rest.xyz - rest_prev);
+                dir = length(r) > 1e-12 ? normalize(r) : vec3(0.0, -1.0, 0.0);
+            }
+            float l = info.x;
+            p = prev + l * dir;
+            vec3 push = vec3(0.0);
+#if CONTACT
+            for (int c = 0; c < CONTACT_ITERATIONS; ++c) {
+                vec3 q = p, n;
+                if (!project_out(q, x0, n)) break;
+                push += q - p;
+                p = back_to_length(prev, l, p, q, n);
+            }
+#endif
+            d = p - xp - push;
+        }
+        corrections[i] = vec4(d, 0.0);
+        positions[i] = vec4(p, x.w);
+#if VELOCITY
+        {   // particle k-1, now that d_k is known
+            vec3 v = (vx - vx0) / dt;
+            if (dftl_damping > 0.0 && vfree) v -= dftl_damping * d / dt;
+            float speed = length(v);
+            if (speed > max_speed) v *= max_speed / speed;
+            velocities[i - 1u] = vec4(v, 0.0);
+            vx = p;
+            vx0 = x0;
+            vfree = free_;
+        }
+#endif
+        prev = p;
+        rest_prev = rest.xyz;
+#else
+        positions[i] = vec4(xp, x.w);
+#endif
+    }
+#if DFTL && VELOCITY
+    vec3 v = (vx - vx0) / dt;  // the tip
+    float speed = length(v);
+    if (speed > max_speed) v *= max_speed / speed;
+    velocities[base + uint(NV) - 1u] = vec4(v, 0.0);
+#endif
+}
