@@ -20,7 +20,6 @@ FAR = 1.0e9
 
 class DeepOpacityPass(Pass):
     name = "deep_opacity"
-    OPACITY_DTYPE = "f4"   # the opacity layers' texture ("f2": half the blending bandwidth)
     reads = ("strands",)
     writes = ("dom",)
 
@@ -32,7 +31,7 @@ class DeepOpacityPass(Pass):
         self.z0.filter = (ctx.NEAREST, ctx.NEAREST)
         self.depth = ctx.depth_renderbuffer((n, n))
         self.z0_fbo = ctx.framebuffer([self.z0], self.depth)
-        self.opacity = ctx.texture((n, n), 4, dtype=self.OPACITY_DTYPE)
+        self.opacity = ctx.texture((n, n), 4, dtype="f4")
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
         self.opacity_fbo = ctx.framebuffer([self.opacity])
 
@@ -79,8 +78,7 @@ class DeepOpacityPass(Pass):
     def read(self) -> np.ndarray:
         """(n, n, 4) float32: O1, O2, O3, z0."""
         n = self.opacity.size
-        dt = np.float16 if self.OPACITY_DTYPE == "f2" else np.float32
-        return np.frombuffer(self.opacity.read(), dt).reshape(n[1], n[0], 4).astype(np.float32)
+        return np.frombuffer(self.opacity.read(), np.float32).reshape(n[1], n[0], 4).copy()
 
     def release(self) -> None:
         for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity):

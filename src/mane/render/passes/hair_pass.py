@@ -9,8 +9,6 @@ from __future__ import annotations
 
 from .base import HERE, PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program, set_uniform
 
-EARLY_Z = True   # the shading pass after the pre-pass: layout(early_fragment_tests)
-
 
 class HairPass(Pass):
     name = "hair"
@@ -24,7 +22,7 @@ class HairPass(Pass):
         r, ctx = self.renderer, self.ctx
         msaa = r.samples > 1
         prepass = msaa and bool(getattr(r.settings, "depth_prepass", False))
-        prog = hair_program(r, PASS_SHADE, extra_defines={"EARLY_Z": 1} if prepass and EARLY_Z else None)
+        prog = hair_program(r, PASS_SHADE)
         r.shading.bind(prog, ctx, r.settings)
         bind_lighting(r, prog, frame)
         r.hdr_fbo().use()
@@ -40,9 +38,10 @@ class HairPass(Pass):
         set_uniform(prog, "u_premultiply", int(not msaa))
         if prepass:
             # depth first (alpha to coverage, a trivial fragment shader, no colour), then shade
-            # once per pixel and visible strand: LEQUAL, no depth writes (early depth test),
-            # alpha to coverage again (Mesa writes the pre-pass's depth to every covered
-            # sample; the same alpha gives the same mask)
+            # once per pixel and visible strand: LEQUAL, no depth writes (the driver tests
+            # depth early; layout(early_fragment_tests) measured no faster), alpha to coverage
+            # again (Mesa writes the pre-pass's depth to every covered sample; the same alpha
+            # gives the same mask)
             depth = hair_program(r, PASS_SHADE, fragment_file=HERE / "hair_depth.frag")
             fbo = r.hdr_fbo()
             fbo.color_mask = (False, False, False, False)

@@ -1,0 +1,162 @@
+"""pipeline="compute": the compute expansion (strand_expand.comp) against NumPy twins and the
+tessellation pipeline, and the vertex-pulled images against the tessellated ones.
+
+The expansion runs the tessellation evaluation stage's own code (strand_eval.glsl); these
+tests pin the part that differs: which (guide segment, u, strand) each expanded point is,
+and that the vertex-pulled strips are the geometry shader's ribbons.
+"""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mane.render import Renderer, RenderSettings
+from mane.render import strand_math as sm
+from mane.render.capture import capture_segments, strands_from_segments
+
+from test_render_tessellation import curve, wavy_groom
+
+pytestmark = pytest.mark.gpu
+
+
+def expanded(gl, groom, weights=None, **kw):
+    """(strands, points, 8) of the compute expansion: xyz, width, tangent, strand random."""
+    r = Renderer(RenderSettings(**{"size": (64, 48), "msaa": 1, "pipeline": "compute", **kw}), ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        if weights is not None:
+            r.set_guide_weights(*weights)
+        r.strands.update_frames()
+        return r.get_pass("expand").read()
+    finally:
+        r.release()
+
+
+def captured(gl, groom, weights=None, **kw):
+    r = Renderer(RenderSettings(**{"size": (64, 48), "msaa": 1, "pipeline": "tessellation", **kw}), ctx=gl,
+                 profile=False)
+    try:
+        r.set_strands(groom)
+        if weights is not None:
+            r.set_guide_weights(*weights)
+        return strands_from_segments(capture_segments(r))
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("scheme", ["catmull_rom", "bspline", "bezier"])
+def test_expanded_guides_match_the_numpy_curves(gl, scheme):
+    g = wavy_groom()
+    e = expanded(gl, g, interpolation=scheme, segments=40, strands_per_guide=1)
+    assert e.shape[:2] == (g.num_strands, 41)   # 5 guide segments x 8 + the tip
+    s = np.linspace(0.0, 1.0, e.shape[1])
+    for gi in range(g.num_strands):
+        pos, der = curve(g.as_padded()[gi].astype(np.float64), scheme, s)
+        np.testing.assert_allclose(e[gi, :, :3], pos, atol=2e-6)
+        t = der / np.linalg.norm(der, axis=1, keepdims=True)
+        np.testing.assert_allclose(e[gi, :, 4:7], t, atol=2e-5)
+        w = RenderSettings().width * (1.0 + (RenderSettings().width_tip - 1.0) * s)
+        np.testing.assert_allclose(e[gi, :, 3], w, rtol=1e-5)
+
+
+def test_expanded_clumps_match_the_twin(gl):
+    g = wavy_groom(guides=2)
+    spg = 40
+    settings = RenderSettings(strands_per_guide=spg, clump_radius=0.005, stray_fraction=0.5, stray_amount=2.0,
+                              segments=25)
+    e = expanded(gl, g, strands_per_guide=spg, clump_radius=0.005, stray_fraction=0.5, stray_amount=2.0,
+                 segments=25)
+    s = np.linspace(0.0, 1.0, e.shape[1])
+    ids = np.arange(e.shape[0])
+    gi, j = ids // spg, ids % spg
+    rnd = sm.strand_randoms(gi, j)
+    for n in ids:
+        if j[n] == 0:
+            np.testing.assert_allclose(e[n, :, :3], e[gi[n] * spg, :, :3])
+            continue
+        got = np.linalg.norm(e[n, :, :3] - e[gi[n] * spg, :, :3], axis=1)
+        one = {k: v[n] for k, v in rnd.items()}
+        np.testing.assert_allclose(got, sm.clump_radius_at(s, one, settings), atol=3e-6)
+        np.testing.assert_allclose(e[n, :, 7], one["rand"], atol=1e-7)
+
+
+@pytest.mark.parametrize("kw", [dict(strands_per_guide=12, curl_radius=0.003, segments=30),
+                                dict(strands_per_guide=70, interpolation="bspline", segments=20),
+                                dict(strands_per_guide=6, interpolation_mode="multi", segments=15)])
+def test_expansion_is_the_tessellation_pipeline(gl, kw):
+    g = wavy_groom(guides=4, points=7)
+    e = expanded(gl, g, **kw)
+    strands = captured(gl, g, **kw)
+    assert len(strands) == e.shape[0]
+    for sid, pts in strands.items():
+        s = np.linspace(0.0, 1.0, e.shape[1])
+        np.testing.assert_allclose(pts[:, 3], s, atol=3e-6)
+        np.testing.assert_allclose(e[sid, :, :3], pts[:, :3], atol=2e-6)
+
+
+def _render(gl, groom, **kw):
+    r = Renderer(RenderSettings(**{"size": (96, 72), **kw}), ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        return r.render_image().astype(int)
+    finally:
+        r.release()
+
+
+@pytest.mark.parametrize("kw", [dict(msaa=1, shadows="deep_opacity"), dict(msaa=4, shadows="deep_opacity"),
+                                dict(msaa=1, geometry="lines", shadows="shadow_map"),
+                                dict(msaa=4, shadows="opacity_maps", interpolation_mode="multi")])
+def test_compute_images_match_tessellation(gl, kw):
+    g = wavy_groom(guides=6, points=8)
+    kw = dict(strands_per_guide=10, width=0.002, **kw)
+    a = _render(gl, g, pipeline="tessellation", depth_prepass=False, **kw)
+    b = _render(gl, g, pipeline="compute", **kw)
+    assert a.std() > 1.0   # the hair is in the picture
+    assert np.abs(a - b).mean() < 0.05, np.abs(a - b).mean()
+
+
+def test_depth_prepass_changes_nothing(gl):
+    g = wavy_groom(guides=6, points=8)
+    kw = dict(strands_per_guide=10, width=0.002, msaa=4, shadows="deep_opacity")
+    for pipeline in ("tessellation", "compute"):
+        a = _render(gl, g, pipeline=pipeline, depth_prepass=False, **kw)
+        b = _render(gl, g, pipeline=pipeline, depth_prepass=True, **kw)
+        assert np.abs(a - b).mean() < 0.05, (pipeline, np.abs(a - b).mean())
+
+
+def test_expansion_reruns_only_when_the_guides_change(gl):
+    g = wavy_groom()
+    r = Renderer(RenderSettings(size=(64, 48), msaa=1, pipeline="compute"), ctx=gl, profile=False)
+    try:
+        r.set_strands(g)
+        ex = r.get_pass("expand")
+        r.render()
+        key = ex._key
+        frame = r.render()
+        assert ex._key == key and not ex.enabled(frame)
+        before = ex.read().copy()
+        p = r.strands.read_positions()
+        p[..., 0] += 0.01
+        p4 = np.concatenate([p, np.ones(p.shape[:-1] + (1,), np.float32)], axis=-1)
+        r.strands.positions.write(np.ascontiguousarray(p4, dtype=np.float32).tobytes())
+        r.strands_changed()
+        r.render()
+        assert ex._key != key
+        np.testing.assert_allclose(ex.read()[..., 0], before[..., 0] + 0.01, atol=1e-5)
+    finally:
+        r.release()
+
+
+def test_lod_and_oit_keep_the_tessellation_pipeline(gl):
+    from mane.render.passes.expand import pulls
+
+    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute", lod=True), ctx=gl, profile=False)
+    try:
+        assert not pulls(r)
+    finally:
+        r.release()
+    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute"), ctx=gl, profile=False)
+    try:
+        assert pulls(r) and not pulls(r, capture=True)
+    finally:
+        r.release()
