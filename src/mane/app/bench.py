@@ -27,6 +27,10 @@ TARGETS: dict[str, tuple[str, str]] = {
                                           "(strands x shading, shadows x map x PCF, guides, divisions, LOD, MSAA)"),
     "oit": ("mane.bench.oit_bench", "hair transparency: GPU ms and bytes per OIT method x shadow method x "
                                     "viewport x groom (Hunz Figs. 41-42); the DBK-buffer target"),
+    "quality": ("mane.bench.quality", "validation figures: shading GLSL vs equations, shadows vs an exact ray cast, "
+                                      "OIT vs the exact sort, simulation invariants (--out DIR: quality.json + images)"),
+    "all": ("mane.bench.all_bench", "every target in turn (--out DIR: JSON, CSV per table, plots/*.png beside the "
+                                    "seeds' published figures, summary.md; --only, --baseline)"),
 }
 
 
@@ -34,11 +38,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("target", choices=sorted(TARGETS),
                         help="what to benchmark: " + "; ".join(f"{k}: {v[1]}" for k, v in TARGETS.items()))
     parser.add_argument("--json", action="store_true", help="print the results as one JSON object")
-    parser.add_argument("--out", metavar="FILE", help="also write the JSON to FILE")
+    parser.add_argument("--out", metavar="FILE", help="also write the JSON to FILE (all, quality: a folder DIR)")
     size = parser.add_mutually_exclusive_group()
     size.add_argument("--quick", action="store_true", help="small configurations, a few steps (seconds, any GPU)")
     size.add_argument("--full", action="store_true", help="more configurations and steps (minutes)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    # all / quality: --out is a folder
+    parser.add_argument("--only", metavar="TARGETS", help="all: only these targets, comma-separated (e.g. sim,render)")
+    parser.add_argument("--baseline", metavar="DIR", help="all: another run's --out folder (e.g. --quick on a CPU) "
+                                                          "whose times go beside this run's in summary.md")
 
 
 def _json_default(obj):
@@ -79,6 +87,8 @@ def run(args) -> int:
         raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
     mode = "quick" if args.quick else "full" if args.full else "default"
     module = importlib.import_module(TARGETS[args.target][0])
+    if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
+        return int(module.run_cli(args) or 0)
     progress = None if args.quiet else (
         lambda msg: print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True))
     ctx = get_context()
