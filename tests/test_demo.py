@@ -9,9 +9,10 @@ from mane.app.cli import main
 
 def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--seconds", "0.25", "--quality", "software"]) == 0
+    assert main(["demo", "--out", str(out), "--seconds", "0.25", "--quality", "software", "--headless"]) == 0
     text = capsys.readouterr().out
     assert "points identical" in text and " NO" not in text
+    assert "frames per second simulated and rendered at 960x540" in text
     import imageio.v2 as imageio
 
     reader = imageio.get_reader(str(out / "demo.mp4"))
@@ -19,10 +20,10 @@ def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     reader.close()
     timings = json.loads((out / "timings.json").read_text())
     assert len(video) == timings["frames"] == 6  # 0.25 s at 24 fps
-    assert video[0].shape == (270, 480, 3)
+    assert video[0].shape == (540, 960, 3)   # SOFTWARE: 960x540 at 15+ fps
     assert video[0].std() > 5  # not a blank frame
     sheet = imageio.imread(out / "contact_sheet.png")
-    assert sheet.shape[0] >= 270 and sheet.shape[1] == 3 * 480
+    assert sheet.shape[0] >= 540 and sheet.shape[1] == 3 * 960
     anim = load(out / "simulation.usda")
     assert anim.metadata["usd"]["num_time_samples"] == 6
     assert np.all(np.isfinite(anim.points))

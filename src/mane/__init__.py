@@ -4,6 +4,7 @@
     groom = mane.load("hair.tfx")        # any supported hair file
     print(groom.stats())
     mane.save(groom.scaled(0.01), "hair.usda")
+    img = mane.render_image(groom)       # (H, W, 3) uint8; as_pil=True: a PIL image for notebooks
 """
 from __future__ import annotations
 
@@ -23,8 +24,19 @@ from .errors import (  # noqa: F401
 from .groom import Groom  # noqa: F401
 from .io import load, load_mesh, save  # noqa: F401
 
+
+
+def __getattr__(name):
+    # mane.render_image loads the renderer (moderngl) only when asked for: ``import mane`` stays light
+    if name == "render_image":
+        from .render.image import render_image
+
+        return render_image
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
 __all__ = [
-    "__version__", "Groom", "load", "save", "load_mesh",
+    "__version__", "Groom", "load", "save", "load_mesh", "render_image",
     "ManeError", "FormatError", "UnsupportedFormatError", "GroomError", "UsageError",
     "GPUError", "GLFeatureError", "ShaderCompileError", "GPUMemoryError",
 ]

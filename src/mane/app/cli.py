@@ -23,6 +23,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
     "bench": ("mane.app.bench", "run benchmarks (sim) and print or write JSON"),
     "demo": ("mane.app.demo", "the main job: grow, convert and describe the default groom"),
+    "view": ("mane.app.view", "open the interactive viewer: simulate, light and render a groom live (needs a display)"),
 }
 
 

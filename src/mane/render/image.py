@@ -2,6 +2,7 @@
 
     img = render_image(groom, head=mesh, size=(320, 240), shadows="deep_opacity")   # (H, W, 3) uint8
     img = render_image()                                # the procedural default head and groom
+    pic = render_image(groom, as_pil=True)              # a PIL image: shows itself in Jupyter
 """
 from __future__ import annotations
 
@@ -13,10 +14,13 @@ from .settings import RenderSettings
 
 
 def render_image(groom=None, head=None, *, settings: RenderSettings | None = None, camera: Camera | None = None,
-                 lights=None, ctx=None, azimuth: float = 25.0, elevation: float = 12.0, **overrides) -> np.ndarray:
+                 lights=None, ctx=None, azimuth: float = 25.0, elevation: float = 12.0, as_pil: bool = False,
+                 **overrides):
     """Render ``groom`` (a Groom, StrandBuffers or Simulator; None: the default scene) and ``head``.
 
-    ``overrides`` are RenderSettings fields (size=(w, h), shadows=..., msaa=...)."""
+    ``overrides`` are RenderSettings fields (size=(w, h), shadows=..., msaa=...). Returns an
+    (H, W, 3) uint8 array, or with ``as_pil=True`` a ``PIL.Image.Image`` (which a Jupyter
+    notebook displays: it has ``_repr_png_``)."""
     settings = (settings or RenderSettings()).replace(**overrides) if overrides else (settings or RenderSettings())
     if groom is None:
         from .scene import default_scene
@@ -28,6 +32,11 @@ def render_image(groom=None, head=None, *, settings: RenderSettings | None = Non
         r.set_strands(groom)
         r.set_head(head)
         cam = camera if camera is not None else r.default_camera(azimuth, elevation)
-        return r.render_image(cam, lights)
+        image = r.render_image(cam, lights)
     finally:
         r.release()
+    if as_pil:
+        from PIL import Image
+
+        return Image.fromarray(image)
+    return image

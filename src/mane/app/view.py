@@ -1,0 +1,51 @@
+"""``mane view [GROOM] [--head MESH]``: the interactive viewer (see mane.viewer)."""
+from __future__ import annotations
+
+HELP = "open the interactive viewer: simulate, light and render a groom live (needs a display)"
+
+
+def _size(text: str) -> tuple[int, int]:
+    from ..errors import UsageError
+
+    try:
+        w, h = (int(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise UsageError(f"--size must be WIDTHxHEIGHT, got {text!r}") from None
+    return w, h
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument("groom", nargs="?", help="hair file (any format mane reads; default: the procedural groom)")
+    parser.add_argument("--head", help="head or body mesh (.obj, .ply, .glb, .gltf, .stl, .tfxmesh)")
+    parser.add_argument("--size", default="960x540", help="window size WIDTHxHEIGHT (default 960x540)")
+    parser.add_argument("--quality", choices=("auto", "software", "gpu"), default="auto",
+                        help="workload preset (auto: by the OpenGL renderer)")
+    parser.add_argument("--motion", choices=("none", "nod", "shake", "turn"), default="none",
+                        help="head motion preset to start with")
+    parser.add_argument("--demo", action="store_true", help="the demo's sweeping sphere, nodding head and gusts")
+    parser.add_argument("--out", default="out/viewer", help="folder for screenshots and recordings")
+    parser.add_argument("--frames", type=int, default=None, help="quit after this many frames (scripts, tests)")
+    parser.add_argument("--screenshot", default=None, help="save a screenshot to this PNG when quitting")
+
+
+def run(args) -> int:
+    from .. import load, load_mesh
+    from ..viewer import Viewer
+
+    groom = load(args.groom) if args.groom else None
+    head = load_mesh(args.head) if args.head else None
+    viewer = Viewer(groom, head, size=_size(args.size), quality=args.quality, demo=args.demo,
+                    motion=args.motion if not args.demo or args.motion != "none" else None, out_dir=args.out)
+    try:
+        print(f"mane view: {viewer.status}")
+        n = viewer.run(max_frames=args.frames)
+        if args.screenshot:
+            viewer.screenshot(args.screenshot)
+            viewer.frame()
+            print(f"mane view: screenshot {viewer.last_screenshot}")
+        print(f"mane view: {n} frames, {viewer.fps:.1f} frames per second")
+        if viewer.error:
+            print(f"mane view: last error: {viewer.error}")
+    finally:
+        viewer.close()
+    return 0

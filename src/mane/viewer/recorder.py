@@ -1,0 +1,83 @@
+"""Screenshots (PNG) and MP4 recording of what the viewer shows.
+
+    path = save_screenshot(image, folder)          # folder/mane_YYYYmmdd_HHMMSS.png
+    rec = Recorder(folder, fps=30)
+    rec.add(image) ...                             # (H, W, 3) uint8, top row first
+    path = rec.stop()                              # folder/mane_YYYYmmdd_HHMMSS.mp4
+
+Frames must keep one size (the first frame's); libx264 wants even sides, so odd ones are cropped.
+"""
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+
+
+def _stamp_name(folder: Path, suffix: str) -> Path:
+    folder.mkdir(parents=True, exist_ok=True)
+    base = time.strftime("mane_%Y%m%d_%H%M%S")
+    path = folder / f"{base}{suffix}"
+    n = 1
+    while path.exists():
+        path = folder / f"{base}_{n}{suffix}"
+        n += 1
+    return path
+
+
+def save_screenshot(image: np.ndarray, folder="out/viewer", path=None) -> Path:
+    """Write ``image`` ((H, W, 3 or 4) uint8) as a PNG; returns its path."""
+    from PIL import Image
+
+    path = Path(path) if path is not None else _stamp_name(Path(folder), ".png")
+    path.parent.mkdir(parents=True, exist_ok=True)
+    Image.fromarray(np.ascontiguousarray(image)).save(path)
+    return path
+
+
+class Recorder:
+    """An MP4 being written (libx264 through imageio-ffmpeg), one frame per ``add``."""
+
+    def __init__(self, folder="out/viewer", fps: float = 30.0, path=None):
+        import imageio.v2 as imageio
+
+        if not fps > 0:
+            raise UsageError(f"recording fps must be > 0, got {fps}")
+        self.path = Path(path) if path is not None else _stamp_name(Path(folder), ".mp4")
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        self.fps = float(fps)
+        self.frames = 0
+        self.size: tuple[int, int] | None = None
+        self._writer = imageio.get_writer(str(self.path), fps=self.fps, codec="libx264", quality=8,
+                                          macro_block_size=1, ffmpeg_log_level="error")
+
+    @property
+    def recording(self) -> bool:
+        return self._writer is not None
+
+    def add(self, image: np.ndarray) -> None:
+        if self._writer is None:
+            raise UsageError("the recording is stopped")
+        img = np.asarray(image)[..., :3]
+        h, w = img.shape[:2]
+        if self.size is None:
+            self.size = (w - w % 2, h - h % 2)
+        w2, h2 = self.size
+        if (w, h) != (w2, h2):
+            if w < w2 or h < h2:   # the window shrank: pad with black
+                pad = np.zeros((h2, w2, 3), np.uint8)
+                pad[:min(h, h2), :min(w, w2)] = img[:h2, :w2]
+                img = pad
+            else:
+                img = img[:h2, :w2]
+        self._writer.append_data(np.ascontiguousarray(img, dtype=np.uint8))
+        self.frames += 1
+
+    def stop(self) -> Path:
+        if self._writer is not None:
+            self._writer.close()
+            self._writer = None
+        return self.path
