@@ -18,13 +18,13 @@ def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     reader = imageio.get_reader(str(out / "demo.mp4"))
     video = [f for f in reader]
     reader.close()
-    timings = json.loads((out / "timings.json").read_text())
+    timings = json.loads((out / "demo_timings.json").read_text())
     assert len(video) == timings["frames"] == 6  # 0.25 s at 24 fps
     assert video[0].shape == (540, 960, 3)   # SOFTWARE: 960x540 at 15+ fps
     assert video[0].std() > 5  # not a blank frame
-    sheet = imageio.imread(out / "contact_sheet.png")
+    sheet = imageio.imread(out / "demo_contact_sheet.png")
     assert sheet.shape[0] >= 540 and sheet.shape[1] == 3 * 960
-    anim = load(out / "simulation.usda")
+    anim = load(out / "demo_simulation.usda")
     assert anim.metadata["usd"]["num_time_samples"] == 6
     assert np.all(np.isfinite(anim.points))
     assert timings["invariants"]["nan_recoveries"] == 0

@@ -77,8 +77,10 @@ def demo_sim_settings(q: Quality, wind: bool = True):
     from ..sim import SimSettings, WindSettings
 
     return SimSettings(
-        dt=q.sim_dt, friction=q.friction, local_shape_stiffness=0.05, global_shape_stiffness=0.02,
-        global_shape_range=0.3, drag=1.0 if wind else 0.0,
+        # Enough shape to keep the groomed parting and waves (and the face clear) while the
+        # head nods and the wind blows; the tips still swing by a centimetre or two.
+        dt=q.sim_dt, friction=q.friction, local_shape_stiffness=0.3, global_shape_stiffness=0.1,
+        global_shape_range=0.6, drag=1.0 if wind else 0.0,
         wind=WindSettings(velocity=(0.6, 0.0, 1.2), gust=1.0, turbulence=0.6) if wind else WindSettings(),
     )
 
@@ -87,7 +89,7 @@ FORMATS = (".npz", ".hair", ".ply", ".usda", ".data", ".abc", ".tfx")
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument("--out", default="out/demo", help="output folder (default out/demo)")
+    parser.add_argument("--out", default="out", help="output folder (default out: out/demo.mp4, out/demo_*)")
     parser.add_argument("--seconds", type=float, default=None, help="simulated seconds (default by quality)")
     parser.add_argument("--quality", choices=("auto", "software", "gpu"), default="auto",
                         help="workload preset (auto: by the renderer)")
@@ -109,7 +111,7 @@ def _round_trip(groom, out: Path) -> list[list[str]]:
 
     rows = [["format", "bytes", "write ms", "read ms", "points identical"]]
     for suffix in FORMATS:
-        path = out / f"groom{suffix}"
+        path = out / f"demo_groom{suffix}"
         t0 = time.perf_counter()
         save(groom, path)
         t1 = time.perf_counter()
@@ -242,7 +244,7 @@ def _run_headless(args) -> int:
           f"{st['num_points']} points, length {st['strand_length']['mean'] * 100:.1f} cm on average, "
           f"head {len(head.vertices)} vertices / {len(head.faces)} triangles")
 
-    print(f"\n2. the groom in every writable format ({out}/groom.*), read back:")
+    print(f"\n2. the groom in every writable format ({out}/demo_groom.*), read back:")
     print(_table(_round_trip(groom, out)))
 
     # A sphere sweeps through the hair, the head nods, wind gusts from the front-left.
@@ -307,13 +309,13 @@ def _run_headless(args) -> int:
     finally:
         writer.close()
     wall = time.perf_counter() - t_start
-    _contact_sheet(sheet, out / "contact_sheet.png")
-    usd_curves.write(groom, out / "simulation.usda", frames=animation, fps=q.fps)
+    _contact_sheet(sheet, out / "demo_contact_sheet.png")
+    usd_curves.write(groom, out / "demo_simulation.usda", frames=animation, fps=q.fps)
     size = renderer.settings.size
     print(f"   {frames_n / max(busy, 1e-9):.1f} frames per second simulated and rendered at {size[0]}x{size[1]} "
           f"({frames_n / wall:.1f} with read-backs, checks and video encoding)")
-    print(f"   {frames_n} frames over {wall:.1f} s; contact sheet {out}/contact_sheet.png; "
-          f"animation {out}/simulation.usda ({frames_n} time samples)")
+    print(f"   {frames_n} frames over {wall:.1f} s; contact sheet {out}/demo_contact_sheet.png; "
+          f"animation {out}/demo_simulation.usda ({frames_n} time samples)")
 
     rstats = renderer.stats()
     sim_ms = sim.pass_times()
@@ -332,7 +334,7 @@ def _run_headless(args) -> int:
         "groom": st, "sim_passes_ms": sim_ms, "render_passes_ms": rstats["passes"],
         "invariants": {**worst, "nan_recoveries": sim.nan_recoveries},
     }
-    (out / "timings.json").write_text(json.dumps(summary, indent=2))
+    (out / "demo_timings.json").write_text(json.dumps(summary, indent=2))
     renderer.release()
     sim.release()
     return 0
