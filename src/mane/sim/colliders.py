@@ -236,11 +236,8 @@ def _frame_along(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 @dataclass(eq=False)
 class MeshCollider:
-    """A triangle mesh collided through a baked signed distance field.
-
-    Needs ``mane.sim.sdf`` (``MeshSDF``); without it the simulator skips this collider
-    and says so once in ``Simulator.warnings``.
-    """
+    """A triangle mesh collided through a signed distance field (``mane.sim.sdf.MeshSDF``),
+    baked once on first use."""
 
     mesh: object
     transform: np.ndarray = field(default_factory=lambda: np.eye(4))
@@ -263,12 +260,6 @@ class MeshCollider:
         if self.follow_head and head is not None:
             return np.asarray(head, dtype=np.float64) @ t
         return t
-
-
-def sdf_available() -> bool:
-    import importlib.util
-
-    return importlib.util.find_spec("mane.sim.sdf") is not None
 
 
 def pack_colliders(colliders, head: np.ndarray, prev_worlds: list | None) -> tuple[np.ndarray, list]:

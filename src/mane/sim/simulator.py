@@ -16,10 +16,10 @@ One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is sk
                particle out as its sweep places it and puts it back at its rest length from
                its leader (lengths stay exact); PBD projects between its iterations
     collide    projection colliders + friction, after the fact       (per particle)
-    sdf        mesh colliders after the fact (mane.sim.sdf, when present)
+    sdf        mesh colliders after the fact (mane.sim.sdf), beyond those the sweeps take
     velocity   v = (x - x_prev) / dt (+ DFTL correction)             (per particle)
-    friction   hair-hair grid friction (mane.sim.grid_friction, when present)
-    volume     FLIP volume (mane.sim.flip, when present)
+    friction   hair-hair grid friction (mane.sim.grid_friction)
+    volume     FLIP volume (mane.sim.flip)
     guard      NaN / absurd-value recovery        (per particle, strands in shared memory)
 
 Some passes are folded into another (``Simulator.folded_passes()``, pass -> the one that
@@ -36,8 +36,6 @@ step another one. It does cache GPU programs and the helper passes' grids.
 """
 from __future__ import annotations
 
-import importlib
-import importlib.util
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -47,8 +45,12 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
+from ..gpu.profiler import GpuProfiler
 from . import head_motion
 from .colliders import Collider, MeshCollider, pack_colliders
+from .flip import FlipVolume
+from .grid_friction import GridFriction
+from .sdf import MeshSDF
 from .settings import MAX_DT, MIN_DT, SimSettings, iteration_stiffness
 from .state import BINDINGS, MAX_POINTS_PER_STRAND, SimState, transform_points
 
@@ -59,13 +61,6 @@ MAX_SWEEP_SDFS = 4
 """mesh colliders handled inside the length pass's sweeps (texture units 5..8); more go
 to the sdf pass after it."""
 SDF_UNIT0 = 5
-
-
-def _optional(module: str, name: str):
-    """``module.name`` when the module exists (helper passes written elsewhere), else None."""
-    if importlib.util.find_spec(module) is None:
-        return None
-    return getattr(importlib.import_module(module), name, None)
 
 
 def _mat4(m) -> tuple:
@@ -145,12 +140,7 @@ class Simulator:
         self._timer = _Timer()
         self._profiler = None
         if self.profile:
-            GpuProfiler = _optional("mane.gpu.profiler", "GpuProfiler")
-            if GpuProfiler is not None:
-                try:
-                    self._profiler = GpuProfiler(self.ctx)
-                except Exception as exc:  # an interface we do not know yet: time ourselves
-                    self._warn("profiler", f"GpuProfiler unusable ({exc}); using plain timer queries")
+            self._profiler = GpuProfiler(self.ctx)
 
     # ------------------------------------------------------------------ set-up
     @staticmethod
@@ -393,10 +383,6 @@ class Simulator:
         meshes = [(i, c) for i, c in enumerate(c for c in self.colliders if isinstance(c, MeshCollider))]
         if not meshes:
             return []
-        MeshSDF = _optional("mane.sim.sdf", "MeshSDF")
-        if MeshSDF is None:
-            self._warn("sdf", "mesh colliders skipped: mane.sim.sdf is not available")
-            return []
         if st.mesh_worlds is None or len(st.mesh_worlds) != len(meshes):
             self.upload_colliders(st)
         out = []
@@ -465,10 +451,6 @@ class Simulator:
             meshes = meshes[MAX_SWEEP_SDFS:]
         if not meshes:
             return False
-        MeshSDF = _optional("mane.sim.sdf", "MeshSDF")
-        if MeshSDF is None:
-            self._warn("sdf", "mesh colliders skipped: mane.sim.sdf is not available")
-            return False
         with self._timed("sdf"):
             for c in meshes:
                 if c._sdf is None:
@@ -492,10 +474,6 @@ class Simulator:
         s = self.settings
         if s.friction <= 0:
             return False
-        GridFriction = _optional("mane.sim.grid_friction", "GridFriction")
-        if GridFriction is None:
-            self._warn("friction", "hair-hair friction skipped: mane.sim.grid_friction is not available")
-            return False
         key = (s.grid_resolution, s.grid_method)
         if self._grid is None or self._grid_key != key:
             self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method)
@@ -509,10 +487,6 @@ class Simulator:
     def _pass_volume(self, st: SimState, h: float) -> bool:
         s = self.settings
         if not s.volume:
-            return False
-        FlipVolume = _optional("mane.sim.flip", "FlipVolume")
-        if FlipVolume is None:
-            self._warn("volume", "volume preservation skipped: mane.sim.flip is not available")
             return False
         if self._flip is None or self._flip_key != s.grid_resolution:
             self._flip = FlipVolume(self.ctx, s.grid_resolution)
