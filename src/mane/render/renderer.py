@@ -15,8 +15,6 @@ resolve (hdr -> output).
 from __future__ import annotations
 
 import math
-import re
-from pathlib import Path
 
 import moderngl
 import numpy as np
@@ -32,45 +30,28 @@ from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisi
 from .passes.expand import ExpandPass
 from .passes.oit_pass import OitPass
 from .settings import RenderSettings
+from .shading import ShadingSettings
 from .strand_buffers import StrandBuffers
 
-HERE = Path(__file__).resolve().parent
-SHADING_GLSL = HERE / "shading" / "hair_shading.glsl"
 DEFAULT_HAIR_COLOR = (0.23, 0.12, 0.06)
 
 
 class ShadingAdapter:
-    """mane.render.shading when it is there; otherwise a Kajiya-Kay stand-in with its interface."""
+    """The renderer's hair material: ``mane.render.shading`` settings plus a colour override."""
 
     def __init__(self, name: str = "kajiya_kay", hair_color=None, options=None):
         self.name = name
-        options = dict(options or {})
-        self.options = options
+        self.options = dict(options or {})
         self.hair_color = tuple(hair_color) if hair_color is not None else None
-        self.settings = None
-        self.fallback = True
-        self.declares_material = False
+        kwargs = {"model": name, **self.options}
+        if self.hair_color is not None:
+            kwargs["color"] = self.hair_color
         try:
-            from . import shading as _shading  # noqa: F401  (written by helper-shading)
-
-            ShadingSettings = getattr(_shading, "ShadingSettings")
-        except Exception:
-            ShadingSettings = None
-        if ShadingSettings is not None and SHADING_GLSL.is_file():
-            kwargs = {"model": name, **options}
-            if self.hair_color is not None:
-                kwargs["color"] = self.hair_color
-            try:
-                self.settings = ShadingSettings(**kwargs)
-            except (TypeError, ValueError) as exc:
-                raise UsageError(f"bad shading settings {kwargs}: {exc}") from None
-            self.fallback = False
-            text = SHADING_GLSL.read_text()
-            self.declares_material = re.search(r"^\s*uniform\s+HairMaterial\b", text, re.M) is not None
+            self.settings = ShadingSettings(**kwargs)
+        except (TypeError, ValueError) as exc:
+            raise UsageError(f"bad shading settings {kwargs}: {exc}") from None
 
     def defines(self) -> dict:
-        if self.fallback:
-            return {}
         return dict(self.settings.defines())
 
     @property
@@ -81,16 +62,9 @@ class ShadingAdapter:
         return tuple(c) if c is not None else DEFAULT_HAIR_COLOR
 
     def bind(self, prog, ctx, render_settings=None) -> None:
-        if not self.fallback:
-            self.settings.bind(prog, ctx)
-            if self.hair_color is not None:
-                set_uniform(prog, "u_material.color", tuple(self.hair_color))
-            return
-        c = self.color
-        for name, value in (("color", tuple(c)), ("specular", float(self.options.get("specular", 0.35))), ("sigma_a", (0.8, 1.4, 2.4)),
-                            ("roughness", 0.3), ("shift", 0.03), ("eta", 1.55), ("glint", 0.0),
-                            ("strand_rand", 0.0)):
-            set_uniform(prog, f"u_material.{name}", value)
+        self.settings.bind(prog, ctx)
+        if self.hair_color is not None:
+            set_uniform(prog, "u_material.color", tuple(self.hair_color))
 
 
 class FramesPass(Pass):
@@ -485,7 +459,7 @@ class Renderer:
             "shadows": self.settings.shadows,
             "interpolation": self.settings.interpolation,
             "geometry": self.settings.geometry,
-            "shading": self.shading.name + (" (stand-in)" if self.shading.fallback else ""),
+            "shading": self.shading.name,
             "instances_per_guide_segment": math.ceil(int(self.settings.strands_per_guide) / MAX_ISOLINES),
             **self.oit_stats(),
         }

@@ -31,8 +31,7 @@ from ..passes.base import PASS_SHADE, RENDER_DIR, Frame, bind_lighting, draw_hai
 
 HERE = Path(__file__).resolve().parent
 OIT_FRAG = HERE / "oit_hair.frag"
-OIT_FRAG_FALLBACK = HERE / "oit_hair_fallback.frag"
-OIT_FRAG_450 = {False: HERE / "oit_hair450.frag", True: HERE / "oit_hair450_fallback.frag"}
+OIT_FRAG_450 = HERE / "oit_hair450.frag"
 METHOD_IDS = {"sorted_blending": 1, "random_subsets": 2, "a_buffer": 3, "k_buffer": 4, "dbk_buffer": 5,
               "shortcut": 6}
 END = 0xFFFFFFFF
@@ -181,10 +180,9 @@ class OitMethod:
         self.ctx.finish()
 
     def hair_program(self, stage: int, glsl450: bool = False, **defines):
-        fallback = self.r.shading.fallback
         d = {"OIT_METHOD": self.method_id, "OIT_STAGE": int(stage), "OIT_K": max(1, self.k)}
         d.update(defines)
-        frag = OIT_FRAG_450[bool(fallback)] if glsl450 else OIT_FRAG_FALLBACK if fallback else OIT_FRAG
+        frag = OIT_FRAG_450 if glsl450 else OIT_FRAG
         return hair_program(self.r, PASS_SHADE, fragment_file=frag, extra_defines=d)
 
     def resolve_program(self, fragment: str, **defines):

@@ -98,13 +98,12 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "PASS": pass_id,
         "SHADOWS": SHADOW_IDS[s.shadows],
         "CAPTURE": int(capture),
-        "HAIR_MATERIAL_DECLARED": int(shading.declares_material),
         "MULTI": MULTI_IDS[s.interpolation_mode],
         "LOD": int(bool(s.lod)),
     }
     defines.update(shading.defines())
     defines.update(extra_defines or {})
-    frag = HERE / ("hair_fallback.frag" if shading.fallback else "hair.frag")
+    frag = HERE / "hair.frag"
     if fragment_file is not None:
         frag = fragment_file
     from .expand import pulls

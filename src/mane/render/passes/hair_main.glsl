@@ -1,9 +1,7 @@
 // The hair fragment shader's body (after the shading model's include).
 #include "lighting.glsl"
 
-#if !HAIR_MATERIAL_DECLARED
 uniform HairMaterial u_material;
-#endif
 
 in vec3 g_pos;
 in vec3 g_tangent;

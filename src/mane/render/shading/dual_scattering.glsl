@@ -30,15 +30,17 @@
 // light's inclination theta_i and N^G at |theta_d|.
 //
 // Tables (dual_scattering.py, ShadingSettings.dual_lut()): uniform sampler2D hair_dual_lut,
-// RGBA32F, 7 rows x size (64) texels, linear in x, read at row centres:
+// RGBA32F, 7 rows x size (64) texels, linear in x (interpolated in the shader from two
+// texelFetch, hair_dual_fetch), read at row centres:
 //   over theta_i in [-pi/2, pi/2]: 0 A_b, 1 Delta_b, 2 sigma_b^2, 3 a_f, 4 beta_f^2 (rgb)
 //   over |theta_d| in [0, pi/2]:  5 N^G_TT (rgb) + N^G_R (a), 6 N^G_TRT (rgb)
 // Defines (ShadingSettings.defines()): HAIR_DUAL_DF d_f, HAIR_DUAL_DB d_b,
 // HAIR_DUAL_HAIR_OPACITY, HAIR_DUAL_MAX_HAIRS.
 //
-// Cost per light: hair_angles (~40 ALU, 3 atan) + 3 fetches and ~25 ALU (1 exp, 1 rsqrt per
-// channel) when t = 1; in the shadow +4 fetches, 1 log, pow, 4 vec3 Gaussians (~60 ALU, 12
-// exp): about 7 fetches + ~130 ALU, under half the analytic Marschner's cost.
+// Cost per light: hair_angles (~40 ALU, 3 atan) + 3 lookups (2 texelFetch + mix each) and ~25
+// ALU (1 exp, 1 rsqrt per channel) when t = 1; in the shadow +4 lookups, 1 log, pow, 4 vec3
+// Gaussians (~60 ALU, 12 exp): about 14 texel fetches + ~150 ALU, under half the analytic
+// Marschner's cost.
 #ifndef MANE_HAIR_DUAL_SCATTERING_GLSL
 #define MANE_HAIR_DUAL_SCATTERING_GLSL
 
@@ -62,8 +64,19 @@ uniform sampler2D hair_dual_lut;
 const float HAIR_DUAL_ROWS = 7.0;
 
 // Row `row` at texel coordinate x in [0, size - 1] (grid point j at x = j), linear in x.
+// Two texelFetch and a float32 mix rather than the sampler's linear filter: GPUs interpolate
+// with low-precision weights (NVIDIA: 8 fractional bits, an error of up to 1/512 of the step
+// between neighbouring texels, ~2e-3 relative on these tables), while the NumPy twin
+// (np.interp) interpolates exactly. Same texel-centre convention as textureLod at
+// ((x + 0.5) / size, (row + 0.5) / 7) with clamp-to-edge, and the result no longer depends
+// on the sampler's filter or the GPU's filtering precision.
 vec4 hair_dual_fetch(float x, float row, float size) {
-    return textureLod(hair_dual_lut, vec2((x + 0.5) / size, (row + 0.5) / HAIR_DUAL_ROWS), 0.0);
+    float xc = clamp(x, 0.0, size - 1.0);
+    float i0 = min(floor(xc), max(size - 2.0, 0.0));
+    int r = int(row);
+    vec4 t0 = texelFetch(hair_dual_lut, ivec2(int(i0), r), 0);
+    vec4 t1 = texelFetch(hair_dual_lut, ivec2(int(min(i0 + 1.0, size - 1.0)), r), 0);
+    return mix(t0, t1, xc - i0);
 }
 
 // G(x, v) per channel, v the variance.

@@ -11,7 +11,7 @@
 // HAIR_MS_DUAL (Zinke, Yuksel, Weber and Keyser 2008, dual scattering, Algorithm 1 with the
 //   deep opacity map's transmittance giving the number of hairs towards the light): global
 //   forward scattering + local back-scattering from precomputed tables (dual_scattering.glsl,
-//   dual_scattering.py; uniform sampler2D hair_dual_lut). ~7 fetches + ~130 ALU per light.
+//   dual_scattering.py; uniform sampler2D hair_dual_lut). ~14 texel fetches + ~150 ALU per light.
 #ifndef MANE_HAIR_MULTIPLE_SCATTERING_GLSL
 #define MANE_HAIR_MULTIPLE_SCATTERING_GLSL
 
