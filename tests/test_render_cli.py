@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import json
+import sys
 
 import numpy as np
 import pytest
@@ -42,9 +43,14 @@ def test_png_and_stats(groom_file, tmp_path, capsys):
     assert all(v >= 0 for v in s["passes"].values())
 
 
-def test_turntable_mp4(groom_file, tmp_path):
-    import imageio_ffmpeg
+def _ffmpeg():
+    """imageio-ffmpeg is a mane dependency; an environment without it skips the MP4 tests
+    (test_mp4_without_ffmpeg_is_a_clear_error covers that case)."""
+    return pytest.importorskip("imageio_ffmpeg", reason="imageio-ffmpeg (a mane dependency) is not installed")
 
+
+def test_turntable_mp4(groom_file, tmp_path):
+    imageio_ffmpeg = _ffmpeg()
     out = tmp_path / "t.mp4"
     rc = main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--frames", "3", "--aa", "none"])
     assert rc == 0
@@ -56,12 +62,29 @@ def test_turntable_mp4(groom_file, tmp_path):
 
 
 def test_simulate_reads_the_simulator(groom_file, tmp_path):
+    _ffmpeg()
     out, stats = tmp_path / "s.mp4", tmp_path / "s.json"
     rc = main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--frames", "2",
                "--simulate", "--stats", str(stats), "--aa", "none", "--shadows", "none"])
     assert rc == 0
     s = json.loads(stats.read_text())
     assert s["frames"] == 2 and "simulate" in s["passes"]
+
+
+def test_mp4_without_ffmpeg_is_a_clear_error(groom_file, tmp_path, capsys, monkeypatch):
+    """Without imageio-ffmpeg imageio would hand the .mp4 to its TIFF writer (TypeError on
+    fps); mane says what is missing instead."""
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)     # import imageio_ffmpeg fails
+    out = tmp_path / "t.mp4"
+    rc = main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--frames", "2", "--aa", "none"])
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "imageio-ffmpeg" in err and "pip install" in err
+    from mane.errors import ManeError
+    from mane.io.video import mp4_writer
+
+    with pytest.raises(ManeError, match="imageio-ffmpeg"):
+        mp4_writer(out, 24)
 
 
 def test_bad_arguments(groom_file, tmp_path, capsys):

@@ -14,6 +14,7 @@ from mane.render import Renderer, RenderSettings
 from mane.render import strand_math as sm
 from mane.render.capture import capture_segments, strands_from_segments
 
+from image_checks import edge_pixel_stats, software_renderer
 from test_render_tessellation import curve, wavy_groom
 
 pytestmark = pytest.mark.gpu
@@ -112,7 +113,20 @@ def test_compute_images_match_tessellation(gl, kw):
     a = _render(gl, g, pipeline="tessellation", depth_prepass=False, **kw)
     b = _render(gl, g, pipeline="compute", **kw)
     assert a.std() > 1.0   # the hair is in the picture
-    assert np.abs(a - b).mean() < 0.05, np.abs(a - b).mean()
+    if software_renderer(gl):
+        # llvmpipe rasterises both pipelines' strips alike: at most a few pixels differ
+        assert np.abs(a - b).mean() < 0.05, np.abs(a - b).mean()
+    # Every driver: the strands are ~1 px wide, so where a driver decides a sub-pixel edge
+    # differently for the geometry shader's ribbons and the vertex-pulled strips (NVIDIA,
+    # msaa=1: mean 0.10-0.13, ~10 % of the hair pixels) whole pixels flip. Bounds: the
+    # flipped pixels stay a minority of the hair (a 1 px shift changes ~90 %), the mean stays
+    # ~3x under NVIDIA's and under a 20 % wider strand's (0.41), and the hair's total
+    # intensity is kept (a 20 % wider strand: 10 %, wider clumps: 20 %).
+    st = edge_pixel_stats(a, b)
+    assert st["foreground"] > 100, st
+    assert st["changed"] <= 0.25, st
+    assert st["mean"] < 0.4, st
+    assert st["ink"] < 0.05, st
 
 
 def test_depth_prepass_changes_nothing(gl):

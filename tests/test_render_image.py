@@ -13,6 +13,8 @@ from mane.mesh import Mesh
 from mane.render import Camera, Light, Renderer, RenderSettings
 from mane.render.capture import capture_segments
 
+from image_checks import background, block_means, gradient_energy, luminance, software_renderer
+
 pytestmark = pytest.mark.gpu
 
 DATA = Path(__file__).resolve().parent / "data"
@@ -165,8 +167,16 @@ def test_antialiasing_modes(gl, aa):
     assert img.shape == ref.shape == (120, 160, 3)
     diff = np.abs(img.astype(int) - ref.astype(int))
     assert 0 < diff.mean() < 20           # edges change, the picture does not
-    # anti-aliased edges have intermediate values
-    assert len(np.unique(img.reshape(-1, 3), axis=0)) > len(np.unique(ref.reshape(-1, 3), axis=0)) * 0.9
+    # Anti-aliased edges have partially covered pixels, measured on the head's silhouette
+    # (image rows 0-19: the sphere, above the hair's roots at row ~23) as the mean squared
+    # step between neighbouring pixels: a step s split over two pixels costs 2 (s / 2)^2.
+    # The hair is left out: with MSAA it goes through alpha to coverage, whose dither
+    # pattern is the driver's own (NVIDIA's 2 samples quantise it: fewer distinct colours
+    # than the blended single-sample picture). llvmpipe: msaa 0.74, supersample 0.40; a
+    # 2-sample (0.25, 0.75) pattern emulated from a 2x render 0.74; single samples at other
+    # sub-pixel offsets 0.99-1.03.
+    ratio = gradient_energy(img[:20]) / gradient_energy(ref[:20])
+    assert ratio < (0.6 if aa.get("supersample", 1) > 1 else 0.88), ratio
 
 
 def test_lines_geometry_renders(gl):
@@ -223,5 +233,25 @@ def test_reference_image(gl, tmp_path):
         pytest.skip(f"wrote the reference image {REFERENCE}")
     ref = np.asarray(Image.open(REFERENCE).convert("RGB"))
     diff = np.abs(img.astype(int) - ref.astype(int))
-    assert diff.mean() < 2.0, f"mean difference {diff.mean():.2f} (see {tmp_path / 'render_now.png'})"
-    assert np.percentile(diff.max(axis=2), 99) < 48
+    where = f"(see {tmp_path / 'render_now.png'})"
+    if software_renderer(gl):
+        # the reference was rendered on llvmpipe: pixel for pixel
+        assert diff.mean() < 2.0, f"mean difference {diff.mean():.2f} {where}"
+        assert np.percentile(diff.max(axis=2), 99) < 48
+        return
+    # Other drivers place the 4 MSAA samples and dither the hair's alpha to coverage in their
+    # own patterns, so the thin strands' pixels differ one by one (NVIDIA H200: mean 3.9) and
+    # which faint fringe pixels are lit at all differs too (H200: the pixel silhouette's IoU
+    # against llvmpipe's is only 0.65, so no per-pixel silhouette test); the picture must not
+    # change. Checked on 16 x 16 tiles, where the dither averages out. Emulated on llvmpipe
+    # (another sample pattern: a 2x render averaged or point-sampled; blending at msaa 1
+    # instead of alpha to coverage): mean 2.2-2.6, tile luminance mean 1.3-1.6 and max 15-18,
+    # overall luminance 0.7-1.5. The bounds leave ~2x for drivers further off and still catch
+    # a wrong background, missing hair (tile mean 8.8, max 73) or 1.5x the exposure (4.1); a
+    # smoke test: the tight comparison is llvmpipe's.
+    assert diff.mean() < 8.0, f"mean difference {diff.mean():.2f} {where}"
+    assert np.abs(background(img) - background(ref)).max() <= 2, (background(img), background(ref), where)
+    tiles = np.abs(block_means(img, 16) - block_means(ref, 16))
+    assert tiles.mean() < 4.0, f"16x16 tile luminance differs by {tiles.mean():.2f} on average {where}"
+    assert tiles.max() < 40.0, f"16x16 tile luminance differs by up to {tiles.max():.1f} {where}"
+    assert abs(luminance(img).mean() - luminance(ref).mean()) < 4.0, where

@@ -19,9 +19,10 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mane.bench.quality import (SHADOW_ALPHA, curtain_groom, points_near_segments, shadow_light, shadow_renderer,
+                                shadow_settings)
 from mane.errors import UsageError
-from mane.groom import Groom
-from mane.render import Light, Renderer, RenderSettings
+from mane.render import RenderSettings
 from mane.render.capture import capture_segments
 from mane.render.shadow_probe import probe_visibility
 
@@ -29,37 +30,21 @@ from reference.shadow_reference import crossings, exact_transmittance, segments_
 
 pytestmark = pytest.mark.gpu
 
-ALPHA = 0.3
-LIGHT = Light("directional", (1.0, 0.35, 0.25))
-BASE = dict(size=(48, 32), msaa=1, strands_per_guide=4, width=0.001, width_tip=1.0, shadow_map_size=512,
-            strand_opacity=float(-np.log(1.0 - ALPHA)), shadow_density=1.0, pcf=1, draw_head=False,
-            stray_fraction=0.0, clump_radius=0.004, density_resolution=64)
+# the scene is mane.bench.quality's shadow validation scene
+ALPHA = SHADOW_ALPHA
+LIGHT = shadow_light()
+BASE = shadow_settings(shadow_map_size=512)
 # mean absolute transmittance error bound per method (measured values in the module docstring)
 TOLERANCE = {"shadow_map": 0.33, "adsm": 0.15, "deep_opacity": 0.11, "opacity_maps": 0.095, "density": 0.125}
 
 
-def slab_groom(nx=10, nz=5, n=12, seed=0) -> Groom:
-    """A curtain of wavy strands hanging from a 6 x 3 cm patch."""
-    rng = np.random.default_rng(seed)
-    t = np.linspace(0, 1, n)
-    out = []
-    for x in np.linspace(-0.03, 0.03, nx):
-        for z in np.linspace(-0.015, 0.015, nz):
-            ph = rng.uniform(0, 2 * np.pi)
-            amp = rng.uniform(0.003, 0.008)
-            out.append(np.c_[x + amp * np.sin(ph + 9 * t) + 0.01 * t ** 2, 0.1 - 0.2 * t, z + amp * np.cos(ph + 7 * t)])
-    return Groom.from_strands(out)
-
-
 def make(gl, groom, **kw):
-    r = Renderer(RenderSettings(**{**BASE, **kw}), ctx=gl, profile=False)
-    r.set_strands(groom)
-    return r
+    return shadow_renderer(gl, groom, BASE, **kw)
 
 
 @pytest.fixture(scope="module")
 def scene(gl):
-    groom = slab_groom()
+    groom = curtain_groom()
     r = make(gl, groom, shadows="none")
     try:
         r.render(None, [LIGHT])
@@ -68,10 +53,7 @@ def scene(gl):
     finally:
         r.release()
     rng = np.random.default_rng(1)
-    k = rng.integers(0, len(seg["p0"]), 1500)
-    off = rng.normal(size=(1500, 3))
-    off /= np.linalg.norm(off, axis=1, keepdims=True)
-    near = 0.5 * (seg["p0"][k] + seg["p1"][k]) + off * rng.uniform(0.002, 0.008, (1500, 1))
+    near = points_near_segments(seg, 1500, rng)
     points = np.concatenate([near, rng.uniform(box[0], box[1], (500, 3))])
     exact = exact_transmittance(points, seg["p0"], seg["p1"], seg["w0"], seg["w1"], seg["strand"], LIGHT.vector, ALPHA)
     return {"groom": groom, "points": points, "exact": exact, "segments": seg}

@@ -211,7 +211,10 @@ def test_no_hairs_towards_the_light_only_local_back_scattering(gl, dirs):
     no_back = evaluate_glsl(gl, dataclasses.replace(s, dual_density_back=0.0), T, V, L,
                             transmittance=1.0, multiple=True)
     assert base.max() > 0
-    np.testing.assert_array_equal(base, no_front)
+    # d_f is a compile-time constant (HAIR_DUAL_DF): with d_f = 0 the driver's compiler may
+    # fold the global term away and schedule the local term differently (NVIDIA: 1 ulp
+    # differences), so equal up to float32 rounding rather than bit for bit.
+    np.testing.assert_allclose(base, no_front, rtol=1e-6, atol=0)
     assert np.abs(no_back).max() == 0.0
     # the twin's local term alone (F_scatter = 0) matches
     r = _twin(s, T, V, L, np.ones(N, np.float32))

@@ -173,6 +173,7 @@ def test_local_shape_keeps_and_restores_bind_pose(gl):
 
 def test_dftl_matches_twin(gl, rest):
     sim = make_sim(gl, rest)
+    sim.keep_corrections = True  # ... writing d_k for the check
     x = perturbed(rest, 0.02, 5)
     x[1, 4] = x[1, 3]  # a zero-length segment takes its rest direction
     put(sim, "positions", x)
@@ -363,37 +364,93 @@ def test_dftl_collides_inside_the_sweep(gl):
 @pytest.mark.parametrize("iterations, pipeline, group", [(2, 1, 64), (2, 2, 64), (3, 2, 32), (5, 1, 128),
                                                        (5, 4, 64), (1, 4, 64)])
 def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
-    """One kernel (shape sweeps pipelined, more of them through memory, DFTL with the
-    collisions, velocities) against the twins of the separate passes, and against the
-    separate passes on the GPU."""
+    """One kernel (integrate's prediction, shape sweeps pipelined, more of them through
+    memory, DFTL with the collisions, velocities) against the twins of the separate passes,
+    and against the separate passes on the GPU."""
     settings = SimSettings(local_shape_stiffness=0.3, bending_stiffness=0.4, shape_iterations=iterations,
-                           dftl_damping=0.8, max_speed=4.0)
+                           dftl_damping=0.8, max_speed=10.0, damping=1.5, drag=1.2, global_shape_stiffness=0.01,
+                           global_shape_range=0.4, wind=WindSettings(velocity=(1.5, 0.0, -0.5), gust=0.5, seed=3))
     sim, rest, cols, x, prev = collision_setup(gl, settings)
     sim.shape_pipeline, sim.strand_group_size = pipeline, group
-    w = inv_mass(sim)
+    sim.fold_integrate = True
     st = sim.state
     st.write("rest_positions", _pin_middle(st.read("rest_positions"), st.points_per_strand, strand=3))
     w = inv_mass(sim)
     h = 1 / 240
-    assert sim.folded_passes() == {"collide": "length", "sdf": "length", "shape": "length", "velocity": "length"}
+    # the step starts at prev with the velocity that takes it (about) to x, pressed into the colliders
+    x, start0 = prev, x
+    v = (start0 - x) / h
+    v[2, 5] = (30.0, 0.0, 0.0)  # above max_speed: clamped in the prediction
+    prev = x + np.random.default_rng(7).normal(scale=0.001, size=x.shape)
+    for name, arr in (("positions", x), ("prev_positions", prev), ("velocities", v)):
+        put(sim, name, arr)
+    st.time = 0.4
+    assert sim.folded_passes() == {"collide": "length", "sdf": "length", "shape": "length", "velocity": "length",
+                                   "integrate": "length"}
     assert sim.run_pass("length", st, h)
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
-    shaped = ref.shape(x, w, rest, HEAD_SMALL, 0.3, 0.4, iterations)
-    want, want_d = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols[:3], sdf_params(sim))
-    want_v = ref.velocity(want, prev, want_d, w, h, 0.8, 4.0)
+    pred, start = ref.integrate(x, prev, v, rest, w, HEAD_SMALL, h, settings, cols[:3], 0.4)
+    shaped = ref.shape(pred, w, rest, HEAD_SMALL, 0.3, 0.4, iterations)
+    want, want_d = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, start, cols[:3], sdf_params(sim))
+    want_v = ref.velocity(want, start, want_d, w, h, 0.8, 10.0)
     got, got_v = padded(sim, "positions"), padded(sim, "velocities")
     assert_close(got, want)
+    assert_close(padded(sim, "prev_positions"), start)
     assert_close(got_v, want_v, scale=float(np.abs(want).max()) / h)
-    without_mesh = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols[:3])[0]
-    assert np.abs(without_mesh - want).max() > 1e-3  # the mesh SDF took part
+    without_mesh = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, start, cols[:3])[0]
+    assert np.abs(without_mesh - want).max() > 1e-4  # the mesh SDF took part (3e-4 here; round-off ~1e-6)
     # the same with the separate passes
     sep = replace(settings, fused_strand_solve=False)
     sim.settings = sep
-    put(sim, "positions", x)
-    for name in ("shape", "length", "velocity"):
+    for name, arr in (("positions", x), ("prev_positions", prev), ("velocities", v)):
+        put(sim, name, arr)
+    for name in ("integrate", "shape", "length", "velocity"):
         sim.run_pass(name, st, h)
     assert_close(padded(sim, "positions"), got)
     assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
+    # and fused without integrate (Simulator.fold_integrate = False): integrate, then length
+    sim.settings = settings
+    sim.fold_integrate = False
+    assert "integrate" not in sim.folded_passes()
+    for name, arr in (("positions", x), ("prev_positions", prev), ("velocities", v)):
+        put(sim, name, arr)
+    for name in ("integrate", "length"):
+        sim.run_pass(name, st, h)
+    assert_close(padded(sim, "positions"), got)
+    assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
+
+
+def test_fused_integrate_penalty_and_nan(gl, rest):
+    """The fused kernel's prediction with penalty colliders (integrate.comp's twin), and a
+    non-finite start position: prev_positions keeps its last valid value."""
+    settings = SimSettings(damping=2.0, drag=1.5, global_shape_stiffness=0.3, global_shape_range=0.5,
+                           max_speed=5.0, local_shape_stiffness=0.0, bending_stiffness=0.0)
+    cols = [Sphere(center=(0.02, 0.95, 0.15), radius=0.05, mode="penalty", stiffness=3000.0)]
+    sim = make_sim(gl, rest, settings, cols)
+    sim.fold_integrate = True
+    assert sim.folded_passes()["integrate"] == "length"
+    x = perturbed(rest, 0.01, 2)
+    v = np.random.default_rng(1).normal(scale=1.0, size=rest.shape)
+    put(sim, "positions", x)
+    put(sim, "velocities", v)
+    sim.state.head = HEAD
+    prev0 = padded(sim, "prev_positions")
+    h = 1 / 120
+    sim.run_pass("length", sim.state, h)
+    w = inv_mass(sim)
+    pred, start = ref.integrate(x, prev0, v, rest, w, HEAD, h, settings, cols, 0.0)
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    want, want_d = ref.dftl(pred, w, seg, rest, HEAD, start)
+    assert_close(padded(sim, "positions"), want)
+    assert_close(padded(sim, "prev_positions"), start)
+    want_v = ref.velocity(want, start, want_d, w, h, settings.dftl_damping, settings.max_speed)
+    assert_close(padded(sim, "velocities"), want_v, scale=float(np.abs(want).max()) / h)
+    x[2, 5] = np.nan
+    put(sim, "positions", x)
+    before = padded(sim, "prev_positions")
+    sim.run_pass("length", sim.state, h)
+    after = padded(sim, "prev_positions")
+    assert np.array_equal(after[2, 5], before[2, 5]) and np.all(np.isfinite(after))
 
 
 def _pin_middle(rp, N, strand):

@@ -215,11 +215,11 @@ def run(args) -> int:
 
 
 def _run_headless(args) -> int:
-    import imageio.v2 as imageio
     from tqdm import tqdm
 
     from ..gpu import get_context, is_software_renderer, renderer_name
     from ..io import usd_curves
+    from ..io.video import mp4_writer
     from ..render import Renderer
     from ..render.lights import default_lights
     from ..sim import MeshCollider, Simulator, Sphere, head_motion
@@ -275,8 +275,7 @@ def _run_headless(args) -> int:
 
     frames_n = max(2, int(round(seconds * q.fps)))
     video = out / "demo.mp4"
-    writer = imageio.get_writer(str(video), fps=q.fps, codec="libx264", quality=8, macro_block_size=1,
-                                ffmpeg_log_level="error")
+    writer = mp4_writer(video, q.fps)
     keep = set(np.linspace(0, frames_n - 1, 6).round().astype(int).tolist())
     sheet, animation = [], []
     worst = {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}

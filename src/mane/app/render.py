@@ -165,12 +165,11 @@ def run(args) -> int:
 
     writer = None
     if video:
-        import imageio.v2 as imageio
+        from ..io.video import mp4_writer
 
         if w % 2 or h % 2:
             raise UsageError("video sizes must be even (H.264 4:2:0)")
-        writer = imageio.get_writer(str(out), fps=args.fps, codec="libx264", quality=8, macro_block_size=1,
-                                    ffmpeg_log_level="error")
+        writer = mp4_writer(out, args.fps)
     frames = range(args.frames)
     try:
         from tqdm import tqdm

@@ -1,6 +1,8 @@
-"""Shared benchmark pieces: the JSON envelope (``meta``), timing statistics, tables.
+"""Shared benchmark pieces: the JSON envelope (``meta``), timing loops and statistics, rows, tables.
 
     meta = envelope(ctx, target="sim", mode="quick", settings={...}, timing={...})
+    wall, submit = time_each(ctx, sim.step, 30, prof, "step")   # ms lists, ctx.finish() around each
+    per_ms = time_pipelined(ctx, sim.step, 30)                  # back to back, one finish
     stats(samples_ms)        # {"mean": .., "median": .., "p95": .., "min": .., "max": .., "n": ..}
     print(table(rows, [("strands", "{:d}"), ("step ms", "{:.3f}")]))
 """
@@ -11,6 +13,15 @@ import math
 import os
 import platform
 import sys
+import time
+import traceback
+from contextlib import contextmanager
+
+from ..errors import GLFeatureError, GPUMemoryError
+
+
+class Skip(Exception):
+    """A configuration that cannot be measured here (too slow for the budget, unsupported setting, ...)."""
 
 # Peak DRAM bandwidth, bytes/s, by GPU model (the part of GL_RENDERER before the first '/').
 # NVIDIA's renderer strings end in "/PCIe/SSE2" whatever the board, so the bus suffix is
@@ -54,6 +65,82 @@ def stats(samples) -> dict:
 
     return {"mean": sum(xs) / n, "median": quantile(0.5), "p95": quantile(0.95),
             "min": xs[0], "max": xs[-1], "n": n}
+
+
+def time_each(ctx, fn, n: int, prof=None, section: str | None = None) -> tuple[list, list]:
+    """Run ``fn()`` ``n`` times, each between two ``ctx.finish()`` (inside ``prof.section(section)``
+    when a profiler is given): (wall ms, submit ms) lists; submit is the CPU time to issue it."""
+    wall, submit = [], []
+    for _ in range(n):
+        ctx.finish()
+        t = time.perf_counter()
+        if prof is None:
+            fn()
+        else:
+            with prof.section(section):
+                fn()
+        submit.append((time.perf_counter() - t) * 1e3)
+        ctx.finish()
+        wall.append((time.perf_counter() - t) * 1e3)
+    return wall, submit
+
+
+def time_pipelined(ctx, fn, n: int) -> float:
+    """Milliseconds per ``fn()`` over ``n`` runs back to back, one ``ctx.finish()`` at the end."""
+    ctx.finish()
+    t = time.perf_counter()
+    for _ in range(n):
+        fn()
+    ctx.finish()
+    return (time.perf_counter() - t) * 1e3 / n
+
+
+class BenchRows:
+    """The rows and progress log of a benchmark: a subclass sets ``rows``, ``started`` and ``progress``.
+
+    ``_guard`` runs one configuration: on a known failure (out of GPU memory, a missing GL
+    feature, one of ``skip_errors``) it adds a skipped row, on any other an error row, and goes on."""
+
+    skip_errors: tuple = (Skip,)
+    traceback_limit = 4
+    reason_limit: int | None = None    # longer error reasons are cut, with " ..."
+
+    def _log(self, msg: str) -> None:
+        self.progress(f"[{time.perf_counter() - self.started:7.1f} s] {msg}")
+
+    def _row(self, bench: str, name: str, **fields) -> dict:
+        row = {"bench": bench, "name": name, "status": "ok", "reason": None, **fields}
+        self.rows.append(row)
+        return row
+
+    def _skip_row(self, bench: str, name: str, reason: str, status: str = "skipped", **fields) -> dict:
+        row = self._row(bench, name, **fields)
+        row.update(status=status, reason=reason)
+        return row
+
+    def _before_config(self) -> None:
+        """Called inside the guard before a configuration runs (raise Skip to pass it over)."""
+
+    @contextmanager
+    def _guard(self, bench: str, name: str, **fields):
+        """Run a configuration; on a known failure add a skipped row and go on."""
+        self._log(f"{bench}: {name}")
+        try:
+            self._before_config()
+            yield
+        except GPUMemoryError as exc:
+            self._skip_row(bench, name, f"out of GPU memory: {exc}", **fields)
+        except GLFeatureError as exc:
+            self._skip_row(bench, name, f"missing GL feature: {exc}", **fields)
+        except self.skip_errors as exc:
+            self._skip_row(bench, name, str(exc), **fields)
+        except Exception as exc:  # a benchmark goes on; the row says what broke
+            reason = f"{type(exc).__name__}: {exc}"
+            if self.reason_limit is not None and len(reason) > self.reason_limit:
+                reason = reason[:self.reason_limit] + " ..."
+            self._skip_row(bench, name, reason, status="error", **fields,
+                           traceback=traceback.format_exc(limit=self.traceback_limit))
+            self._log(f"  error: {type(exc).__name__}: {exc}")
 
 
 def _versions() -> dict:
@@ -143,3 +230,17 @@ def table(rows: list[dict], columns: list[tuple], title: str | None = None, inde
     if not rows:
         out.append(indent + "(none)")
     return "\n".join(out)
+
+
+def stat_of(key: str, which: str):
+    """A table column: ``row[key][which]`` (a ``stats`` entry), None where missing."""
+    return lambda r: (r.get(key) or {}).get(which)
+
+
+def failures_table(rows: list[dict]) -> str | None:
+    """The "Skipped / failed" table of the rows whose status is not ok, or None when all are."""
+    bad = [r for r in rows if r["status"] != "ok"]
+    if not bad:
+        return None
+    return table(bad, [("bench", "bench", "{}"), ("config", "name", "{}"), ("status", "status", "{}"),
+                       ("reason", lambda r: str(r["reason"])[:140], "{}")], title="Skipped / failed")

@@ -35,7 +35,7 @@ import traceback
 import numpy as np
 
 from ..errors import GLFeatureError, GPUMemoryError, UsageError
-from .common import envelope, fmt, stats, table
+from .common import BenchRows, Skip, envelope, fmt, stats, table, time_each
 
 HUNZ_SIZE = (656, 861)
 HD_SIZE = (1920, 1080)
@@ -70,10 +70,6 @@ REFERENCES = {
 }
 
 
-class Skip(Exception):
-    pass
-
-
 def _method_variants(ctx) -> list[tuple[str, dict]]:
     """(label, settings) of the methods; the K-buffer once per insertion form available."""
     from ..gpu.capabilities import get_capabilities
@@ -94,7 +90,7 @@ def _method_variants(ctx) -> list[tuple[str, dict]]:
     return out
 
 
-class Bench:
+class Bench(BenchRows):
     def __init__(self, ctx, mode: str = "default", progress=None):
         from ..gpu.profiler import GpuProfiler
 
@@ -107,9 +103,6 @@ class Bench:
         self.started = time.perf_counter()
         self._groom = None
         self._head = None
-
-    def _log(self, msg: str) -> None:
-        self.progress(f"[{time.perf_counter() - self.started:7.1f} s] {msg}")
 
     def scene(self):
         if self._groom is None:
@@ -163,13 +156,7 @@ class Bench:
             r.set_strands(groom)
             r.set_head(head)
             cam = r.default_camera(azimuth=90.0, elevation=5.0)
-            walls = []
-            for _ in range(max(2, int(cfg["warmup"]))):
-                ctx.finish()
-                t = time.perf_counter()
-                r.render(cam)
-                ctx.finish()
-                walls.append(time.perf_counter() - t)
+            walls = [ms / 1e3 for ms in time_each(ctx, lambda: r.render(cam), max(2, int(cfg["warmup"])))[0]]
             per = min(walls[1:])
             if per * 4 > cfg["config_budget_s"]:
                 raise Skip(f"too slow for the {self.mode} mode: {per * 1e3:.0f} ms a frame")

@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import envelope, fmt, table
+from .common import Skip, envelope, fmt, table
 
 REFERENCE_DIR = Path(__file__).resolve().parents[3] / "tests" / "reference"
 
@@ -56,10 +56,6 @@ MODE_CONFIG = {
                  shadow_map_size=1024, oit_size=(240, 180), sim_strands=1000, sim_points=32, sim_steps=240,
                  chain_steps=300),
 }
-
-
-class Skip(Exception):
-    pass
 
 
 def load_reference(name: str):
@@ -212,7 +208,12 @@ def shading(ctx, cfg, image_dir, log) -> dict:
 
 
 # --------------------------------------------------------------------------- shadows
+# The shadow validation's scene (also tests/test_render_shadows.py's): a curtain groom lit from
+# the side, drawn with settings under which every opacity method estimates prod(1 - alpha)
+# over the strands a point's ray toward the light crosses (strand_opacity = -ln(1 - alpha),
+# shadow_density = 1).
 SHADOW_ALPHA = 0.3
+SHADOW_LIGHT_DIRECTION = (1.0, 0.35, 0.25)
 
 
 def curtain_groom(nx=10, nz=5, n=12, seed=0):
@@ -231,24 +232,51 @@ def curtain_groom(nx=10, nz=5, n=12, seed=0):
     return Groom.from_strands(out)
 
 
+def shadow_light():
+    """The shadow scene's light: directional, from the side (light 0 casts the shadows)."""
+    from ..render import Light
+
+    return Light("directional", SHADOW_LIGHT_DIRECTION)
+
+
+def shadow_settings(shadow_map_size: int = 512) -> dict:
+    """The shadow scene's RenderSettings fields (shadows="none"; a method is a change)."""
+    return dict(size=(48, 32), msaa=1, strands_per_guide=4, width=0.001, width_tip=1.0,
+                shadow_map_size=int(shadow_map_size), strand_opacity=float(-np.log(1.0 - SHADOW_ALPHA)),
+                shadow_density=1.0, pcf=1, draw_head=False, stray_fraction=0.0, clump_radius=0.004,
+                density_resolution=64)
+
+
+def shadow_renderer(ctx, groom, settings: dict, **changes):
+    """A Renderer (no profiler) of ``settings`` with ``changes``, the groom set; the caller releases it."""
+    from ..render import Renderer, RenderSettings
+
+    r = Renderer(RenderSettings(**{**settings, **changes}), ctx=ctx, profile=False)
+    r.set_strands(groom)
+    return r
+
+
+def points_near_segments(seg: dict, m: int, rng) -> np.ndarray:
+    """m points 2..8 mm (uniform) in random directions from the midpoints of random segments
+    (``seg["p0"]``, ``seg["p1"]``), drawn from ``rng``."""
+    k = rng.integers(0, len(seg["p0"]), m)
+    off = rng.normal(size=(m, 3))
+    off /= np.linalg.norm(off, axis=1, keepdims=True)
+    return 0.5 * (seg["p0"][k] + seg["p1"][k]) + off * rng.uniform(0.002, 0.008, (m, 1))
+
+
 def shadows(ctx, cfg, image_dir, log) -> dict:
-    from ..render import Light, Renderer, RenderSettings
     from ..render.capture import capture_segments
     from ..render.shadow_probe import probe_visibility
     from .render_bench import shadow_methods
 
     ref = load_reference("shadow_reference")
-    light = Light("directional", (1.0, 0.35, 0.25))
-    base = dict(size=(48, 32), msaa=1, strands_per_guide=4, width=0.001, width_tip=1.0,
-                shadow_map_size=int(cfg["shadow_map_size"]), strand_opacity=float(-np.log(1.0 - SHADOW_ALPHA)),
-                shadow_density=1.0, pcf=1, draw_head=False, stray_fraction=0.0, clump_radius=0.004,
-                density_resolution=64)
+    light = shadow_light()
+    base = shadow_settings(cfg["shadow_map_size"])
     groom = curtain_groom()
 
     def make(**kw):
-        r = Renderer(RenderSettings(**{**base, **kw}), ctx=ctx, profile=False)
-        r.set_strands(groom)
-        return r
+        return shadow_renderer(ctx, groom, base, **kw)
 
     log("shadows: exact ray cast")
     r = make(shadows="none")
@@ -259,10 +287,7 @@ def shadows(ctx, cfg, image_dir, log) -> dict:
         r.release()
     rng = np.random.default_rng(1)
     m = int(cfg["shadow_near"])
-    k = rng.integers(0, len(seg["p0"]), m)
-    off = rng.normal(size=(m, 3))
-    off /= np.linalg.norm(off, axis=1, keepdims=True)
-    near = 0.5 * (seg["p0"][k] + seg["p1"][k]) + off * rng.uniform(0.002, 0.008, (m, 1))
+    near = points_near_segments(seg, m, rng)
     ny, nx = cfg["shadow_slice"]
     ys, xs = np.linspace(0.11, -0.11, ny), np.linspace(-0.045, 0.045, nx)
     gx, gy = np.meshgrid(xs, ys)

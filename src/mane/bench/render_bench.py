@@ -65,13 +65,11 @@ from __future__ import annotations
 import dataclasses
 import math
 import time
-import traceback
-from contextlib import contextmanager
 
 import numpy as np
 
-from ..errors import GLFeatureError, GPUMemoryError, UsageError
-from .common import envelope, fmt, stats, table
+from ..errors import UsageError
+from .common import BenchRows, Skip, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
 
 TARGET_MS = 4.0
 TARGET_GUIDES, TARGET_SPG, TARGET_POINTS, TARGET_SEGMENTS = 3125, 16, 17, 32
@@ -135,10 +133,6 @@ REFERENCES = {
 }
 SECTIONS = ("target", "hunz_shading", "hunz_shadows", "vulkan_guides", "vulkan_divisions",
             "vulkan_strands_per_guide", "vulkan_pcf", "chen_lod", "woodhouse_msaa")
-
-
-class Skip(Exception):
-    """A configuration that cannot be measured here (too slow, unsupported setting, ...)."""
 
 
 # --------------------------------------------------------------------------- settings introspection
@@ -338,14 +332,7 @@ class GpuPreload:
         iters, rate = 1 << 12, None
         while iters <= 1 << 30:
             prof.reset()
-            walls = []
-            for _ in range(2):
-                self.ctx.finish()
-                t = time.perf_counter()
-                with prof.section("bench.preload"):
-                    self.dispatch(iters)
-                self.ctx.finish()
-                walls.append((time.perf_counter() - t) * 1e3)
+            walls, _ = time_each(self.ctx, lambda: self.dispatch(iters), 2, prof, "bench.preload")
             ms = min(prof.samples("bench.preload", wait=True) or [0.0])
             if ms >= want_ms:
                 rate = iters / ms
@@ -381,7 +368,11 @@ class GpuPreload:
 
 
 # --------------------------------------------------------------------------- the benchmark
-class Bench:
+class Bench(BenchRows):
+    skip_errors = (Skip, UsageError)
+    traceback_limit = 5
+    reason_limit = 400
+
     def __init__(self, ctx, mode: str = "default", progress=None, *, profiler_source: str | None = None):
         from ..gpu.profiler import GpuProfiler
 
@@ -405,39 +396,11 @@ class Bench:
         self.lod = lod_switch()
         self._release_error = None
 
-    def _log(self, msg: str) -> None:
-        self.progress(f"[{time.perf_counter() - self.started:7.1f} s] {msg}")
-
-    def _row(self, bench: str, name: str, **fields) -> dict:
-        row = {"bench": bench, "name": name, "status": "ok", "reason": None, **fields}
-        self.rows.append(row)
-        return row
-
-    def _skip_row(self, bench: str, name: str, reason: str, status: str = "skipped", **fields) -> dict:
-        row = self._row(bench, name, **fields)
-        row.update(status=status, reason=reason)
-        return row
-
-    @contextmanager
-    def _guard(self, bench: str, name: str, **fields):
-        self._log(f"{bench}: {name}")
-        try:
-            elapsed = time.perf_counter() - self.started
-            if elapsed > self.cfg["total_budget_s"]:
-                raise Skip(f"the {self.mode} mode's time budget ({self.cfg['total_budget_s']:.0f} s) is spent "
-                           f"({elapsed:.0f} s)")
-            yield
-        except GPUMemoryError as exc:
-            self._skip_row(bench, name, f"out of GPU memory: {exc}", **fields)
-        except GLFeatureError as exc:
-            self._skip_row(bench, name, f"missing GL feature: {exc}", **fields)
-        except (Skip, UsageError) as exc:
-            self._skip_row(bench, name, str(exc), **fields)
-        except Exception as exc:  # the benchmark goes on; the row says what broke
-            reason = f"{type(exc).__name__}: {exc}"
-            self._skip_row(bench, name, reason if len(reason) <= 400 else reason[:400] + " ...", status="error",
-                           **fields, traceback=traceback.format_exc(limit=5))
-            self._log(f"  error: {type(exc).__name__}: {exc}")
+    def _before_config(self) -> None:
+        elapsed = time.perf_counter() - self.started
+        if elapsed > self.cfg["total_budget_s"]:
+            raise Skip(f"the {self.mode} mode's time budget ({self.cfg['total_budget_s']:.0f} s) is spent "
+                       f"({elapsed:.0f} s)")
 
     # ------------------------------------------------------------------ one configuration
     def measure(self, bench: str, name: str, *, guides: int, points: int, settings: dict,
@@ -470,13 +433,7 @@ class Bench:
             r.set_head(self.work.head)
             cam = camera(r) if camera is not None else r.default_camera()
             # warm-up: the first frame compiles the programs and builds the LUTs
-            walls = []
-            for _ in range(max(W, 1)):
-                ctx.finish()
-                t = time.perf_counter()
-                r.render(cam, lights)
-                ctx.finish()
-                walls.append(time.perf_counter() - t)
+            walls = [ms / 1e3 for ms in time_each(ctx, lambda: r.render(cam, lights), max(W, 1))[0]]
             first = walls[0]
             per_frame = min(walls[1:]) if len(walls) > 1 else walls[0]
             # two phases of N frames in the budget (the profiled one a little slower)
@@ -489,15 +446,7 @@ class Bench:
             prof, rp = self.prof, r.profiler
             prof.reset()
             rp.reset()
-            wall, submit = [], []
-            for _ in range(N_eff):
-                ctx.finish()
-                t = time.perf_counter()
-                with prof.section("frame"):
-                    r.render(cam, lights)
-                submit.append((time.perf_counter() - t) * 1e3)
-                ctx.finish()
-                wall.append((time.perf_counter() - t) * 1e3)
+            wall, submit = time_each(ctx, lambda: r.render(cam, lights), N_eff, prof, "frame")
             frame_gpu = prof.samples("frame", wait=True)
             rp.flush()
             order = [p.name for p in r.passes]
@@ -519,12 +468,7 @@ class Bench:
             # 2. pipelined: back to back, no per-pass timing, one finish
             rp.enabled = False
             try:
-                ctx.finish()
-                t = time.perf_counter()
-                for _ in range(N_eff):
-                    r.render(cam, lights)
-                ctx.finish()
-                pipelined = (time.perf_counter() - t) * 1e3 / N_eff
+                pipelined = time_pipelined(ctx, lambda: r.render(cam, lights), N_eff)
             finally:
                 rp.enabled = True
 
@@ -837,10 +781,6 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
 
 
 # --------------------------------------------------------------------------- text output
-def _stat(key, which):
-    return lambda r: (r.get(key) or {}).get(which)
-
-
 def _pass(name):
     return lambda r: ((r.get("passes_ms") or {}).get(name) or {}).get("mean")
 
@@ -854,10 +794,10 @@ def format_text(result: dict) -> str:
            f"{tm['total_seconds']:.1f} s in all"]
     names = tm.get("pass_names") or []
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
-    frame_cols = [("gpu", _stat("gpu_ms", "mean"), "{:.3f}"),
-                  ("frame", _stat("frame_ms", "mean"), "{:.3f}"), ("median", _stat("frame_ms", "median"), "{:.3f}"),
-                  ("p95", _stat("frame_ms", "p95"), "{:.3f}"), ("passes", _stat("passes_sum_ms", "mean"), "{:.3f}"),
-                  ("wall", _stat("wall_ms", "mean"), "{:.3f}"), ("pipelined", "pipelined_ms", "{:.3f}"),
+    frame_cols = [("gpu", stat_of("gpu_ms", "mean"), "{:.3f}"),
+                  ("frame", stat_of("frame_ms", "mean"), "{:.3f}"), ("median", stat_of("frame_ms", "median"), "{:.3f}"),
+                  ("p95", stat_of("frame_ms", "p95"), "{:.3f}"), ("passes", stat_of("passes_sum_ms", "mean"), "{:.3f}"),
+                  ("wall", stat_of("wall_ms", "mean"), "{:.3f}"), ("pipelined", "pipelined_ms", "{:.3f}"),
                   ("fps", "fps", "{:.0f}")]
     size_cols = [("strands", "rendered_strands", "{:d}"), ("segments", "rendered_segments", "{:d}")]
     titles = {
@@ -889,11 +829,9 @@ def format_text(result: dict) -> str:
     aa = result.get("sweeps", {}).get("woodhouse_msaa", {}).get("msaa_cost_ms") or {}
     if aa:
         out.append("4x MSAA costs (Woodhouse workload): " + ", ".join(f"{m} {fmt(v)} ms" for m, v in aa.items()))
-    bad = [r for r in rows if r["status"] != "ok"]
+    bad = failures_table(rows)
     if bad:
-        out.append("")
-        out.append(table(bad, [("bench", "bench", "{}"), ("config", "name", "{}"), ("status", "status", "{}"),
-                               ("reason", lambda r: str(r["reason"])[:140], "{}")], title="Skipped / failed"))
+        out += ["", bad]
     return "\n".join(out)
 
 

@@ -52,13 +52,11 @@ from __future__ import annotations
 
 import math
 import time
-import traceback
-from contextlib import contextmanager
 
 import numpy as np
 
-from ..errors import GLFeatureError, GPUMemoryError
-from .common import envelope, fmt, peak_bandwidth, stats, table
+from .common import (BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
+                     time_each, time_pipelined)
 
 HEAD_CENTER = np.array([0.0, 1.6, 0.0])
 HEAD_RADIUS = 0.1
@@ -97,10 +95,6 @@ CHEN_CATEGORIES = {
     "force_velocity_position": ("integrate", "velocity"),
 }
 FLIP_STAGES = ("p2g", "classify", "divergence", "pcg", "gradient", "g2p")
-
-
-class Skip(Exception):
-    """A configuration that cannot be measured here (too slow for the budget, ...)."""
 
 
 # --------------------------------------------------------------------------- workloads
@@ -188,7 +182,7 @@ class _Timed:
         return getattr(self._obj, name)
 
 
-class Bench:
+class Bench(BenchRows):
     """Runs the sections of one mode and collects rows."""
 
     def __init__(self, ctx, mode: str = "default", progress=None):
@@ -205,33 +199,7 @@ class Bench:
         self.pass_names_seen: set[str] = set()
         self.started = time.perf_counter()
 
-    # ---- helpers
-    def _log(self, msg: str) -> None:
-        self.progress(f"[{time.perf_counter() - self.started:7.1f} s] {msg}")
-
-    def _row(self, bench: str, name: str, **fields) -> dict:
-        row = {"bench": bench, "name": name, "status": "ok", "reason": None, **fields}
-        self.rows.append(row)
-        return row
-
-    @contextmanager
-    def _guard(self, bench: str, name: str, **fields):
-        """Run a configuration; on a known failure add a skipped row and go on."""
-        self._log(f"{bench}: {name}")
-        try:
-            yield
-        except GPUMemoryError as exc:
-            self._row(bench, name, **fields).update(status="skipped", reason=f"out of GPU memory: {exc}")
-        except GLFeatureError as exc:
-            self._row(bench, name, **fields).update(status="skipped", reason=f"missing GL feature: {exc}")
-        except Skip as exc:
-            self._row(bench, name, **fields).update(status="skipped", reason=str(exc))
-        except Exception as exc:  # a benchmark goes on; the row says what broke
-            tb = traceback.format_exc(limit=4)
-            self._row(bench, name, **fields).update(status="error", reason=f"{type(exc).__name__}: {exc}",
-                                                    traceback=tb)
-            self._log(f"  error: {type(exc).__name__}: {exc}")
-
+    # ---- helpers (_log, _row, _guard: BenchRows)
     def _simulator(self, S: int, N: int, colliders, settings):
         from ..sim import Simulator
 
@@ -276,38 +244,20 @@ class Bench:
         # 1. whole step, one at a time
         prof = self.prof
         prof.reset()
-        wall, submit = [], []
-        for _ in range(K_eff):
-            ctx.finish()
-            t = time.perf_counter()
-            with prof.section("step"):
-                self._motion_step(sim, motion)
-            submit.append((time.perf_counter() - t) * 1e3)
-            ctx.finish()
-            wall.append((time.perf_counter() - t) * 1e3)
+        step = lambda: self._motion_step(sim, motion)  # noqa: E731
+        wall, submit = time_each(ctx, step, K_eff, prof, "step")
         gpu = prof.samples("step", wait=True)
 
         # 2. pipelined
-        ctx.finish()
-        t = time.perf_counter()
-        for _ in range(K_eff):
-            self._motion_step(sim, motion)
-        ctx.finish()
-        pipelined = (time.perf_counter() - t) * 1e3 / K_eff
+        pipelined = time_pipelined(ctx, step, K_eff)
 
         # 3. per pass
         inner = getattr(sim, "_profiler", None)
         if inner is not None:
             inner.reset()
         sim.profile = True
-        profiled = []
         try:
-            for _ in range(K_eff):
-                ctx.finish()
-                t = time.perf_counter()
-                self._motion_step(sim, motion)
-                ctx.finish()
-                profiled.append((time.perf_counter() - t) * 1e3)
+            profiled, _ = time_each(ctx, step, K_eff)
         finally:
             sim.profile = False
         if inner is not None and hasattr(inner, "flush"):
@@ -356,10 +306,26 @@ class Bench:
                 with self._guard("dftl_core", name, **fields):
                     sim = self._simulator(S, N, [head_sphere()], SimSettings(length_method="dftl"))
                     row = self._row("dftl_core", name, **fields, **self._time_sim(sim))
-                    row["integrate_bandwidth"] = integrate_bandwidth(sim.state, row["passes_ms"].get("integrate"),
-                                                                     self._renderer())
+                    integrate_ms = row["passes_ms"].get("integrate")
+                    if not integrate_ms and row["folded_passes"].get("integrate"):
+                        # folded into the fused strand solve: its own kernel, by itself, for the
+                        # bandwidth figure (run after the timed steps; it moves the state on)
+                        integrate_ms = row["integrate_kernel_ms"] = self._pass_alone_ms(sim, "integrate")
+                    row["integrate_bandwidth"] = integrate_bandwidth(sim.state, integrate_ms, self._renderer())
                 if sim is not None:
                     sim.release()
+
+    def _pass_alone_ms(self, sim, name: str) -> float | None:
+        """Mean GPU ms of one pass's own kernel run by itself (``Simulator.run_pass``)."""
+        n = max(3, min(int(self.cfg["steps"]), 50))
+        sim.run_pass(name)   # compiles
+        self.ctx.finish()
+        key = f"alone.{name}"
+        for _ in range(n):
+            with self.prof.section(key):
+                sim.run_pass(name)
+        got = self.prof.samples(key, wait=True)
+        return sum(got) / len(got) if got else None
 
     def _full_settings(self, method: str):
         from ..sim import SimSettings
@@ -795,10 +761,6 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
 
 
 # --------------------------------------------------------------------------- text output
-def _stat(key, which):
-    return lambda r: (r.get(key) or {}).get(which)
-
-
 def _pass(name):
     return lambda r: (r.get("passes_ms") or {}).get(name)
 
@@ -811,8 +773,9 @@ def format_text(result: dict) -> str:
            f"timing: step {tm['step_source']}, passes {tm['pass_source']}; all times ms; "
            f"{tm['total_seconds']:.1f} s in all"]
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
-    step_cols = [("step mean", _stat("step_ms", "mean"), "{:.3f}"), ("median", _stat("step_ms", "median"), "{:.3f}"),
-                 ("p95", _stat("step_ms", "p95"), "{:.3f}"), ("wall", _stat("wall_ms", "mean"), "{:.3f}"),
+    step_cols = [("step mean", stat_of("step_ms", "mean"), "{:.3f}"),
+                 ("median", stat_of("step_ms", "median"), "{:.3f}"),
+                 ("p95", stat_of("step_ms", "p95"), "{:.3f}"), ("wall", stat_of("wall_ms", "mean"), "{:.3f}"),
                  ("pipelined", "pipelined_ms", "{:.3f}"), ("kernels", "kernel_sum_ms", "{:.3f}"),
                  ("other", "other_ms", "{:.3f}")]
     pass_cols = [(p, _pass(p), "{:.3f}") for p in ("integrate", "shape", "length", "collide", "sdf",
@@ -845,7 +808,7 @@ def format_text(result: dict) -> str:
         ("clear voxels", lambda r: r["categories_ms"]["clear_voxels"], "{:.3f}"),
         ("voxel calcs", lambda r: r["categories_ms"]["voxel_calculations"], "{:.3f}"),
         ("sim friction pass", lambda r: r["categories_ms"]["friction_pass"], "{:.3f}"),
-        ("step mean", _stat("step_ms", "mean"), "{:.3f}")],
+        ("step mean", stat_of("step_ms", "mean"), "{:.3f}")],
         title="Woodhouse Table 5.2 categories (his 242 x 8 workload, and smoothed to 16)"))
     out.append("")
     out.append(table(ok("grid_friction"), [
@@ -854,23 +817,24 @@ def format_text(result: dict) -> str:
                                    "{}"),
         ("bounds", "bounds", "{:.3f}"), ("bin", "bin", "{:.3f}"),
         ("splat", "splat", "{:.3f}"), ("normalise", "normalise", "{:.3f}"), ("gather", "gather", "{:.3f}"),
-        ("other", "other", "{:.3f}"), ("total", "total", "{:.3f}"), ("wall", _stat("wall_ms", "mean"), "{:.3f}"),
+        ("other", "other", "{:.3f}"), ("total", "total", "{:.3f}"), ("wall", stat_of("wall_ms", "mean"), "{:.3f}"),
         ("clear", "clear", "{:.3f}")],
         title="Grid friction: atomic (binned / direct) vs raster splat; bounds + bin + splat + normalise + "
               "gather + other = total (other: barriers, state changes, raster's FBO clear); clear: an explicit "
               "voxel clear timed apart (atomic fuses it into normalise)"))
     out.append("")
-    out.append(table(ok("flip"), [("config", "name", "{}"), ("GPU apply", _stat("apply_ms", "mean"), "{:.3f}"),
-                                  ("median", _stat("apply_ms", "median"), "{:.3f}"),
-                                  ("p95", _stat("apply_ms", "p95"), "{:.3f}"),
+    out.append(table(ok("flip"), [("config", "name", "{}"), ("GPU apply", stat_of("apply_ms", "mean"), "{:.3f}"),
+                                  ("median", stat_of("apply_ms", "median"), "{:.3f}"),
+                                  ("p95", stat_of("apply_ms", "p95"), "{:.3f}"),
                                   ("PCG it", "pcg_iterations", "{:.0f}")]
                      + [(s, (lambda s: lambda r: r["stage_share"][s] * 100 if r["stage_share"][s] is not None
                              else None)(s), "{:.1f}%") for s in FLIP_STAGES]
-                     + [("CPU numpy", _stat("cpu_ms", "median"), "{:.1f}"), ("CPU PCG it", "cpu_pcg_iterations", "{}"),
+                     + [("CPU numpy", stat_of("cpu_ms", "median"), "{:.1f}"),
+                        ("CPU PCG it", "cpu_pcg_iterations", "{}"),
                         ("speedup", "speedup", "{:.1f}x")],
                      title="FLIP volume (Chen Tables 2-3): GPU ms per apply, share of each stage, CPU flip_numpy"))
     out.append("")
-    out.append(table(ok("chen_shares"), [("config", "name", "{}"), ("step mean", _stat("step_ms", "mean"), "{:.3f}"),
+    out.append(table(ok("chen_shares"), [("config", "name", "{}"), ("step mean", stat_of("step_ms", "mean"), "{:.3f}"),
                                          ("fps", "fps", "{:.0f}")]
                      + [(c.replace("_", " "), (lambda c: lambda r: r["share"][c] * 100 if r["share"][c] is not None
                                                else None)(c), "{:.1f}%") for c in CHEN_CATEGORIES],
@@ -885,11 +849,9 @@ def format_text(result: dict) -> str:
                       else " (peak unknown for this renderer)"))
     else:
         out.append(f"integrate kernel DRAM bandwidth: {bw.get('note', 'not measured')}")
-    bad = [r for r in rows if r["status"] != "ok"]
+    bad = failures_table(rows)
     if bad:
-        out.append("")
-        out.append(table(bad, [("bench", "bench", "{}"), ("config", "name", "{}"), ("status", "status", "{}"),
-                               ("reason", lambda r: str(r["reason"])[:140], "{}")], title="Skipped / failed"))
+        out += ["", bad]
     if not tm["pass_names_match_simulator"]:
         out.append(f"warning: profiler sections not among the simulator's passes: {tm['unknown_pass_names']}")
     return "\n".join(out)

@@ -29,10 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, GroomError, UsageError
+from ..errors import FormatError
 from ..groom import Groom
 from .atomic import atomic_write_path
 from .binary import read_in_child
+from .curves import build_groom, check_counts, check_time, concat, drop_short_curves, object_index, to_world
 
 OGAWA_MAGIC = b"Ogawa"
 _DATA_BIT = 1 << 63
@@ -103,13 +104,7 @@ def check_ogawa(path) -> int:
 def read(path, time: float | None = None, isolate: bool = True, timeout: float = 300.0) -> Groom:
     """Read every curves object of an Alembic archive (see the module docstring)."""
     path = Path(path)
-    if time is not None:
-        try:
-            time = float(time)
-        except (TypeError, ValueError):
-            raise UsageError(f"time must be a number of seconds, got {time!r}") from None
-        if not np.isfinite(time):
-            raise UsageError("time must be finite")
+    time = check_time(time, "of seconds")
     check_ogawa(path)
     if isolate:
         return read_in_child("alembic_curves", path, {"time": time}, timeout=timeout)
@@ -152,11 +147,8 @@ def read_in_process(path, time: float | None = None) -> Groom:
             max_samples = max(max_samples, int(schema.getNumSamples()))
             pts = np.array(sample.getPositions(), dtype=np.float64).reshape(-1, 3)
             counts = np.array(sample.getCurvesNumVertices(), dtype=np.int64).reshape(-1)
-            if counts.size and counts.min() < 0:
-                raise FormatError(f"{obj.getFullName()}: a curve has a negative vertex count", path)
-            if int(counts.sum()) != len(pts):
-                raise FormatError(f"{obj.getFullName()}: nVertices adds up to {int(counts.sum())} "
-                                  f"but P has {len(pts)} points", path)
+            check_counts(pts, counts, obj.getFullName(), path,
+                         "nVertices adds up to {total} but P has {points} points")
             widths = None
             wp = schema.getWidthsParam()
             if wp.valid():
@@ -171,9 +163,7 @@ def read_in_process(path, time: float | None = None) -> Groom:
                     raise FormatError(f"{obj.getFullName()}: {len(w)} widths for {len(pts)} points "
                                       f"and {len(counts)} curves", path)
             if len(pts):
-                p = pts @ world[:3, :3].T + world[:3, 3]
-                if widths is not None:
-                    widths = widths * abs(np.linalg.det(world[:3, :3])) ** (1.0 / 3.0)
+                p, widths = to_world(pts, widths, world)
                 found.append((obj.getFullName(), p, counts, widths, str(sample.getType())))
         for child in obj.children:
             visit(child, world, depth + 1)
@@ -183,34 +173,21 @@ def read_in_process(path, time: float | None = None) -> Groom:
         raise FormatError("the archive has no curves (no ICurves object with points)", path)
     points = np.concatenate([f[1] for f in found])
     counts = np.concatenate([f[2] for f in found])
-    obj_index = np.repeat(np.arange(len(found), dtype=np.int32), [len(f[2]) for f in found])
-    widths = None
-    if all(f[3] is not None for f in found):
-        widths = np.concatenate([f[3] for f in found])
+    obj_index = object_index([f[2] for f in found])
+    widths = concat([f[3] for f in found])
     if not np.all(np.isfinite(points)) or np.abs(points).max() > np.finfo(np.float32).max:
         raise FormatError("curve points are not finite", path)
     if widths is not None and (not np.all(np.isfinite(widths))):
         raise FormatError("curve widths are not finite", path)
-    keep = counts >= 2
-    dropped = int((~keep).sum())
-    if not keep.any():
-        raise FormatError("every curve has fewer than 2 points: no hair", path)
-    if dropped:
-        pmask = np.repeat(keep, counts)
-        points = points[pmask]
-        widths = None if widths is None else widths[pmask]
-        counts, obj_index = counts[keep], obj_index[keep]
+    counts, per_point, per_strand, dropped = drop_short_curves(
+        counts, path, {"points": points, "widths": widths}, {"object": obj_index})
     meta = {"format": "Alembic",
             "alembic": {"objects": [f[0] for f in found], "curve_types": [f[4] for f in found],
                         "num_samples": max_samples, "time": time,
                         "dropped_short_curves": dropped},
             "units": "as stored"}
-    try:
-        return Groom(points.astype(np.float32), counts,
-                     widths=None if widths is None else widths.astype(np.float32),
-                     strand_attributes={"object": obj_index}, metadata=meta)
-    except GroomError as exc:
-        raise FormatError(str(exc), path) from None
+    return build_groom(path, per_point["points"], counts, widths=per_point["widths"],
+                       strand_attributes=per_strand, metadata=meta)
 
 
 def write(groom: Groom, path) -> None:

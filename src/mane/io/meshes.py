@@ -217,19 +217,30 @@ def read_tfxmesh(path) -> Mesh:
         at += n
         return lineno, rows
 
+    def numbered_section(keyword, plural, columns, needs):
+        """A section's lines, at least one, each of ``columns`` tokens (``needs`` says what they are)."""
+        kline, rows = section(keyword)
+        if not rows:
+            raise FormatError(f"line {kline}: the mesh has no {plural}", path)
+        for lineno, tokens in rows:
+            if len(tokens) != columns:
+                raise FormatError(f"line {lineno}: {needs}, got {len(tokens)}", path)
+        return rows
+
+    def check_numbering(rows, index, what, spec):
+        """FormatError unless the first column counts 0, 1, 2, ..."""
+        if not np.array_equal(index, np.arange(len(rows))):
+            row = int(np.argmax(index != np.arange(len(rows))))
+            raise FormatError(f"line {rows[row][0]}: {what} index {index[row]:{spec}}, expected {row}", path)
+
     _, bone_rows = section("numOfBones")
     bones = []
     for k, (lineno, tokens) in enumerate(bone_rows):
         if len(tokens) < 2 or tokens[0] != str(k):
             raise FormatError(f"line {lineno}: expected '{k} <bone name>'", path)
         bones.append(" ".join(tokens[1:]))
-    vline, vrows = section("numOfVertices")
-    if not vrows:
-        raise FormatError(f"line {vline}: the mesh has no vertices", path)
-    for lineno, tokens in vrows:
-        if len(tokens) != 15:
-            raise FormatError(f"line {lineno}: a vertex line needs 15 values (index, position, normal, "
-                              f"4 joints, 4 weights), got {len(tokens)}", path)
+    vrows = numbered_section("numOfVertices", "vertices", 15,
+                             "a vertex line needs 15 values (index, position, normal, 4 joints, 4 weights)")
     try:
         table = np.array([t for _, t in vrows], dtype=np.float64)
     except ValueError:
@@ -237,9 +248,7 @@ def read_tfxmesh(path) -> Mesh:
     if not np.all(np.isfinite(table)):
         row = int(np.argmax(~np.isfinite(table).all(axis=1)))
         raise FormatError(f"line {vrows[row][0]}: a vertex value is not finite", path)
-    if not np.array_equal(table[:, 0], np.arange(len(vrows))):
-        row = int(np.argmax(table[:, 0] != np.arange(len(vrows))))
-        raise FormatError(f"line {vrows[row][0]}: vertex index {table[row, 0]:g}, expected {row}", path)
+    check_numbering(vrows, table[:, 0], "vertex", "g")
     joints = table[:, 7:11]
     if np.any(joints != np.round(joints)) or joints.min() < 0 or (bones and joints.max() >= len(bones)):
         row = int(np.argmax(((joints != np.round(joints)) | (joints < 0)
@@ -248,21 +257,14 @@ def read_tfxmesh(path) -> Mesh:
                           path)
     if np.abs(table[:, 1:7]).max() > np.finfo(np.float32).max:
         raise FormatError("vertex values overflow float32", path)
-    fline, frows = section("numOfTriangles")
-    if not frows:
-        raise FormatError(f"line {fline}: the mesh has no triangles", path)
-    for lineno, tokens in frows:
-        if len(tokens) != 4:
-            raise FormatError(f"line {lineno}: a triangle line needs 4 whole numbers "
-                              f"(index, 3 vertex indices), got {len(tokens)}", path)
+    frows = numbered_section("numOfTriangles", "triangles", 4,
+                             "a triangle line needs 4 whole numbers (index, 3 vertex indices)")
     try:
         tri = np.array([[int(x) for x in t] for _, t in frows], dtype=np.int64)
     except ValueError:
         raise FormatError(f"lines {frows[0][0]}..{frows[-1][0]}: a triangle value is not a whole number",
                           path) from None
-    if not np.array_equal(tri[:, 0], np.arange(len(frows))):
-        row = int(np.argmax(tri[:, 0] != np.arange(len(frows))))
-        raise FormatError(f"line {frows[row][0]}: triangle index {tri[row, 0]}, expected {row}", path)
+    check_numbering(frows, tri[:, 0], "triangle", "")
     faces = tri[:, 1:]
     if faces.min() < 0 or faces.max() >= len(vrows):
         row = int(np.argmax(((faces < 0) | (faces >= len(vrows))).any(axis=1)))

@@ -29,10 +29,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, GroomError, UsageError
+from ..errors import FormatError, ManeError, UsageError
 from ..groom import Groom, up_axis_matrix
 from .atomic import atomic_write_path
 from .binary import read_in_child
+from .curves import build_groom, check_counts, check_time, concat, drop_short_curves, object_index, to_world
 
 PRIM_PATH = "/Hair"
 _MAGIC = {b"PXR-USDC": "usdc", b"#usda 1.": "usda"}
@@ -55,13 +56,7 @@ def _sniff(path: Path) -> None:
 
 def read(path, time: float | None = None, isolate: bool = True, timeout: float = 300.0) -> Groom:
     path = Path(path)
-    if time is not None:
-        try:
-            time = float(time)
-        except (TypeError, ValueError):
-            raise UsageError(f"time must be a number (a USD time code), got {time!r}") from None
-        if not np.isfinite(time):
-            raise UsageError("time must be finite")
+    time = check_time(time, "(a USD time code)")
     _sniff(path)
     if isolate:
         return read_in_child("usd_curves", path, {"time": time}, timeout=timeout)
@@ -86,7 +81,17 @@ def _interp(values: np.ndarray, interpolation: str, counts: np.ndarray, what: st
                       f"({P} points, {S} curves)", path)
 
 
+def _require_pxr() -> None:
+    """Raise ManeError unless OpenUSD's Python bindings (pxr, from usd-core) import."""
+    try:
+        import pxr  # noqa: F401
+    except ImportError as exc:
+        raise ManeError(f"USD files need OpenUSD's Python bindings ({exc}); pip install usd-core "
+                        "(a mane dependency)") from None
+
+
 def read_in_process(path, time: float | None = None) -> Groom:
+    _require_pxr()
     from pxr import Sdf, Tf, Usd, UsdGeom
 
     path = Path(path)
@@ -131,11 +136,7 @@ def read_in_process(path, time: float | None = None) -> Groom:
         where = str(prim.GetPath())
         pts = np.array(pts, dtype=np.float64).reshape(-1, 3)
         counts = np.array(cnt, dtype=np.int64).reshape(-1)
-        if counts.size and counts.min() < 0:
-            raise FormatError(f"{where}: a curve has a negative vertex count", path)
-        if int(counts.sum()) != len(pts):
-            raise FormatError(f"{where}: curveVertexCounts add up to {int(counts.sum())} but there "
-                              f"are {len(pts)} points", path)
+        check_counts(pts, counts, where, path, "curveVertexCounts add up to {total} but there are {points} points")
         pv_api = UsdGeom.PrimvarsAPI(prim)
         widths = None
         w = curves.GetWidthsAttr().Get(tc)
@@ -182,9 +183,7 @@ def read_in_process(path, time: float | None = None) -> Groom:
         world = np.array(xf.ComputeLocalToWorldTransform(tc), dtype=np.float64).reshape(4, 4).T
         if not np.all(np.isfinite(world)):
             raise FormatError(f"{where}: its transform is not finite", path)
-        pts = pts @ world[:3, :3].T + world[:3, 3]
-        if widths is not None:
-            widths = widths * abs(np.linalg.det(world[:3, :3])) ** (1.0 / 3.0)
+        pts, widths = to_world(pts, widths, world)
         parts.append(dict(where=where, points=pts, counts=counts, widths=widths, colors=colors,
                           transparency=transparency, point_attrs=point_attrs,
                           strand_attrs=strand_attrs, type=str(curves.GetTypeAttr().Get()),
@@ -193,12 +192,11 @@ def read_in_process(path, time: float | None = None) -> Groom:
         raise FormatError("the stage has no BasisCurves prim with points", path)
 
     def cat(key):
-        vals = [p[key] for p in parts]
-        return None if any(v is None for v in vals) else np.concatenate(vals)
+        return concat([p[key] for p in parts])
 
     points, counts = cat("points"), cat("counts")
     widths, colors, transparency = cat("widths"), cat("colors"), cat("transparency")
-    prim_index = np.repeat(np.arange(len(parts), dtype=np.int32), [len(p["counts"]) for p in parts])
+    prim_index = object_index([p["counts"] for p in parts])
 
     def common(key):
         names = set.intersection(*(set(p[key]) for p in parts))
@@ -222,17 +220,9 @@ def read_in_process(path, time: float | None = None) -> Groom:
                       ("transparency", transparency)):
         if arr is not None and (not np.all(np.isfinite(arr)) or np.abs(arr).max() > np.finfo(np.float32).max):
             raise FormatError(f"{name} contain NaN, infinite or out-of-range values", path)
-    keep = counts >= 2
-    dropped = int((~keep).sum())
-    if not keep.any():
-        raise FormatError("every curve has fewer than 2 points: no hair", path)
-    if dropped:
-        pm = np.repeat(keep, counts)
-        points = points[pm]
-        widths, colors, transparency = (None if a is None else a[pm] for a in (widths, colors, transparency))
-        point_attrs = {k: v[pm] for k, v in point_attrs.items()}
-        strand_attrs = {k: v[keep] for k, v in strand_attrs.items()}
-        counts = counts[keep]
+    counts, per_point, strand_attrs, dropped = drop_short_curves(
+        counts, path, dict(points=points, widths=widths, colors=colors, transparency=transparency,
+                           point_attributes=point_attrs), strand_attrs)
     meta = {"format": "USD",
             "usd": {"prims": [p["where"] for p in parts], "types": [p["type"] for p in parts],
                     "wraps": [p["wrap"] for p in parts], "num_time_samples": max_samples,
@@ -243,13 +233,8 @@ def read_in_process(path, time: float | None = None) -> Groom:
                     "time_codes_per_second": float(stage.GetTimeCodesPerSecond()),
                     "dropped_short_curves": dropped},
             "up_axis": "y", "units": "metres" if mpu_authored else "as stored"}
-    f32 = (lambda a: None if a is None else a.astype(np.float32))
-    try:
-        return Groom(points.astype(np.float32), counts, widths=f32(widths), colors=f32(colors),
-                     transparency=f32(transparency), point_attributes=point_attrs,
-                     strand_attributes=strand_attrs, metadata=meta)
-    except GroomError as exc:
-        raise FormatError(str(exc), path) from None
+    return build_groom(path, per_point.pop("points"), counts, **per_point, strand_attributes=strand_attrs,
+                       metadata=meta)
 
 
 _VT = {("f", 1): "FloatArray", ("f", 2): "Vec2fArray", ("f", 3): "Vec3fArray",
@@ -260,6 +245,7 @@ _SDF = {"FloatArray": "FloatArray", "Vec2fArray": "Float2Array", "Vec3fArray": "
 
 def write(groom: Groom, path, frames=None, fps: float = 24.0) -> None:
     """Write a BasisCurves stage (see the module docstring); ``frames`` animate ``points``."""
+    _require_pxr()
     from pxr import Sdf, Usd, UsdGeom, Vt
 
     fps = float(fps)

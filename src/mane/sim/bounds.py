@@ -109,12 +109,15 @@ class GridBounds:
         box[4:7] = hi
         self.buffer.write(keys.tobytes() + box.tobytes())
 
-    def update(self, positions, num_particles: int) -> "GridBounds":
-        """Recompute the box from the first ``num_particles`` vec4s of ``positions`` (GPU only)."""
+    def update(self, positions, num_particles: int, *, reduced: bool = False) -> "GridBounds":
+        """Recompute the box from the first ``num_particles`` vec4s of ``positions`` (GPU only).
+
+        ``reduced``: another kernel has already put the positions' min/max into the buffer's
+        keys (the strand solver's BOUNDS option): only the padding stage runs."""
         n = check_particle_buffers(num_particles, positions)
         positions.bind_to_storage_buffer(0)
         self.buffer.bind_to_storage_buffer(BOUNDS_BINDING)
-        if n:
+        if n and not reduced:
             set_uniforms(self._reduce, num_particles=n)
             self._reduce.run(groups(n, 256 * PER_INVOCATION))
             storage_barrier(self.ctx)

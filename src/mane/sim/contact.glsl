@@ -27,20 +27,11 @@ uniform mat4 sdf_world_to_local[NSDF];
 uniform mat4 sdf_local_to_world[NSDF];
 uniform mat4 sdf_prev_world_to_local[NSDF];  // the mesh's frame at the previous step
 
-// Trilinear texelFetch sample (sdf_sample.glsl's, for a texture of the array).
+#include "sdf_trilinear.glsl"
+
+// Trilinear texelFetch sample of a texture of the array.
 float sdf_at(sampler3D tex, vec3 lo, float h, vec3 x) {
-    ivec3 res = textureSize(tex, 0);
-    vec3 g = (x - lo) / h;
-    vec3 gc = clamp(g, vec3(0.0), vec3(res - 1));
-    ivec3 b = min(ivec3(floor(gc)), res - 2);
-    vec3 f = gc - vec3(b);
-    float v = 0.0;
-    for (int c = 0; c < 8; ++c) {
-        ivec3 o = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        vec3 w = mix(vec3(1.0) - f, f, vec3(o));
-        v += w.x * w.y * w.z * texelFetch(tex, b + o, 0).r;
-    }
-    return v + length(g - gc) * h;
+    return sdf_trilinear(tex, lo, h, textureSize(tex, 0), x);
 }
 
 vec3 sdf_grad(sampler3D tex, vec3 lo, float h, vec3 x) {

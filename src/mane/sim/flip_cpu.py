@@ -73,6 +73,16 @@ def _interp(g, field):
     return out
 
 
+def _face_sides(a: int, R: int) -> tuple[tuple, tuple]:
+    """Index tuples into a grid of R^3 cells padded by one: the cells below and above each of the
+    (R + 1) axis-``a`` faces (shaped like that axis' face grid)."""
+    sl_lo = [slice(1, R + 1)] * 3
+    sl_hi = [slice(1, R + 1)] * 3
+    sl_lo[a] = slice(0, R + 1)
+    sl_hi[a] = slice(1, R + 2)
+    return tuple(sl_lo), tuple(sl_hi)
+
+
 def _shift(g, a):
     s = np.full(3, 0.5)
     s[a] = 0.0
@@ -278,11 +288,8 @@ def flip_numpy(positions, velocities, dt: float, resolution: int = 32, flip_rati
     padded = np.pad(markers, 1, constant_values=AIR)
     u = []
     for a in range(3):
-        sl_lo = [slice(1, R + 1)] * 3
-        sl_hi = [slice(1, R + 1)] * 3
-        sl_lo[a] = slice(0, R + 1)
-        sl_hi[a] = slice(1, R + 2)
-        lower, upper = padded[tuple(sl_lo)], padded[tuple(sl_hi)]
+        sl_lo, sl_hi = _face_sides(a, R)
+        lower, upper = padded[sl_lo], padded[sl_hi]
         u.append(np.where((lower == SOLID) | (upper == SOLID), 0.0, u_star[a]))
 
     # 3. divergence and source
@@ -302,13 +309,10 @@ def flip_numpy(positions, velocities, dt: float, resolution: int = 32, flip_rati
     # 5. gradient
     pp = np.pad(pressure, 1)
     for a in range(3):
-        sl_lo = [slice(1, R + 1)] * 3
-        sl_hi = [slice(1, R + 1)] * 3
-        sl_lo[a] = slice(0, R + 1)
-        sl_hi[a] = slice(1, R + 2)
-        lower, upper = padded[tuple(sl_lo)], padded[tuple(sl_hi)]
+        sl_lo, sl_hi = _face_sides(a, R)
+        lower, upper = padded[sl_lo], padded[sl_hi]
         ok = (lower != SOLID) & (upper != SOLID) & ((lower == FLUID) | (upper == FLUID))
-        u[a] = np.where(ok, u[a] - (pp[tuple(sl_hi)] - pp[tuple(sl_lo)]), u[a])
+        u[a] = np.where(ok, u[a] - (pp[sl_hi] - pp[sl_lo]), u[a])
 
     # 6. grid -> particle
     new = vel.copy()

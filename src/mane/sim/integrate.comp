@@ -11,6 +11,10 @@
 #include "collide.glsl"
 #include "wind.glsl"
 
+#ifndef PENALTY
+#define PENALTY 1  // penalty-mode colliders exist (the simulator sets 0 when none do)
+#endif
+
 layout(local_size_x = 64) in;
 
 uniform mat4 head;               // head frame -> world
@@ -44,7 +48,9 @@ void main() {
         if (wind_on != 0) w = wind_at(s, transform_point(head, rest_positions[s * uint(NV)].xyz), time);
         a += drag * (w - v);
     }
+#if PENALTY
     a += penalty_acceleration(x.xyz);
+#endif
     v = v * damping_factor + dt * a;
     float speed = length(v);
     if (speed > max_speed) v *= max_speed / speed;

@@ -25,9 +25,12 @@ One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is sk
 Some passes are folded into another (``Simulator.folded_passes()``, pass -> the one that
 does its work) and not run by ``substep``: ``collide`` and ``sdf`` into ``length`` always
 (only mesh colliders beyond the first ``MAX_SWEEP_SDFS`` are left to the sdf pass), and
-with DFTL and ``settings.fused_strand_solve`` (the default) also ``shape`` and ``velocity``:
-then one per-strand kernel (``strand_solve.comp``) streams each strand once per step
-through shape, DFTL, collisions and the velocity update. ``run_pass`` still runs a folded
+with DFTL and ``settings.fused_strand_solve`` (the default) also ``shape`` and ``velocity``
+(and ``integrate`` with ``Simulator.fold_integrate``): then one per-strand kernel
+(``strand_solve.comp``) streams each strand once per step through shape, DFTL, collisions
+and the velocity update. ``substep`` also moves two stages of the friction pass into
+neighbouring kernels (``fold_bounds``: the grid box's reduction into the length pass;
+``fold_gather``: the gather into the guard's kernel). ``run_pass`` still runs a folded
 pass's own kernel on its own (tests, diagnostics).
 
 The simulator keeps no dynamic state of its own: everything that changes from step to
@@ -61,6 +64,9 @@ MAX_SWEEP_SDFS = 4
 """mesh colliders handled inside the length pass's sweeps (texture units 5..8); more go
 to the sdf pass after it."""
 SDF_UNIT0 = 5
+GUARD_GRID_BINDING = 10    # the guard with friction's gather: the grid and its box
+GUARD_BOUNDS_BINDING = 11
+AUX_BOUNDS_BINDING = 11    # the length pass reducing into the friction grid's box
 
 
 def _mat4(m) -> tuple:
@@ -256,8 +262,21 @@ class Simulator:
         st.head = np.asarray(head, dtype=np.float64)
         self.upload_colliders(st)
         folded = self.folded_passes()
+        gather_in_guard = self._gather_in_guard()
+        bounds_in_length = self._bounds_in_length()
         for name in PASSES:
-            if name not in folded:
+            if name in folded:
+                continue
+            if bounds_in_length and name == "length":
+                self._bind(st)
+                self._pass_length(st, h, bounds=True)
+            elif (gather_in_guard or bounds_in_length) and name == "friction":
+                self._bind(st)
+                self._pass_friction(st, h, gather=not gather_in_guard, reduced=bounds_in_length)
+            elif gather_in_guard and name == "guard":
+                self._bind(st)
+                self._pass_guard(st, h, gather=True)
+            else:
                 self.run_pass(name, st, h)
         st.time += h
         st.steps += 1
@@ -280,9 +299,14 @@ class Simulator:
         folded = {"collide": "length", "sdf": "length"}
         if sum(isinstance(c, MeshCollider) for c in self.colliders) > MAX_SWEEP_SDFS:
             del folded["sdf"]
-        if self.settings.length_method == "dftl" and self.settings.fused_strand_solve:
+        if self._fused():
             folded.update(shape="length", velocity="length")
+            if self.fold_integrate:
+                folded["integrate"] = "length"
         return folded
+
+    def _fused(self) -> bool:
+        return self.settings.length_method == "dftl" and self.settings.fused_strand_solve
 
     # ------------------------------------------------------------------ passes
     def _bind(self, st: SimState) -> None:
@@ -318,9 +342,18 @@ class Simulator:
         return (st.num_strands + 63) // 64
 
     def _pass_integrate(self, st: SimState, h: float) -> bool:
-        s = self.settings
-        sh = self._shader("integrate")
+        sh = self._shader("integrate", PENALTY=int(self._penalty_on()))
         _set(sh, "num_strands", st.num_strands)
+        self._integrate_uniforms(sh, st, h)
+        self._dispatch("integrate", sh, self._particle_groups(st))
+        return True
+
+    def _penalty_on(self) -> bool:
+        return any(isinstance(c, Collider) and c.mode == "penalty" for c in self.colliders)
+
+    def _integrate_uniforms(self, sh, st: SimState, h: float) -> None:
+        """integrate.comp's uniforms (also strand_solve.comp's with INTEGRATE)."""
+        s = self.settings
         _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "head", _mat4(st.head))
         _set(sh, "dt", h)
@@ -334,8 +367,6 @@ class Simulator:
         _set(sh, "wind_on", int(s.wind.active))
         for k, v in s.wind.uniforms().items():
             _set(sh, k, v)
-        self._dispatch("integrate", sh, self._particle_groups(st))
-        return True
 
     # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp)
     shape_pipeline = 1
@@ -344,20 +375,40 @@ class Simulator:
     32 (full solver, 2 iterations) 1 was fastest: fused length pass 0.62 ms, 0.80 with 2."""
     strand_group_size = 64
     """work group size of the per-strand kernels (one thread per strand)."""
+    keep_corrections = False
+    """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
+    corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
+    fold_integrate = False
+    """True: with DFTL and ``fused_strand_solve`` the fused strand solve also does integrate's
+    work as it first reads each vertex (``folded_passes`` then lists integrate -> length).
+    Off by default: on an H200 at 100k x 32 (full solver, 2026-11-22) it saved nothing
+    measurable: integrate's own pass took 0.09-0.10 ms and the fused length pass grew by as
+    much (0.58 -> 0.67 ms), as one thread per strand reads and writes the particle buffers
+    with a stride of NV vec4s (uncoalesced) where integrate's per-particle pass is coalesced;
+    kernels 1.262 -> 1.257 ms, back to back 1.224 -> 1.222 ms per step."""
 
     def _shape_on(self) -> bool:
         s = self.settings
         return s.local_shape_stiffness > 0 or s.bending_stiffness > 0
 
     def _strand_solve(self, st: SimState, h: float, *, shape: bool, dftl: bool, velocity: bool,
-                      contact: bool) -> None:
+                      contact: bool, integrate: bool = False, bounds=None) -> None:
         s = self.settings
         prims = self._sweep_prims(st) if contact else 0
         sdfs = self._sweep_sdfs(st) if contact else []
         stages = max(1, min(int(self.shape_pipeline), 4, s.shape_iterations)) if shape else 1
+        # integrate in the first pass over the strand: a shape pre-pass when there is one
+        mode = (2 if shape and s.shape_iterations > stages else 1) if integrate else 0
         sh = self._shader("strand_solve", SHAPE=int(shape), DFTL=int(dftl), VELOCITY=int(velocity),
-                          PRIMS=prims, NSDF=len(sdfs), STAGES=stages, LOCAL_SIZE=int(self.strand_group_size))
+                          PRIMS=prims, NSDF=len(sdfs), STAGES=stages, LOCAL_SIZE=int(self.strand_group_size),
+                          INTEGRATE=mode, PENALTY=int(integrate and self._penalty_on()),
+                          CORRECTIONS=int(not velocity or self.keep_corrections), BOUNDS=int(bounds is not None),
+                          BOUNDS_BINDING=AUX_BOUNDS_BINDING)
+        if bounds is not None:
+            bounds.buffer.bind_to_storage_buffer(AUX_BOUNDS_BINDING)
         _set(sh, "num_strands", st.num_strands)
+        if integrate:
+            self._integrate_uniforms(sh, st, h)
         _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "head", _mat4(st.head))
         _set(sh, "local_stiffness", iteration_stiffness(s.local_shape_stiffness, s.shape_iterations))
@@ -415,11 +466,15 @@ class Simulator:
         self._strand_solve(st, h, shape=True, dftl=False, velocity=False, contact=False)
         return True
 
-    def _pass_length(self, st: SimState, h: float) -> bool:
+    def _pass_length(self, st: SimState, h: float, bounds: bool = False) -> bool:
+        """The length pass; ``bounds``: also the grid friction box's reduction of the
+        positions it leaves (``substep`` with ``fold_bounds``)."""
         s = self.settings
         if s.length_method == "dftl":
             fused = s.fused_strand_solve
-            self._strand_solve(st, h, shape=fused and self._shape_on(), dftl=True, velocity=fused, contact=True)
+            self._strand_solve(st, h, shape=fused and self._shape_on(), dftl=True, velocity=fused, contact=True,
+                               integrate=fused and self.fold_integrate,
+                               bounds=self._friction_grid().own_bounds if bounds else None)
             return True
         spg = max(1, 64 // st.points_per_strand)
         sdfs = self._sweep_sdfs(st)
@@ -470,16 +525,49 @@ class Simulator:
         self._dispatch("velocity", sh, self._particle_groups(st))
         return True
 
-    def _pass_friction(self, st: SimState, h: float) -> bool:
+    fold_gather = True
+    """``substep`` with grid friction and the NaN guard on and no volume pass between them:
+    friction's gather (v <- (1 - f) v + f V(x)) is done by the guard's kernel, on the velocity
+    it then tests (the same result, one pass over the particles less). False keeps the
+    gather in the friction pass (comparisons, benchmarks). ``run_pass("friction")`` always
+    gathers."""
+
+    def _gather_in_guard(self) -> bool:
         s = self.settings
-        if s.friction <= 0:
-            return False
+        return bool(self.fold_gather and s.friction > 0 and s.nan_guard and not s.volume)
+
+    fold_bounds = True
+    """``substep`` with grid friction and DFTL (no mesh collider left to the sdf pass): the
+    length pass's kernel also reduces the positions it leaves into the friction grid's box
+    (GridBounds' reduction stage), so the friction pass only pads it. False leaves the
+    reduction to the friction pass (comparisons, benchmarks)."""
+
+    def _bounds_in_length(self) -> bool:
+        s = self.settings
+        return bool(self.fold_bounds and s.friction > 0 and s.length_method == "dftl"
+                    and "sdf" in self.folded_passes())
+
+    def _friction_grid(self) -> GridFriction:
+        s = self.settings
         key = (s.grid_resolution, s.grid_method)
         if self._grid is None or self._grid_key != key:
             self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method)
             self._grid_key = key
+        return self._grid
+
+    def _pass_friction(self, st: SimState, h: float, gather: bool = True, reduced: bool = False) -> bool:
+        """Grid friction; ``gather`` False leaves the gather to the guard, ``reduced``: the
+        length pass has reduced the positions into the grid's box (``substep``'s folds)."""
+        s = self.settings
+        if s.friction <= 0:
+            return False
+        grid = self._friction_grid()
         with self._timed("friction"):
-            self._grid.apply(st, s.friction)
+            bounds = grid.own_bounds
+            bounds.update(st.positions, st.num_particles, reduced=reduced)
+            grid.splat(st.positions, st.velocities, st.num_particles, bounds)
+            if gather:
+                grid.gather(st.positions, st.velocities, st.num_particles, s.friction)
         self.ctx.memory_barrier()
         self._bind(st)
         return True
@@ -497,12 +585,22 @@ class Simulator:
         self._bind(st)
         return True
 
-    def _pass_guard(self, st: SimState, h: float) -> bool:
+    def _pass_guard(self, st: SimState, h: float, gather: bool = False) -> bool:
+        """The NaN guard; with ``gather`` first friction's gather with the grid its last
+        splat left (``substep`` with ``fold_gather``)."""
         s = self.settings
         if not s.nan_guard:
             return False
         spg = max(1, 64 // st.points_per_strand)
-        sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
+        if gather:
+            sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand, GATHER=1,
+                              GRID_RES=self._grid.resolution, GRID_BINDING=GUARD_GRID_BINDING,
+                              BOUNDS_BINDING=GUARD_BOUNDS_BINDING)
+            self._grid.grid.bind_to_storage_buffer(GUARD_GRID_BINDING)
+            self._grid.bounds.buffer.bind_to_storage_buffer(GUARD_BOUNDS_BINDING)
+            _set(sh, "friction", float(s.friction))
+        else:
+            sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
         _set(sh, "num_strands", st.num_strands)
         _set(sh, "head", _mat4(st.head))
         _set(sh, "max_stretch", s.max_stretch)

@@ -40,6 +40,17 @@
 //  VELOCITY (0/1): v = (x - x_prev) / dt, plus DFTL's correction v_k += -s d_{k+1} / dt for
 //    free particles below the tip, |v| <= max_speed (velocity.comp's update, done as soon
 //    as d_{k+1} is known).
+//  BOUNDS (0/1): GridBounds' reduction (bounds.comp, STAGE_REDUCE) of the positions the
+//    kernel leaves, for the grid friction pass that follows: a min/max per invocation over its
+//    strand, then per work group in shared memory (LOCAL_SIZE a power of 2), then 6 global
+//    atomics per group on the box's keys at BOUNDS_BINDING. Non-finite positions are skipped.
+//  CORRECTIONS (0/1): d_k goes to the corrections buffer (velocity.comp's input); the fused
+//    kernel (VELOCITY) uses it in registers and skips the writes unless asked for them.
+//  INTEGRATE (0/1/2): integrate.comp's work (forces, prediction, pinned follicles on the
+//    head, global shape; prev_positions takes x where finite) done as the kernel first reads
+//    each vertex: 1 in the last pass over the strand, 2 in the first of the shape pre-passes
+//    (the simulator picks 2 when there are pre-passes). Saves integrate's own pass over the
+//    positions, velocities and rest positions. PENALTY (0/1): penalty-mode colliders exist.
 #include "sim_common.glsl"
 #include "collide.glsl"
 #include "contact.glsl"
@@ -61,6 +72,18 @@
 #ifndef LOCAL_SIZE
 #define LOCAL_SIZE 64
 #endif
+#ifndef INTEGRATE
+#define INTEGRATE 0
+#endif
+#ifndef CORRECTIONS
+#define CORRECTIONS 1
+#endif
+#ifndef BOUNDS
+#define BOUNDS 0
+#endif
+#ifndef PENALTY
+#define PENALTY 1
+#endif
 
 layout(local_size_x = LOCAL_SIZE) in;
 
@@ -71,6 +94,64 @@ uniform int iterations;
 uniform float dt;
 uniform float dftl_damping;
 uniform float max_speed;
+
+#if BOUNDS
+#include "grid_bounds.glsl"
+shared vec3 s_lo[LOCAL_SIZE];
+shared vec3 s_hi[LOCAL_SIZE];
+vec3 b_lo = vec3(uintBitsToFloat(0x7f800000u));   // +inf: no finite position yet
+vec3 b_hi = vec3(uintBitsToFloat(0xff800000u));
+int float_key(float f) {  // bounds.comp's order-preserving key
+    int b = floatBitsToInt(f);
+    return b >= 0 ? b : b ^ 0x7fffffff;
+}
+#endif
+void bounds_add(vec3 p) {
+#if BOUNDS
+    if (finite3(p)) {
+        b_lo = min(b_lo, p);
+        b_hi = max(b_hi, p);
+    }
+#endif
+}
+
+#if INTEGRATE
+#include "wind.glsl"
+uniform vec3 gravity;            // m/s^2
+uniform float damping_factor;    // exp(-damping * dt)
+uniform float drag;              // 1/s
+uniform float global_stiffness;  // [0, 1]
+uniform float global_range;      // [0, 1]
+uniform float time;              // s, start of the step
+uniform int wind_on;
+
+// integrate.comp for particle i (k-th of its strand, start position x, wind w of its strand):
+// prev_positions[i] takes x where finite (x0 = x; else x0 = the last valid one it keeps);
+// returns the predicted position.
+vec3 integrate_vertex(uint k, uint i, vec3 x, vec4 rest, vec3 w, out vec3 x0) {
+    if (finite3(x)) {
+        prev_positions[i] = vec4(x, rest.w);
+        x0 = x;
+    } else {
+        x0 = prev_positions[i].xyz;
+    }
+    vec3 target = transform_point(head, rest.xyz);
+    if (rest.w == 0.0) return target;
+    vec3 v = velocities[i].xyz;
+    vec3 a = gravity;
+    if (drag > 0.0) a += drag * (w - v);
+#if PENALTY
+    a += penalty_acceleration(x);
+#endif
+    v = v * damping_factor + dt * a;
+    float speed = length(v);
+    if (speed > max_speed) v *= max_speed / speed;
+    vec3 p = x + dt * v;
+    if (global_stiffness > 0.0 && float(k) <= global_range * float(NV - 1) + 1e-4)
+        p += global_stiffness * (target - p);
+    return p;
+}
+#endif
 
 #if SHAPE
 // atan(y / x) for y >= 0 to float precision (Cephes atanf; Mesa's atan is ~3e-6 off).
@@ -235,12 +316,20 @@ vec3 back_to_length(vec3 a, float l, vec3 p, vec3 q, vec3 n) {
 }
 #endif
 
-void main() {
-    uint s = gl_GlobalInvocationID.x;
-    if (s >= num_strands) return;
+void solve(uint s) {
     uint base = s * uint(NV);
     mat3 H = mat3(head);
+#if INTEGRATE
+    vec4 rest0 = rest_positions[base];
+    vec3 wind = vec3(0.0);
+    if (drag > 0.0 && wind_on != 0) wind = wind_at(s, transform_point(head, rest0.xyz), time);
+    vec3 start0;  // the root at the start of the step
+    vec3 origin = integrate_vertex(0u, base, positions[base].xyz, rest0, wind, start0);
+    positions[base] = vec4(origin, rest0.w);
+#else
     vec3 origin = positions[base].xyz;  // the shape sweeps work relative to the root (less round-off)
+#endif
+    bounds_add(origin);
     int count = 1;
 #if SHAPE
     mat3 F0 = H * mat3(root_frames[3u * s].xyz, root_frames[3u * s + 1u].xyz, root_frames[3u * s + 2u].xyz);
@@ -252,7 +341,17 @@ void main() {
         for (uint k = 1u; k < uint(NV); ++k) {
             uint i = base + k;
             vec4 x = positions[i];
-            vec3 q = sweep_stages(S0, S1, S2, S3, STAGES, k - 1u, x.xyz - origin, rest_positions[i].w > 0.0,
+#if INTEGRATE == 2
+            vec4 rest = rest_positions[i];
+            if (done == 0) {
+                vec3 start;
+                x = vec4(integrate_vertex(k, i, x.xyz, rest, wind, start), rest.w);
+            }
+            bool free_ = rest.w > 0.0;
+#else
+            bool free_ = rest_positions[i].w > 0.0;
+#endif
+            vec3 q = sweep_stages(S0, S1, S2, S3, STAGES, k - 1u, x.xyz - origin, free_,
                                   rest_info[i], shape_refs[i].xyz);
             positions[i] = vec4(q + origin, x.w);
         }
@@ -263,10 +362,16 @@ void main() {
 #if DFTL
     vec3 prev = origin;                     // p_{k-1}, final
     vec3 rest_prev = rest_positions[base].xyz;
+#if CORRECTIONS
     corrections[base] = vec4(0.0);
+#endif
 #if VELOCITY
     vec3 vx = origin;                       // particle k-1: final position, start of the step,
-    vec3 vx0 = prev_positions[base].xyz;    // free
+#if INTEGRATE == 1
+    vec3 vx0 = start0;                      // free
+#else
+    vec3 vx0 = prev_positions[base].xyz;
+#endif
     bool vfree = rest_positions[base].w > 0.0;
 #endif
 #endif
@@ -276,7 +381,7 @@ void main() {
 #if SHAPE
     vec4 nref = shape_refs[base + 1u];
 #endif
-#if DFTL && (CONTACT || VELOCITY)
+#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
     vec4 nprev = prev_positions[base + 1u];
 #endif
     for (uint k = 1u; k < uint(NV); ++k) {
@@ -285,7 +390,10 @@ void main() {
 #if SHAPE
         vec3 ref = nref.xyz;
 #endif
-#if DFTL && (CONTACT || VELOCITY)
+#if INTEGRATE == 1
+        vec3 x0;  // start of the step
+        x = vec4(integrate_vertex(k, i, x.xyz, rest, wind, x0), rest.w);
+#elif DFTL && (CONTACT || VELOCITY)
         vec3 x0 = nprev.xyz;
 #endif
         if (k + 1u < uint(NV)) {
@@ -295,7 +403,7 @@ void main() {
 #if SHAPE
             nref = shape_refs[i + 1u];
 #endif
-#if DFTL && (CONTACT || VELOCITY)
+#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
             nprev = prev_positions[i + 1u];
 #endif
         }
@@ -332,8 +440,11 @@ void main() {
 #endif
             d = p - xp - push;
         }
+#if CORRECTIONS
         corrections[i] = vec4(d, 0.0);
+#endif
         positions[i] = vec4(p, x.w);
+        bounds_add(p);
 #if VELOCITY
         {   // particle k-1, now that d_k is known
             vec3 v = (vx - vx0) / dt;
@@ -350,6 +461,7 @@ void main() {
         rest_prev = rest.xyz;
 #else
         positions[i] = vec4(xp, x.w);
+        bounds_add(xp);
 #endif
     }
 #if DFTL && VELOCITY
@@ -357,5 +469,30 @@ void main() {
     float speed = length(v);
     if (speed > max_speed) v *= max_speed / speed;
     velocities[base + uint(NV) - 1u] = vec4(v, 0.0);
+#endif
+}
+
+void main() {
+    uint s = gl_GlobalInvocationID.x;
+    if (s < num_strands) solve(s);
+#if BOUNDS
+    uint lid = gl_LocalInvocationID.x;
+    s_lo[lid] = b_lo;
+    s_hi[lid] = b_hi;
+    barrier();
+    for (uint off = uint(LOCAL_SIZE) / 2u; off > 0u; off >>= 1) {
+        if (lid < off) {
+            s_lo[lid] = min(s_lo[lid], s_lo[lid + off]);
+            s_hi[lid] = max(s_hi[lid], s_hi[lid + off]);
+        }
+        barrier();
+    }
+    if (lid == 0u && finite3(s_lo[0])) {
+        vec3 lo = s_lo[0], hi = s_hi[0];
+        atomicMin(bounds_keys[0], float_key(lo.x)); atomicMin(bounds_keys[1], float_key(lo.y));
+        atomicMin(bounds_keys[2], float_key(lo.z));
+        atomicMax(bounds_keys[4], float_key(hi.x)); atomicMax(bounds_keys[5], float_key(hi.y));
+        atomicMax(bounds_keys[6], float_key(hi.z));
+    }
 #endif
 }

@@ -42,7 +42,7 @@ class Recorder:
     """An MP4 being written (libx264 through imageio-ffmpeg), one frame per ``add``."""
 
     def __init__(self, folder="out/viewer", fps: float = 30.0, path=None):
-        import imageio.v2 as imageio
+        from ..io.video import mp4_writer
 
         if not fps > 0:
             raise UsageError(f"recording fps must be > 0, got {fps}")
@@ -51,8 +51,7 @@ class Recorder:
         self.fps = float(fps)
         self.frames = 0
         self.size: tuple[int, int] | None = None
-        self._writer = imageio.get_writer(str(self.path), fps=self.fps, codec="libx264", quality=8,
-                                          macro_block_size=1, ffmpeg_log_level="error")
+        self._writer = mp4_writer(self.path, self.fps)
 
     @property
     def recording(self) -> bool:

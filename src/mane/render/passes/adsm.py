@@ -11,9 +11,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import PASS_SHADOW_DEPTH, Frame, Pass, draw_hair, hair_program
-
-FAR = 1.0e9
+from .base import (PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair, hair_program,
+                   light_depth_target, read_f32)
 
 
 class ADSMPass(Pass):
@@ -26,12 +25,7 @@ class ADSMPass(Pass):
         self.texture = None
 
     def _allocate(self) -> None:
-        ctx = self.ctx
-        n = int(self.renderer.settings.shadow_map_size)
-        self.texture = ctx.texture((n, n), 1, dtype="f4")
-        self.texture.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.depth = ctx.depth_renderbuffer((n, n))
-        self.fbo = ctx.framebuffer([self.texture], self.depth)
+        self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(self.renderer.settings.shadow_map_size))
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -41,18 +35,14 @@ class ADSMPass(Pass):
         if self.texture is None:
             self._allocate()
         ctx, r = self.ctx, self.renderer
-        self.fbo.use()
-        self.fbo.clear(FAR, FAR, FAR, FAR, depth=1.0)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
+        begin_light_depth(ctx, self.fbo)
         ctx.disable(ctx.CULL_FACE)
         draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
         frame.targets["adsm"] = self.texture
 
     def read(self) -> np.ndarray:
         """(n, n) float32 nearest hair light depth (m); 1e9 where no hair."""
-        n = self.texture.size
-        return np.frombuffer(self.texture.read(), np.float32).reshape(n[1], n[0]).copy()
+        return read_f32(self.texture)
 
     def release(self) -> None:
         if self.texture is not None:

@@ -295,6 +295,34 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_density_step", float(s.density_step))
 
 
+# ---------------------------------------------------------------- light-depth maps
+FAR = 1.0e9   # light depth (m) of a texel no geometry reached
+
+
+def light_depth_target(ctx, n: int):
+    """An n x n R32F texture of linear light depth (nearest filtering), a depth renderbuffer and
+    their framebuffer: (texture, depth, fbo)."""
+    texture = ctx.texture((n, n), 1, dtype="f4")
+    texture.filter = (ctx.NEAREST, ctx.NEAREST)
+    depth = ctx.depth_renderbuffer((n, n))
+    return texture, depth, ctx.framebuffer([texture], depth)
+
+
+def begin_light_depth(ctx, fbo) -> None:
+    """Bind a light-depth framebuffer, clear it to FAR, depth test on, blending off."""
+    fbo.use()
+    fbo.clear(FAR, FAR, FAR, FAR, depth=1.0)
+    ctx.enable(ctx.DEPTH_TEST)
+    ctx.disable(ctx.BLEND)
+
+
+def read_f32(texture) -> np.ndarray:
+    """A float32 texture as a (height, width) array, or (height, width, components)."""
+    w, h = texture.size
+    shape = (h, w) if texture.components == 1 else (h, w, texture.components)
+    return np.frombuffer(texture.read(), np.float32).reshape(shape).copy()
+
+
 class Pass:
     """A step of the frame. ``reads``/``writes`` name the frame targets (documentation and checks)."""
 

@@ -12,10 +12,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu.glsl import program
-from .base import (HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, Frame, Pass, draw_hair, hair_program,
-                   set_uniform)
-
-FAR = 1.0e9
+from .base import (HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, Frame, Pass, begin_light_depth, draw_hair,
+                   hair_program, light_depth_target, read_f32, set_uniform)
 
 
 class DeepOpacityPass(Pass):
@@ -27,10 +25,7 @@ class DeepOpacityPass(Pass):
         super().__init__(renderer)
         ctx = self.ctx
         n = int(renderer.settings.shadow_map_size)
-        self.z0 = ctx.texture((n, n), 1, dtype="f4")
-        self.z0.filter = (ctx.NEAREST, ctx.NEAREST)
-        self.depth = ctx.depth_renderbuffer((n, n))
-        self.z0_fbo = ctx.framebuffer([self.z0], self.depth)
+        self.z0, self.depth, self.z0_fbo = light_depth_target(ctx, n)
         self.opacity = ctx.texture((n, n), 4, dtype="f4")
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
         self.opacity_fbo = ctx.framebuffer([self.opacity])
@@ -42,10 +37,7 @@ class DeepOpacityPass(Pass):
     def run(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
         # 1. z0
-        self.z0_fbo.use()
-        self.z0_fbo.clear(FAR, FAR, FAR, FAR, depth=1.0)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
+        begin_light_depth(ctx, self.z0_fbo)
         draw_hair(r, hair_program(r, PASS_DOM_DEPTH), frame.light_view)
         # 2. opacity layers
         lo, hi = frame.hair_depth_range
@@ -77,8 +69,7 @@ class DeepOpacityPass(Pass):
 
     def read(self) -> np.ndarray:
         """(n, n, 4) float32: O1, O2, O3, z0."""
-        n = self.opacity.size
-        return np.frombuffer(self.opacity.read(), np.float32).reshape(n[1], n[0], 4).copy()
+        return read_f32(self.opacity)
 
     def release(self) -> None:
         for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity):

@@ -17,6 +17,8 @@ uniform float u_shadow_bias;                 // m
 uniform float u_shadow_density;
 uniform int u_pcf;
 
+#include "shadow_pcf.glsl"
+
 vec3 light_dir_at(int i, vec3 P, out float falloff) {
     vec4 l = u_light_vec[i];
     if (l.w > 0.5) {
@@ -30,9 +32,7 @@ vec3 light_dir_at(int i, vec3 P, out float falloff) {
 }
 
 vec3 light_uvz(vec3 P) {
-    vec4 c = u_light_view_proj * vec4(P, 1.0);
-    vec2 uv = c.xy / c.w * 0.5 + 0.5;
-    return vec3(uv, dot(P - u_light_eye, u_light_dir));
+    return light_space(u_light_view_proj, u_light_eye, u_light_dir, P);
 }
 
 float shadow_map_visibility(vec3 P) {
@@ -40,27 +40,19 @@ float shadow_map_visibility(vec3 P) {
     ivec2 size = textureSize(u_shadow_map, 0);
     vec2 texel = q.xy * vec2(size) - 0.5;
     ivec2 c = ivec2(floor(texel + 0.5));
-    int r = u_pcf / 2;
-    int lo = -r, hi = u_pcf - 1 - r;
-    float lit = 0.0, n = 0.0;
-    for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), size - 1);
-            float z = texelFetch(u_shadow_map, t, 0).r;
-            lit += (q.z - u_shadow_bias <= z) ? 1.0 : 0.0;
-            n += 1.0;
-        }
-    return lit / n;
+    float lit;
+    PCF_MEAN(lit, c, size, t, (q.z - u_shadow_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
+    return lit;
 }
 
 // Opacity in front of depth z, from one deep-opacity texel: piecewise linear through
-// (z0, 0), (z0 + d1, O1), (z0 + d2, O2), (z0 + d3, O3), constant beyond.
-float dom_opacity(vec4 t, float z) {
+// (z0, 0), (z0 + d1, O1), (z0 + d2, O2), (z0 + d3, O3), constant beyond (layer ends d1..d3).
+float dom_opacity(vec4 t, float z, vec3 layers) {
     float dz = z - t.a;
     if (dz <= 0.0) return 0.0;
-    if (dz < u_dom_layers.x) return t.r * dz / u_dom_layers.x;
-    if (dz < u_dom_layers.y) return mix(t.r, t.g, (dz - u_dom_layers.x) / (u_dom_layers.y - u_dom_layers.x));
-    if (dz < u_dom_layers.z) return mix(t.g, t.b, (dz - u_dom_layers.y) / (u_dom_layers.z - u_dom_layers.y));
+    if (dz < layers.x) return t.r * dz / layers.x;
+    if (dz < layers.y) return mix(t.r, t.g, (dz - layers.x) / (layers.y - layers.x));
+    if (dz < layers.z) return mix(t.g, t.b, (dz - layers.y) / (layers.z - layers.y));
     return t.b;
 }
 
@@ -68,16 +60,9 @@ float dom_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_dom, 0);
     ivec2 c = ivec2(floor(q.xy * vec2(size)));
-    int r = u_pcf / 2;
-    int lo = -r, hi = u_pcf - 1 - r;
-    float tr = 0.0, n = 0.0;
-    for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), size - 1);
-            tr += exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z));
-            n += 1.0;
-        }
-    return tr / n;
+    float tr;
+    PCF_MEAN(tr, c, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+    return tr;
 }
 
 // SHADOWS 3 (ADSM), 4 (opacity shadow maps), 5 (density ray march): one look-up per file.
@@ -116,37 +101,17 @@ uniform vec3 u_xdom_layers[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xshadow_map[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
 
-float xdom_opacity(vec4 t, float z, vec3 layers) {
-    float dz = z - t.a;
-    if (dz <= 0.0) return 0.0;
-    if (dz < layers.x) return t.r * dz / layers.x;
-    if (dz < layers.y) return mix(t.r, t.g, (dz - layers.x) / (layers.y - layers.x));
-    if (dz < layers.z) return mix(t.g, t.b, (dz - layers.y) / (layers.z - layers.y));
-    return t.b;
-}
-
 float xlight_visibility(int i, vec3 P) {
-    vec4 c = u_xlight_view_proj[i] * vec4(P, 1.0);
-    vec2 uv = c.xy / c.w * 0.5 + 0.5;
-    float z = dot(P - u_xlight_eye[i], u_xlight_dir[i]);
+    vec3 q = light_space(u_xlight_view_proj[i], u_xlight_eye[i], u_xlight_dir[i], P);
     ivec2 size = textureSize(u_xshadow_map[i], 0);
-    ivec2 cs = ivec2(floor(uv * vec2(size) - 0.5 + 0.5));
-    int r = u_pcf / 2;
-    int lo = -r, hi = u_pcf - 1 - r;
-    float lit = 0.0, tr = 0.0, n = 0.0;
-    for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x) {
-            ivec2 t = clamp(cs + ivec2(x, y), ivec2(0), size - 1);
-            lit += (z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0;
+    ivec2 cs = ivec2(floor(q.xy * vec2(size) - 0.5 + 0.5));
+    float lit, tr = 1.0;
+    PCF_MEAN(lit, cs, size, t, (q.z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
 #if SHADOWS == 2
-            ivec2 td = clamp(ivec2(floor(uv * vec2(size))) + ivec2(x, y), ivec2(0), size - 1);
-            tr += exp(-u_shadow_density * xdom_opacity(texelFetch(u_xdom[i], td, 0), z, u_xdom_layers[i]));
-#else
-            tr += 1.0;
+    ivec2 cd = ivec2(floor(q.xy * vec2(size)));
+    PCF_MEAN(tr, cd, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
 #endif
-            n += 1.0;
-        }
-    return (lit / n) * (tr / n);
+    return lit * tr;
 }
 
 // Fraction of light i that reaches P (1 for lights that cast no shadow).

@@ -7,21 +7,19 @@ uniform sampler2D u_adsm;
 uniform float u_adsm_spacing;   // m between fibres along the light (adsm_spacing * strand width)
 uniform float u_adsm_tau;       // optical depth of one fibre (shadow_density * strand_opacity)
 
+// T at light depth z behind texel t's first occluder.
+float adsm_texel(ivec2 t, float z) {
+    float dz = z - texelFetch(u_adsm, t, 0).r - u_shadow_bias;
+    float n = dz > 0.0 ? 1.0 + dz / u_adsm_spacing : 0.0;
+    return exp(-u_adsm_tau * n);
+}
+
 float adsm_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_adsm, 0);
     ivec2 c = ivec2(floor(q.xy * vec2(size)));
-    int r = u_pcf / 2;
-    int lo = -r, hi = u_pcf - 1 - r;
-    float tr = 0.0, count = 0.0;
-    for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), size - 1);
-            float dz = q.z - texelFetch(u_adsm, t, 0).r - u_shadow_bias;
-            float n = dz > 0.0 ? 1.0 + dz / u_adsm_spacing : 0.0;
-            tr += exp(-u_adsm_tau * n);
-            count += 1.0;
-        }
-    return tr / count;
+    float tr;
+    PCF_MEAN(tr, c, size, t, adsm_texel(t, q.z))
+    return tr;
 }
 #endif

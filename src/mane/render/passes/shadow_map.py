@@ -6,9 +6,8 @@ head does (the hair's own shadow comes from the opacity layers).
 from __future__ import annotations
 
 from ...gpu.glsl import program
-from .base import HERE, PASS_SHADOW_DEPTH, Frame, Pass, draw_hair, hair_program, set_view
-
-FAR = 1.0e9
+from .base import (HERE, PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair, hair_program,
+                   light_depth_target, read_f32, set_view)
 
 
 class ShadowMapPass(Pass):
@@ -18,21 +17,14 @@ class ShadowMapPass(Pass):
 
     def __init__(self, renderer):
         super().__init__(renderer)
-        n = int(renderer.settings.shadow_map_size)
-        self.texture = self.ctx.texture((n, n), 1, dtype="f4")
-        self.texture.filter = (self.ctx.NEAREST, self.ctx.NEAREST)
-        self.depth = self.ctx.depth_renderbuffer((n, n))
-        self.fbo = self.ctx.framebuffer([self.texture], self.depth)
+        self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(renderer.settings.shadow_map_size))
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.settings.shadows != "none" and frame.light_view is not None
 
     def run(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
-        self.fbo.use()
-        self.fbo.clear(FAR, FAR, FAR, FAR, depth=1.0)
-        ctx.enable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
+        begin_light_depth(ctx, self.fbo)
         ctx.disable(ctx.CULL_FACE)
         if r.head is not None and r.settings.draw_head:
             prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
@@ -48,10 +40,7 @@ class ShadowMapPass(Pass):
         return self.renderer.settings.shadows == "shadow_map"
 
     def read(self):
-        import numpy as np
-
-        n = self.texture.size
-        return np.frombuffer(self.texture.read(), np.float32).reshape(n[1], n[0]).copy()
+        return read_f32(self.texture)
 
     def release(self) -> None:
         for o in (self.fbo, self.texture, self.depth):

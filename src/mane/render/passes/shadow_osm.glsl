@@ -26,15 +26,8 @@ float osm_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_osm[0], 0);
     ivec2 c = ivec2(floor(q.xy * vec2(size)));
-    int r = u_pcf / 2;
-    int lo = -r, hi = u_pcf - 1 - r;
-    float tr = 0.0, count = 0.0;
-    for (int y = lo; y <= hi; ++y)
-        for (int x = lo; x <= hi; ++x) {
-            ivec2 t = clamp(c + ivec2(x, y), ivec2(0), size - 1);
-            tr += exp(-u_shadow_density * osm_opacity(t, q.z - u_shadow_bias));
-            count += 1.0;
-        }
-    return tr / count;
+    float tr;
+    PCF_MEAN(tr, c, size, t, exp(-u_shadow_density * osm_opacity(t, q.z - u_shadow_bias)))
+    return tr;
 }
 #endif
