@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 
-HELP = "run benchmarks (sim) and print or write JSON"
+HELP = "run benchmarks (sim, render, oit, quality, all) and print or write JSON"
 
 # target -> (module, one-line help)
 TARGETS: dict[str, tuple[str, str]] = {
