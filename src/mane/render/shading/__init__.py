@@ -226,8 +226,7 @@ class ShadingSettings:
         return build_marschner_luts(
             self.resolved_sigma_a(), eta=self.eta, beta_r=self.roughness, alpha_r=self.shift,
             glint=self.glint, caustic_width=self.caustic_width, caustic_fade=self.caustic_fade,
-            caustic_limit=self.caustic_limit, energy_clamp=self.energy_clamp,
-            size=self.lut_size)
+            caustic_limit=self.caustic_limit, size=self.lut_size)   # the energy clamp: in the shader
 
     def dual_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),

@@ -31,8 +31,8 @@
 //   strand_rand per-strand random in [0, 1): Sadeghi glint angle, Scheuermann shift noise
 //
 // Lookup textures (HAIR_MODEL_MARSCHNER_LUT): uniform sampler2D hair_lut_m (RGBA16F over
-// (sin theta_i, sin theta_o)) and hair_lut_n (RGBA16F, 2 tiles side by side over
-// (phi / pi, cos theta_d)); see luts.py / build_marschner_luts.
+// (theta_i, theta_o), evenly spaced in angle) and hair_lut_n (RGBA16F, 2 tiles side by side
+// over (phi / pi, cos theta_d)); see luts.py / build_marschner_luts.
 
 #ifndef MANE_HAIR_SHADING_GLSL
 #define MANE_HAIR_SHADING_GLSL

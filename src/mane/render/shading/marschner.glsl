@@ -8,7 +8,7 @@
 // 2 sqrt Fresnel, exp (~35); roots: R 1 (linear), TT 1 (Cardano: sqrt + pow), TRT 1-3
 // (Cardano or trig: acos + 3 cos); caustic/glint ~40 with asin, sqrt, 2 exp.
 // Total ~300-350 instructions, ~25 transcendentals: the most expensive model; use
-// HAIR_MODEL_MARSCHNER_LUT (3 texture fetches, ~40 ALU) for full heads on slow GPUs.
+// HAIR_MODEL_MARSCHNER_LUT (3 texture fetches, ~100 ALU) for full heads on slow GPUs.
 
 #ifndef MANE_HAIR_MARSCHNER_GLSL
 #define MANE_HAIR_MARSCHNER_GLSL
