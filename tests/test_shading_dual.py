@@ -276,34 +276,3 @@ def test_dual_settings():
                 dict(dual_max_hairs=0.0), dict(dual_size=4)):
         with pytest.raises(ValueError):
             _settings("blond", **bad)
-
-
-VERT = """#version 430
-in vec2 in_pos;
-void main() { gl_Position = vec4(in_pos, 0.0, 1.0); }
-"""
-FRAG = """#version 430
-#include "hair_shading.glsl"
-uniform HairMaterial u_material;
-out vec4 frag;
-void main() {
-    HairMaterial m = u_material;
-    vec3 T = vec3(0.0, 1.0, 0.0), V = vec3(0.0, 0.0, 1.0), L = normalize(vec3(0.3, 0.4, 1.0));
-    frag = vec4(hair_bsdf(T, V, L, m) + hair_multiple_scattering(T, V, L, m, 0.5), 1.0);
-}
-"""
-
-
-@pytest.mark.gpu
-@pytest.mark.parametrize("model", ["marschner", "marschner_lut", "kajiya_kay"])
-def test_dual_fragment_stage_compiles_and_binds(gl, tmp_path, model):
-    from mane.gpu.glsl import program
-    from mane.render.shading import LUT_UNIT_DUAL, SHADER_DIR
-
-    (tmp_path / "v.vert").write_text(VERT)
-    (tmp_path / "f.frag").write_text(FRAG)
-    s = ShadingSettings(model=model, multiple_scattering="dual", lut_size=32, dual_size=16)
-    prog = program(gl, vertex=tmp_path / "v.vert", fragment=tmp_path / "f.frag", defines=s.defines(),
-                   include_dirs=[SHADER_DIR])
-    s.bind(prog, gl)
-    assert "hair_dual_lut" in prog and prog["hair_dual_lut"].value == LUT_UNIT_DUAL

@@ -240,15 +240,18 @@ void main() {
 """
 
 
-@pytest.mark.parametrize("model", list(MODELS))
-def test_fragment_stage_compiles_and_binds(gl, tmp_path, model):
+@pytest.mark.parametrize("model,multiple", [(m, "auto") for m in MODELS]
+                         + [(m, "dual") for m in ("marschner", "marschner_lut", "kajiya_kay")])
+def test_fragment_stage_compiles_and_binds(gl, tmp_path, model, multiple):
     from mane.gpu.glsl import program
-    from mane.render.shading import SHADER_DIR
+    from mane.render.shading import LUT_UNIT_DUAL, SHADER_DIR
 
     (tmp_path / "v.vert").write_text(VERT)
     (tmp_path / "f.frag").write_text(FRAG)
-    s = ShadingSettings(model=model, lut_size=32)
+    s = ShadingSettings(model=model, multiple_scattering=multiple, lut_size=32, dual_size=16)
     prog = program(gl, vertex=tmp_path / "v.vert", fragment=tmp_path / "f.frag", defines=s.defines(),
                    include_dirs=[SHADER_DIR])
     s.bind(prog, gl)
     assert "u_material.color" in prog
+    if multiple == "dual":
+        assert "hair_dual_lut" in prog and prog["hair_dual_lut"].value == LUT_UNIT_DUAL

@@ -198,6 +198,12 @@ def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,
     return meta
 
 
+def title_line(meta: dict) -> str:
+    """The first line of every benchmark's text output: what ran, where, with which driver."""
+    return (f"mane {meta.get('mane_version')} bench {meta.get('benchmark')} ({meta.get('mode')}) on "
+            f"{meta.get('renderer')} [{meta.get('vendor')}, OpenGL {meta.get('gl_version')}]")
+
+
 def fmt(value, spec: str = "{:.3f}", missing: str = "-") -> str:
     if value is None:
         return missing

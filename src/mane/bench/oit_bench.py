@@ -35,7 +35,7 @@ import traceback
 import numpy as np
 
 from ..errors import GLFeatureError, GPUMemoryError, UsageError
-from .common import BenchRows, Skip, envelope, fmt, stats, table, time_each
+from .common import title_line, BenchRows, Skip, envelope, fmt, stats, table, time_each
 
 HUNZ_SIZE = (656, 861)
 HD_SIZE = (1920, 1080)
@@ -248,7 +248,7 @@ def _met(r: dict) -> str:
 
 def format_text(result: dict) -> str:
     meta = result.get("meta", {})
-    out = [f"mane bench oit ({meta.get('mode')}) on {meta.get('renderer')}"]
+    out = [title_line(meta)]
     rows = [r for r in result.get("methods", [])]
 
     def ms(r, key="frame_ms"):

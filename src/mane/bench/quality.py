@@ -41,7 +41,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import Skip, envelope, fmt, table
+from .common import title_line, Skip, envelope, fmt, table
 
 REFERENCE_DIR = Path(__file__).resolve().parents[3] / "tests" / "reference"
 
@@ -525,7 +525,7 @@ def run(ctx, mode: str = "default", progress=None, image_dir=None, sections=None
 
 def format_text(result: dict) -> str:
     meta = result.get("meta", {})
-    out = [f"mane bench quality ({meta.get('mode')}) on {meta.get('renderer')} [{meta.get('driver')}]"]
+    out = [title_line(meta)]
     sh = result.get("shading", {})
     if sh.get("status") == "ok":
         out.append(table(sh["models"], [("model", "model", "{}"), ("max rel err", "max_rel_error", "{:.2e}"),

@@ -69,7 +69,7 @@ import time
 import numpy as np
 
 from ..errors import UsageError
-from .common import BenchRows, Skip, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
+from .common import title_line, BenchRows, Skip, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
 
 TARGET_MS = 4.0
 TARGET_GUIDES, TARGET_SPG, TARGET_POINTS, TARGET_SEGMENTS = 3125, 16, 17, 32
@@ -788,8 +788,7 @@ def _pass(name):
 def format_text(result: dict) -> str:
     meta, rows = result["meta"], result["results"]
     tm = meta["timing"]
-    out = [f"mane {meta['mane_version']} bench render ({meta['mode']}) on {meta['renderer']} "
-           f"[{meta['vendor']}, OpenGL {meta['gl_version']}]",
+    out = [title_line(meta),
            f"timing: frame {tm['frame_source']}, passes {tm['pass_source']}; all times ms (GPU unless said); "
            f"{tm['total_seconds']:.1f} s in all"]
     names = tm.get("pass_names") or []

@@ -55,7 +55,7 @@ import time
 
 import numpy as np
 
-from .common import (BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
+from .common import (title_line, BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
                      time_each, time_pipelined)
 
 HEAD_CENTER = np.array([0.0, 1.6, 0.0])
@@ -768,8 +768,7 @@ def _pass(name):
 def format_text(result: dict) -> str:
     meta, rows = result["meta"], result["results"]
     tm = meta["timing"]
-    out = [f"mane {meta['mane_version']} bench sim ({meta['mode']}) on {meta['renderer']} "
-           f"[{meta['vendor']}, OpenGL {meta['gl_version']}]",
+    out = [title_line(meta),
            f"timing: step {tm['step_source']}, passes {tm['pass_source']}; all times ms; "
            f"{tm['total_seconds']:.1f} s in all"]
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
