@@ -28,6 +28,7 @@ from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, H
                      ResolvePass, ShadowMapPass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
 from .passes.expand import ExpandPass
+from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .settings import RenderSettings
 from .shading import ShadingSettings
@@ -115,15 +116,31 @@ class Renderer:
         if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
             # the OIT methods keep fragments per pixel: single-sampled (coverage alpha anti-aliases)
             self.samples = 1
+        self._renderer_string = renderer_name(self.ctx)
+        if self.compute_raster:
+            self.samples = 1   # the head: one sample; the hair: the compute rasteriser's grid
+        elif wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
+            self.warnings.append(unsupported_reason(self))
         self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
-                                   HeadPass(self), HairPass(self), OitPass(self), ResolvePass(self)]
+                                   HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
+                                   ResolvePass(self)]
         self.last_frame: Frame | None = None
         # multi / hybrid interpolation (mane.render.multi_strand) and distance LOD
         self._guide_weights = None
         self._strand_table = None
         self.collider_sdf = None      # p (M, 3) -> (M,) signed distance; None: from settings / head
         self.lod_eye = None           # the camera's eye of the frame being drawn (LOD distances)
+
+    @property
+    def compute_raster(self) -> bool:
+        """Whether the hair is drawn by the compute rasteriser this frame (settings.rasterizer)."""
+        return wants_compute(self.settings, self._renderer_string) and unsupported_reason(self) is None
+
+    @property
+    def raster_grid(self) -> int:
+        """The compute rasteriser's samples per pixel side (from settings.msaa)."""
+        return sample_grid(self.settings.msaa)
 
     # ------------------------------------------------------------------ multi-strand interpolation
     def strand_pad(self) -> float:
@@ -319,11 +336,20 @@ class Renderer:
                 depth = ctx.depth_renderbuffer(size, samples=self.samples)
                 tex = ctx.texture(size, 4, dtype="f2")
                 self._targets["hdr_resolved"] = (ctx.framebuffer([tex]), tex)
-            else:
+            else:   # textures: the compute rasteriser reads the depth and writes the colour
                 color = ctx.texture(size, 4, dtype="f2")
-                depth = ctx.depth_renderbuffer(size)
+                depth = ctx.depth_texture(size)
+                depth.compare_func = ""
             self._targets["hdr"] = (ctx.framebuffer([color], depth), color, depth)
         return self._targets["hdr"][0]
+
+    def hdr_textures(self):
+        """The single-sampled HDR target's (colour, depth) textures."""
+        self.hdr_fbo()
+        if self.samples > 1:
+            raise UsageError("the HDR target is multisampled: its depth is not a texture")
+        _, color, depth = self._targets["hdr"]
+        return color, depth
 
     def resolved_hdr(self):
         """The HDR colour as a single-sample texture (blitting the MSAA target into it)."""
@@ -389,8 +415,8 @@ class Renderer:
         lights = list(lights) if lights is not None else default_lights()
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
-        if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
-            self._single_sample()   # settings switched to an OIT method after construction (a viewer)
+        if (getattr(self.settings, "oit", "none") != "none" or self.compute_raster) and self.samples > 1:
+            self._single_sample()   # settings switched after construction (a viewer)
         frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
         self.lod_eye = frame.view.eye
         if lights and self.settings.shadows != "none":
@@ -455,6 +481,8 @@ class Renderer:
             "guides": 0 if self.strands is None else self.strands.num_guides,
             "points_per_guide": 0 if self.strands is None else self.strands.points_per_strand,
             "msaa": self.samples,
+            "rasterizer": "compute" if self.compute_raster else "hardware",
+            "raster_samples": self.raster_grid ** 2 if self.compute_raster else self.samples,
             "supersample": self.settings.supersample,
             "shadows": self.settings.shadows,
             "interpolation": self.settings.interpolation,

@@ -15,6 +15,7 @@ from ..errors import UsageError
 INTERPOLATIONS = ("catmull_rom", "bspline", "bezier")
 GEOMETRIES = ("ribbons", "lines")
 PIPELINES = ("compute", "tessellation")
+RASTERIZERS = ("auto", "hardware", "compute")
 INTERPOLATION_MODES = ("single", "multi", "hybrid")
 SHADOWS = ("none", "shadow_map", "deep_opacity", "adsm", "opacity_maps", "density")
 DENSITY_SOURCES = ("auto", "strands", "simulator")
@@ -98,6 +99,15 @@ class RenderSettings:
     vertex pulling: instanced strips, no tessellation or geometry stages; TressFX's way) or
     "tessellation" (isolines + geometry-shader ribbons in every pass). Distance LOD and the
     OIT methods always use "tessellation"."""
+    rasterizer: str = "auto"
+    """Who turns the hair into pixels: "hardware" (the GPU's raster units: triangle strips,
+    MSAA), "compute" (compute shaders scan-convert every segment into a per-sample visibility
+    buffer, nearest segment by atomic min, coverage accumulated, then each pixel shaded once
+    per visible segment: Unreal's and Frostbite's way for thin strands; ``msaa`` n becomes a
+    ceil(sqrt(n))^2 grid of samples per pixel, the head keeps one) or "auto": "compute" on GPUs
+    built for computing with few raster units (NVIDIA H100/H200/H800/A100/A800/GH200/B100/
+    B200), else "hardware". Needs pipeline="compute" and no distance LOD; the OIT methods draw
+    by hardware."""
     depth_prepass: bool = True
     """With MSAA: draw the hair's depth first (alpha to coverage), then shade it with the depth
     test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible strand
@@ -221,6 +231,7 @@ class RenderSettings:
             raise UsageError(f"image size must be within 8..8192 pixels per side, got {self.size}")
         object.__setattr__(self, "size", (w, h))
         for name, allowed in (("interpolation", INTERPOLATIONS), ("geometry", GEOMETRIES), ("pipeline", PIPELINES),
+                              ("rasterizer", RASTERIZERS),
                               ("shadows", SHADOWS), ("tone_mapping", TONE_MAPS),
                               ("interpolation_mode", INTERPOLATION_MODES)):
             if getattr(self, name) not in allowed:

@@ -6,14 +6,24 @@
    z0 + d_k, d_k = ``dom_layers`` fractions of the hair's depth extent (5%, 15%, the rest).
 3. z0 is copied into the alpha channel, so that shading reads one RGBA texel:
    (O1, O2, O3, z0); T(z) = exp(-density * O(z)), O piecewise linear between the layer ends.
+
+With the compute rasteriser (Renderer.compute_raster) the same three steps run as compute
+dispatches over the expanded strands (dom_raster.comp, dom_pack.comp): atomic min of the depth
+bits for z0, fixed-point atomic adds (1/65536) for the layers.
 """
 from __future__ import annotations
 
 import numpy as np
 
-from ...gpu.glsl import program
-from .base import (HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, Frame, Pass, begin_light_depth, draw_hair,
-                   hair_program, light_depth_target, read_f32, set_uniform)
+import math
+
+from ...gpu.glsl import compute_shader, program
+from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, Pass, begin_light_depth,
+                   draw_hair, hair_program, light_depth_target, read_f32, set_uniform, set_view)
+from .expand import EXPANDED_BINDING
+
+Z0_BINDING, LAYERS_BINDING, DOM_IMAGE_UNIT = 11, 12, 1
+LOCAL_SIZE, MAX_GROUPS_X = 128, 65535
 
 
 class DeepOpacityPass(Pass):
@@ -29,12 +39,16 @@ class DeepOpacityPass(Pass):
         self.opacity = ctx.texture((n, n), 4, dtype="f4")
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
         self.opacity_fbo = ctx.framebuffer([self.opacity])
+        self._counters = None   # compute path: (z0 bits, 3 layer sums) per texel
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
         return r.settings.shadows == "deep_opacity" and frame.light_view is not None and r.strands is not None
 
     def run(self, frame: Frame) -> None:
+        if self.renderer.compute_raster:
+            self.run_compute(frame)
+            return
         ctx, r = self.ctx, self.renderer
         # 1. z0
         begin_light_depth(ctx, self.z0_fbo)
@@ -67,10 +81,49 @@ class DeepOpacityPass(Pass):
         ctx.enable(ctx.DEPTH_TEST)
         frame.targets["dom"] = self.opacity
 
+    def run_compute(self, frame: Frame) -> None:
+        ctx, r = self.ctx, self.renderer
+        n = int(r.settings.shadow_map_size)
+        if self._counters is None:
+            z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
+            layers = ctx.buffer(reserve=n * n * 12)
+            layers.write(bytes(n * n * 12))
+            self._counters = (z0, layers)
+        z0, layers = self._counters
+        z0.bind_to_storage_buffer(Z0_BINDING)
+        layers.bind_to_storage_buffer(LAYERS_BINDING)
+        expand = r.get_pass("expand")
+        expand.ensure()
+        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        lo, hi = frame.hair_depth_range
+        ext = max(hi - lo, 1e-4)
+        segments = expand.strands * (expand.points - 1)
+        groups = max(1, math.ceil(segments / LOCAL_SIZE))
+        gx = min(groups, MAX_GROUPS_X)
+        for dom_pass in (0, 1):
+            cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
+            set_view(cs, frame.light_view)
+            set_uniform(cs, "u_raster_size", (n, n))
+            set_uniform(cs, "u_grid", 1)
+            set_uniform(cs, "u_points_per_strand", int(expand.points))
+            set_uniform(cs, "u_num_segments", int(segments))
+            set_uniform(cs, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
+            set_uniform(cs, "u_strand_opacity", float(r.settings.strand_opacity))
+            cs.run(gx, math.ceil(groups / gx))
+            ctx.memory_barrier()
+        pack = compute_shader(ctx, HERE / "dom_pack.comp", include_dirs=[RENDER_DIR])
+        set_uniform(pack, "u_size", n)
+        set_uniform(pack, "u_far", float(FAR))
+        self.opacity.bind_to_image(DOM_IMAGE_UNIT, read=False, write=True)
+        pack.run(math.ceil(n / 8), math.ceil(n / 8))
+        ctx.memory_barrier()
+        frame.targets["dom"] = self.opacity
+
     def read(self) -> np.ndarray:
         """(n, n, 4) float32: O1, O2, O3, z0."""
         return read_f32(self.opacity)
 
     def release(self) -> None:
-        for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity):
+        for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity, *(self._counters or ())):
             o.release()
+        self._counters = None

@@ -1,7 +1,5 @@
 // The hair fragment shader's body (after the shading model's include).
-#include "lighting.glsl"
-
-uniform HairMaterial u_material;
+#include "hair_radiance.glsl"
 
 in vec3 g_pos;
 in vec3 g_tangent;
@@ -26,21 +24,7 @@ layout(location = 0) out vec4 frag_opacity;
 
 void main() {
 #if PASS == 0
-    vec3 T = normalize(g_tangent);
-    vec3 V = normalize(u_eye - g_pos);
-    HairMaterial m = u_material;
-    m.strand_rand = g_rand;
-    vec3 color = u_ambient * m.color;
-    for (int i = 0; i < MAX_LIGHTS; ++i) {
-        if (i >= u_num_lights) break;
-        float falloff;
-        vec3 L = light_dir_at(i, g_pos, falloff);
-        float vis = light_visibility(i, g_pos);
-        vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis + hair_multiple_scattering(T, V, L, m, vis));
-    }
-    // darker toward the root: a touch of the occlusion a clump gives itself
-    color *= mix(0.55, 1.0, smoothstep(0.0, 0.25, g_s));
+    vec3 color = hair_radiance(g_pos, normalize(g_tangent), u_eye, g_s, g_rand);
     frag = u_premultiply != 0 ? vec4(color * g_alpha, g_alpha) : vec4(color, g_alpha);
 #elif PASS == 1 || PASS == 2
     // light depth (shadow map, deep opacity z0)

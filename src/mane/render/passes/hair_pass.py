@@ -15,8 +15,9 @@ class HairPass(Pass):
     reads = ("strands", "shadow_map", "dom")
     writes = ("hdr",)
 
-    def enabled(self, frame: Frame) -> bool:   # with an OIT method, OitPass draws the hair
-        return self.renderer.strands is not None and getattr(self.renderer.settings, "oit", "none") == "none"
+    def enabled(self, frame: Frame) -> bool:   # OIT: OitPass draws the hair; compute: HairComputePass
+        r = self.renderer
+        return r.strands is not None and getattr(r.settings, "oit", "none") == "none" and not r.compute_raster
 
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx

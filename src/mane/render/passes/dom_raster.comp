@@ -1,0 +1,48 @@
+#version 430
+// Deep opacity maps by the compute rasteriser (deep_opacity.py, rasterizer "compute"): every
+// segment of the expanded strands scan-converted into the light's map (raster_segment.glsl).
+// DOM_PASS 0: z0, the nearest light depth (m) per texel, by atomic min of its bits (depths
+// are > 0: the light's eye is outside the scene). DOM_PASS 1: strand_opacity x coverage added
+// (fixed point, 1/DOM_SCALE) to the fragment's layer and every layer behind it.
+layout(local_size_x = 128) in;
+layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = 11) buffer DomZ0 { uint dom_z0[]; };
+layout(std430, binding = 12) buffer DomLayers { uint dom_layers[]; };   // 3 per texel
+uniform int u_points_per_strand;
+uniform int u_num_segments;
+uniform vec3 u_dom_layers_abs;   // layer ends after z0 (m)
+uniform float u_strand_opacity;
+#include "raster_view.glsl"
+#define DOM_SCALE 65536.0
+
+void visit(ivec2 q, float z, float cov) {
+    if (!(z > 0.0)) return;
+    uint idx = uint(q.y) * uint(u_raster_size.x) + uint(q.x);
+#if DOM_PASS == 0
+    atomicMin(dom_z0[idx], floatBitsToUint(z));
+#else
+    float dz = z - uintBitsToFloat(dom_z0[idx]);
+    uint a = uint(u_strand_opacity * cov * DOM_SCALE + 0.5);
+    if (dz < u_dom_layers_abs.x) atomicAdd(dom_layers[3u * idx], a);
+    if (dz < u_dom_layers_abs.y) atomicAdd(dom_layers[3u * idx + 1u], a);
+    atomicAdd(dom_layers[3u * idx + 2u], a);
+#endif
+}
+#define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
+#include "raster_segment.glsl"
+
+void main() {
+    int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
+                + gl_LocalInvocationID.x);
+    if (k >= u_num_segments) return;
+    int per = u_points_per_strand - 1;
+    int strand = k / per;
+    int i = strand * u_points_per_strand + (k - strand * per);
+    vec4 p0 = expanded[2 * i];
+    vec4 p1 = expanded[2 * i + 2];
+    RasterPoint a = raster_point(p0.xyz, p0.w);
+    RasterPoint b = raster_point(p1.xyz, p1.w);
+    if (!a.ok || !b.ok) return;
+    raster_segment(a.s, b.s, a.depth, b.depth, a.half_width, b.half_width, a.coverage, b.coverage,
+                   u_raster_size);
+}

@@ -1,0 +1,197 @@
+"""The hair drawn by compute shaders instead of the raster units (settings.rasterizer).
+
+Datacentre GPUs such as the H100/H200 keep only a few of their SMs' raster and ROP units, so
+thin strands drawn as triangles are bound by a fraction of the chip; scan-converting them in
+compute shaders uses all of it (Unreal's and Frostbite's strand rasterisers do the same for
+thin hair). Per frame, after the head has been drawn by hardware into the HDR target:
+
+1. ``hair_raster.comp``, one thread per segment of the expanded strands (passes/expand.py):
+   every sample of a ``grid`` x ``grid`` per-pixel sample grid the segment covers
+   (raster_segment.glsl) keeps the nearest segment in front of the head (atomic min of depth
+   and id: one 64-bit atomic where the GPU has them, else two dispatches of 32-bit ones) and
+   adds -log(1 - coverage) to the sample's coverage sum.
+2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
+   sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
+   pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
+   averaged into the HDR image; the buffers are reset for the next frame as they are read.
+
+What differs from the hardware path: every strand behind the nearest one in a sample darkens
+it by its coverage but shows its colour only through the nearest's (as in Unreal's
+visibility buffer); the head is drawn with one sample per pixel.
+"""
+from __future__ import annotations
+
+import math
+import re
+
+import numpy as np
+
+from ...gpu.buffers import check_allocation
+from ...gpu.glsl import compute_shader
+from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view
+from .expand import EXPANDED_BINDING, pulls
+
+LOCAL_SIZE = 128
+MAX_GROUPS_X = 65535
+VIS_BINDING, VIS_ID_BINDING, COVER_BINDING = 8, 9, 10
+HDR_IMAGE_UNIT = 0
+COVER_SCALE = 4096.0    # hair_vis.glsl
+SCENE_DEPTH_UNIT = 6
+# renderer strings of GPUs with few raster units for their size: "auto" picks compute there
+FEW_RASTER_UNITS = re.compile(r"\b(H100|H200|H800|H20|GH200|A100|A800|A30|B100|B200|GB200)\b", re.I)
+
+
+def sample_grid(msaa: int) -> int:
+    """Samples per pixel side for an MSAA count: 1 -> 1, 2 and 4 -> 2, 8 -> 3, 16 -> 4."""
+    return max(1, math.ceil(math.sqrt(int(msaa)) - 1e-9))
+
+
+def wants_compute(settings, renderer_string: str) -> bool:
+    """Whether settings.rasterizer asks for the compute rasteriser on this GPU."""
+    r = getattr(settings, "rasterizer", "hardware")
+    if r == "auto":
+        return bool(FEW_RASTER_UNITS.search(renderer_string or ""))
+    return r == "compute"
+
+
+def has_atomic64(ctx) -> bool:
+    from ...gpu.capabilities import get_capabilities
+
+    f = get_capabilities(ctx).features.get("kbuffer_int64")
+    return bool(f is not None and f.available)
+
+
+class HairComputePass(Pass):
+    name = "hair_compute"
+    reads = ("expanded", "hdr", "shadow_map", "dom")
+    writes = ("hdr",)
+
+    def __init__(self, renderer):
+        super().__init__(renderer)
+        self.vis64 = has_atomic64(self.ctx)
+        self._buffers: tuple = ()
+        self._key = None
+        self.capture = False       # True: keep each frame's visibility (read_capture) before shading
+        self.captured = None
+
+    def enabled(self, frame: Frame) -> bool:
+        r = self.renderer
+        return r.strands is not None and r.compute_raster and getattr(r.settings, "oit", "none") == "none"
+
+    # ------------------------------------------------------------------ buffers
+    def sample_size(self) -> tuple[int, int]:
+        w, h = self.renderer.settings.render_size
+        g = self.renderer.raster_grid
+        return w * g, h * g
+
+    def _ensure_buffers(self) -> None:
+        w, h = self.sample_size()
+        key = (w, h, self.vis64)
+        if key == self._key:
+            return
+        self._release_buffers()
+        n = w * h
+        ctx = self.ctx
+        words = [(VIS_BINDING, 8 if self.vis64 else 4, 0xFF), (COVER_BINDING, 4, 0x00)]
+        if not self.vis64:
+            words.append((VIS_ID_BINDING, 4, 0x00))
+        bufs = []
+        for binding, size, fill in words:
+            check_allocation(ctx, n * size, f"the compute rasteriser's per-sample buffer ({w}x{h} samples)")
+            buf = ctx.buffer(reserve=n * size)
+            buf.write(np.full(n * size, fill, np.uint8).tobytes())   # the shading pass keeps it so
+            bufs.append((binding, buf))
+        self._buffers = tuple(bufs)
+        self._key = key
+
+    def bytes(self) -> int:
+        return sum(b.size for _, b in self._buffers)
+
+    # ------------------------------------------------------------------ frame
+    def run(self, frame: Frame) -> None:
+        r, ctx = self.renderer, self.ctx
+        expand = r.get_pass("expand")
+        expand.ensure()
+        self._ensure_buffers()
+        for binding, buf in self._buffers:
+            buf.bind_to_storage_buffer(binding)
+        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        color, depth = r.hdr_textures()
+        grid = r.raster_grid
+        size = self.sample_size()
+        segments = expand.strands * (expand.points - 1)
+        defines = {"VIS64": int(self.vis64)}
+        with r.profiler.section("hair_raster"):
+            for raster_pass in ((0,) if self.vis64 else (0, 1)):
+                cs = compute_shader(ctx, HERE / "hair_raster.comp", {**defines, "RASTER_PASS": raster_pass},
+                                    include_dirs=[RENDER_DIR])
+                self._set_common(cs, frame, size, grid, expand.points)
+                depth.use(SCENE_DEPTH_UNIT)
+                set_uniform(cs, "u_scene_depth", SCENE_DEPTH_UNIT)
+                set_uniform(cs, "u_num_segments", int(segments))
+                groups = max(1, math.ceil(segments / LOCAL_SIZE))
+                gx = min(groups, MAX_GROUPS_X)
+                cs.run(gx, math.ceil(groups / gx))
+                ctx.memory_barrier()
+        if self.capture:
+            self.captured = self._read_buffers()
+        with r.profiler.section("hair_shade"):
+            cs = compute_shader(ctx, HERE / "hair_shade.comp", {**defines, **r.shading.defines(),
+                                                                "SHADOWS": _shadow_id(r)},
+                                include_dirs=[RENDER_DIR])
+            self._set_common(cs, frame, size, grid, expand.points)
+            r.shading.bind(cs, ctx, r.settings)
+            bind_lighting(r, cs, frame)
+            color.bind_to_image(HDR_IMAGE_UNIT, read=True, write=True)
+            w, h = r.settings.render_size
+            cs.run(math.ceil(w / 8), math.ceil(h / 8))
+            ctx.memory_barrier()
+
+    def _read_buffers(self) -> dict:
+        """The sample grid's nearest segment (first point's index into the expanded strands, -1:
+        none) and coverage sum -sum(log(1 - c)), each (height x grid, width x grid)."""
+        w, h = self.sample_size()
+        bufs = dict(self._buffers)
+        if self.vis64:
+            v = np.frombuffer(bufs[VIS_BINDING].read(), np.uint64)
+            ids = (v & np.uint64(0xFFFFFFFF)).astype(np.int64)
+            ids[ids == 0xFFFFFFFF] = -1
+        else:
+            ids = np.frombuffer(bufs[VIS_ID_BINDING].read(), np.uint32).astype(np.int64) - 1
+        cover = np.frombuffer(bufs[COVER_BINDING].read(), np.uint32) / COVER_SCALE
+        g = self.renderer.raster_grid
+
+        def grid(a):   # pixel-major (hair_vis.glsl's sample_index) -> rows of samples
+            return a.reshape(h // g, w // g, g, g).transpose(0, 2, 1, 3).reshape(h, w)
+
+        return {"ids": grid(ids), "cover": grid(cover)}
+
+    def _set_common(self, cs, frame: Frame, size, grid: int, points: int) -> None:
+        set_view(cs, frame.view)
+        set_uniform(cs, "u_raster_size", tuple(int(v) for v in size))
+        set_uniform(cs, "u_grid", int(grid))
+        set_uniform(cs, "u_points_per_strand", int(points))
+
+    def _release_buffers(self) -> None:
+        for _, b in self._buffers:
+            b.release()
+        self._buffers = ()
+        self._key = None
+
+    def release(self) -> None:
+        self._release_buffers()
+
+
+def _shadow_id(renderer) -> int:
+    from .base import SHADOW_IDS
+
+    return SHADOW_IDS[renderer.settings.shadows]
+
+
+def unsupported_reason(renderer) -> str | None:
+    """Why the compute rasteriser cannot draw with the renderer's settings (None: it can)."""
+    if not pulls(renderer):
+        return ("the compute rasteriser needs pipeline='compute' without distance LOD or an OIT method; "
+                "the hair is drawn by hardware")
+    return None
+

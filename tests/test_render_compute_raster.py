@@ -1,0 +1,170 @@
+"""The compute rasteriser (settings.rasterizer="compute"; passes/hair_compute.py) against its
+NumPy twin (tests/reference/raster_reference.py) and against the hardware rasteriser, and the
+deep opacity maps it builds against the hardware-built ones."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from mane.render import Renderer, RenderSettings
+from mane.render.passes.hair_compute import sample_grid, wants_compute
+from mane.render.scene import default_scene
+
+from reference.raster_reference import deep_opacity, rasterize, scan_segment
+from test_render_tessellation import wavy_groom
+
+pytestmark = pytest.mark.gpu
+
+
+def test_auto_picks_compute_on_gpus_with_few_raster_units():
+    s = RenderSettings()
+    assert s.rasterizer == "auto"
+    assert wants_compute(s, "NVIDIA H200/PCIe/SSE2") and wants_compute(s, "NVIDIA H100 80GB HBM3/PCIe/SSE2")
+    assert not wants_compute(s, "llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not wants_compute(s, "NVIDIA GeForce RTX 4090/PCIe/SSE2")
+    assert wants_compute(s.replace(rasterizer="compute"), "llvmpipe (LLVM 15.0.6, 256 bits)")
+    assert not wants_compute(s.replace(rasterizer="hardware"), "NVIDIA H200/PCIe/SSE2")
+    assert [sample_grid(n) for n in (1, 2, 4, 8, 16)] == [1, 2, 2, 3, 4]
+
+
+def test_scan_conversion_twin_covers_a_thin_line_once_per_column():
+    # the twin itself, from its definition: a horizontal segment from x = 2.3 to 7.9 at y = 4.6
+    # with half width 0.5 covers the columns whose centres (x + 0.5) lie in [2.3, 7.9): 2..7,
+    # and the row whose centre lies in [4.1, 5.1): 4
+    cov = scan_segment((2.3, 4.6), (7.9, 4.6), 0.5, 0.5, 0.5, 0.5, 1.0, 1.0, (16, 16))
+    assert [(x, y) for x, y, _, _ in cov] == [(x, 4) for x in range(2, 8)]
+    # a diagonal segment, slope 0.97: the band across each column is 2h / cos = 1.393 samples
+    # wide, so 1 or 2 samples per column, 1.393 on average (the phase drifts along it): its area
+    cov = scan_segment((0.0, 0.0), (100.0, 97.0), 0.5, 0.5, 0.5, 0.5, 1.0, 1.0, (128, 128))
+    assert abs(len(cov) / 100.0 - np.hypot(100.0, 97.0) / 100.0) < 0.03
+
+
+def _render(gl, groom, head=None, capture=False, azimuth=25.0, **kw):
+    s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "draw_head": head is not None, **kw})
+    r = Renderer(s, ctx=gl, profile=False)
+    r.set_strands(groom)
+    r.set_head(head)
+    if capture:
+        r.get_pass("hair_compute").capture = True
+    r.render(r.default_camera(azimuth))
+    return r
+
+
+@pytest.mark.parametrize("msaa,min_px,width", [(1, 1.0, 0.0006), (4, 1.0, 0.0006), (1, 0.0, 0.03)])
+def test_visibility_and_coverage_match_the_numpy_twin(gl, msaa, min_px, width):
+    # thin strands widened to a sample with coverage < 1, on 1 and 2x2 samples per pixel; and
+    # wide strands (several samples across) with no widening
+    g = wavy_groom()
+    r = _render(gl, g, capture=True, rasterizer="compute", msaa=msaa, min_pixel_width=min_px,
+                strands_per_guide=4, segments=20, width=width)
+    try:
+        assert r.compute_raster and r.stats()["rasterizer"] == "compute"
+        hc = r.get_pass("hair_compute")
+        got = hc.captured
+        e = r.get_pass("expand").read()
+        v = r.last_frame.view
+        grid = r.raster_grid
+        W, H = hc.sample_size()
+        ids, cover = rasterize(e, dict(view_proj=v.view_proj, eye=v.eye, forward=v.forward, ortho=v.ortho,
+                                       pixel_size=v.pixel_size, min_pixel_width=v.min_pixel_width,
+                                       size=(W, H), grid=grid))
+    finally:
+        r.release()
+    assert got["ids"].shape == ids.shape == (72 * grid, 96 * grid)
+    hit = ids >= 0
+    assert hit.sum() > 200   # the strands cover a good part of the image
+    # float32 on the GPU against float64 here: samples exactly on an edge may differ
+    differ = got["ids"] != ids
+    assert differ.mean() < 0.003, differ.sum()
+    same = ~differ & hit
+    np.testing.assert_allclose(got["cover"][same], cover[same], rtol=0.02, atol=2.0 / 4096)
+    # coverage conserves the strands' area: sum of coverage ~ sum of (true width x length)
+    assert abs(got["cover"].sum() - cover.sum()) <= 0.01 * cover.sum()
+
+
+def test_compute_image_matches_the_hardware_one_without_antialiasing(gl):
+    # sampled at pixel centres, no coverage: both rasterisers see the same strands
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    imgs = {}
+    for mode in ("hardware", "compute"):
+        r = _render(gl, groom, head, rasterizer=mode, msaa=1, min_pixel_width=0.0, size=(160, 120),
+                    shadows="deep_opacity", shadow_map_size=128)
+        try:
+            assert r.compute_raster == (mode == "compute")
+            imgs[mode] = r.read_image().astype(int)
+        finally:
+            r.release()
+    d = np.abs(imgs["hardware"] - imgs["compute"])
+    assert d.mean() < 0.6, d.mean()
+    assert np.percentile(d, 99) <= 16
+
+
+def test_hair_behind_the_head_is_hidden(gl):
+    # seen from the front most strands pass behind the face: the twin, given the head's depth
+    # buffer, keeps the same samples
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    r = _render(gl, groom, head, capture=True, rasterizer="compute", azimuth=0.0, strands_per_guide=4)
+    try:
+        color, depth = r.hdr_textures()
+        scene = np.frombuffer(depth.read(), np.float32).reshape(72, 96)
+        got = r.get_pass("hair_compute").captured
+        e = r.get_pass("expand").read()
+        v = r.last_frame.view
+        ids, _ = rasterize(e, dict(view_proj=v.view_proj, eye=v.eye, forward=v.forward, ortho=v.ortho,
+                                   pixel_size=v.pixel_size, min_pixel_width=v.min_pixel_width,
+                                   size=(96, 72), grid=1), scene_depth=scene)
+        _, unoccluded = rasterize(e, dict(view_proj=v.view_proj, eye=v.eye, forward=v.forward, ortho=v.ortho,
+                                          pixel_size=v.pixel_size, min_pixel_width=v.min_pixel_width,
+                                          size=(96, 72), grid=1))
+    finally:
+        r.release()
+    hidden = (unoccluded > 0) & (ids < 0)
+    assert hidden.sum() > 50          # the head hides hair here
+    assert (got["ids"] != ids).mean() < 0.003
+    assert not np.any(got["ids"][hidden] >= 0)
+
+
+def test_deep_opacity_maps_by_compute_match_the_numpy_twin(gl):
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    r = _render(gl, groom, head, rasterizer="compute", shadows="deep_opacity", shadow_map_size=128,
+                strands_per_guide=4)
+    try:
+        got = r.get_pass("deep_opacity").read()
+        e = r.get_pass("expand").read()
+        f = r.last_frame
+        lv = f.light_view
+        lo, hi = f.hair_depth_range
+        ends = [x * max(hi - lo, 1e-4) for x in r.settings.dom_layers]
+        want = deep_opacity(e, dict(view_proj=lv.view_proj, eye=lv.eye, forward=lv.forward, ortho=lv.ortho,
+                                    pixel_size=lv.pixel_size, min_pixel_width=lv.min_pixel_width,
+                                    size=(128, 128), grid=1), ends, r.settings.strand_opacity)
+    finally:
+        r.release()
+    hw, hg = np.isfinite(want[..., 3]), got[..., 3] < 1e8
+    assert hw.sum() > 500 and (hw != hg).mean() < 0.002
+    both = hw & hg
+    z_ok = np.abs(got[..., 3] - want[..., 3])[both] < 1e-4
+    assert z_ok.mean() > 0.995
+    for k in range(3):   # fixed point 1/65536 per fragment; an edge sample may land elsewhere
+        err = np.abs(got[..., k] - want[..., k])[both]
+        assert np.mean(err < 1e-3 + 1e-4 * want[..., k][both]) > 0.99, k
+        assert abs(got[..., k][both].sum() / want[..., k][both].sum() - 1.0) < 0.01, k
+
+
+def test_deep_opacity_maps_by_compute_agree_with_the_hardware_ones(gl):
+    # two scan conversions of the same ribbons: the same texels, the same opacity in total
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    maps = {}
+    for mode in ("hardware", "compute"):
+        r = _render(gl, groom, head, rasterizer=mode, shadows="deep_opacity", shadow_map_size=128)
+        try:
+            maps[mode] = r.get_pass("deep_opacity").read()
+        finally:
+            r.release()
+    a, b = maps["hardware"], maps["compute"]
+    ha, hb = a[..., 3] < 1e8, b[..., 3] < 1e8
+    assert (ha != hb).mean() < 0.002 and ha.sum() > 500
+    both = ha & hb
+    assert np.median(np.abs(a[..., 3] - b[..., 3])[both]) < 2e-3   # z0 (m)
+    for k in range(3):
+        assert abs(b[..., k][both].sum() / a[..., k][both].sum() - 1.0) < 0.03
