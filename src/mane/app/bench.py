@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 
-HELP = "run benchmarks (sim, render, oit, quality, all) and print or write JSON"
+HELP = "run benchmarks (sim, render, oit, quality, limits, all) and print or write JSON"
 
 # target -> (module, one-line help)
 TARGETS: dict[str, tuple[str, str]] = {
@@ -29,6 +29,8 @@ TARGETS: dict[str, tuple[str, str]] = {
                                     "viewport x groom (Hunz Figs. 41-42); the DBK-buffer target"),
     "quality": ("mane.bench.quality", "validation figures: shading GLSL vs equations, shadows vs an exact ray cast, "
                                       "OIT vs the exact sort, simulation invariants (--out DIR: quality.json + images)"),
+    "limits": ("mane.bench.limits", "the GPU's measured limits: DRAM copy bandwidth, raster units' peak (triangles "
+                                    "and samples per second, 1x and 4x MSAA), atomicMin throughput (32/64-bit)"),
     "all": ("mane.bench.all_bench", "every target in turn (--out DIR: JSON, CSV per table, plots/*.png beside the "
                                     "seeds' published figures, summary.md; --only, --baseline)"),
 }

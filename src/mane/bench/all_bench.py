@@ -4,7 +4,7 @@ benchmark in turn, and the files for the performance and quality documents.
     result = run(ctx, "quick", out_dir="out/bench")      # the index object (DIR/all.json)
 
 Runs each registered target of ``mane bench`` (``mane.app.bench.TARGETS`` other than ``all``:
-sim, render, oit, quality, in that order, those whose module imports), with a progress bar over
+sim, render, oit, quality, limits, in that order, those whose module imports), with a progress bar over
 the targets' sections, and writes into DIR:
 
 ``<target>.json``
@@ -13,7 +13,8 @@ the targets' sections, and writes into DIR:
 ``<target>_<table>.csv``
     one CSV per sweep / table: the rows of that section with nested timings flattened
     (``frame_ms.mean``, ``passes_ms.hair.mean``, ...); ``scaling.csv`` / ``scaling_summary.csv``
-    (power-law fits, ``mane.bench.scaling``); ``seed_figures.csv`` (every published value with its
+    (power-law fits, ``mane.bench.scaling``); ``limits_distance.csv`` (each stage against the limits
+    ``limits.json`` measured: ``mane.bench.limits.distance_rows``); ``seed_figures.csv`` (every published value with its
     source); ``baseline_comparison.csv`` with ``--baseline``.
 ``plots/*.png``
     one figure per seed figure (``mane.bench.plots``), the seed's published values drawn in,
@@ -46,7 +47,7 @@ import time
 import traceback
 from pathlib import Path
 
-ORDER = ("sim", "render", "oit", "quality")
+ORDER = ("sim", "render", "oit", "quality", "limits")
 STATS_KEYS = ("mean", "median", "p95", "min", "max", "n")
 SKIP_KEYS = {"traceback", "settings", "renderer_stats", "warnings", "oit_bytes_detail", "settings_not_in_renderer",
              "series", "image", "oit_warnings", "gpu_ms_note"}
@@ -96,11 +97,15 @@ def expected_tables(target: str) -> list[str]:
         return ["methods", "memory", "target"]
     if target == "quality":
         return ["shading", "shadows", "oit", "simulation"]
+    if target == "limits":
+        from .limits import SECTIONS
+
+        return list(SECTIONS)
     return ["results"]
 
 
 def expected_sections(target: str) -> int:
-    return {"sim": 6, "render": 9, "oit": 2, "quality": 4}.get(target, 1)
+    return {"sim": 6, "render": 9, "oit": 2, "quality": 4, "limits": 3}.get(target, 1)
 
 
 # --------------------------------------------------------------------------- tables
@@ -157,7 +162,7 @@ def tables_of(target: str, result: dict) -> dict[str, list[dict]]:
     out: dict[str, list[dict]] = {t: [] for t in expected_tables(target)}
     if not result or "error" in result and "meta" in result and len(result) <= 3:
         return out
-    if target in ("sim", "render"):
+    if target in ("sim", "render", "limits"):
         for r in result.get("results") or []:
             out.setdefault(r.get("bench", "results"), []).append(r)
     elif target == "oit":
@@ -358,10 +363,14 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
         summary_fits = SC.summarise(fits)
         index["scaling"] = summary_fits
         comparison = _baseline_rows(results, baseline) if baseline else None
+        from .limits import distance_rows
+
+        index["distance_from_limits"] = distance_rows(results)
         if out is not None:
             note(write_csv(out / "scaling.csv", [{k: (" ".join(f"{x:.6g}" for x in v) if k in ("x", "y") else v)
                                                   for k, v in f.items()} for f in fits]))
             note(write_csv(out / "scaling_summary.csv", summary_fits))
+            note(write_csv(out / "limits_distance.csv", index["distance_from_limits"]))
             note(write_csv(out / "seed_figures.csv", [
                 {"figure": k, "seed": f["seed"], "hardware": f["hardware"], "unit": f["unit"], **p}
                 for k, f in SF.as_dict().items() for p in f["points"]]))
@@ -481,7 +490,7 @@ def _machine(results: dict, target: str) -> str:
     if not m:
         return f"*{target}: not run*\n"
     t = m.get("timing") or {}
-    src = t.get("frame_source") or t.get("step_source") or t.get("frame") or "-"
+    src = t.get("frame_source") or t.get("step_source") or t.get("frame") or t.get("source") or "-"
     return (f"*mane on {m.get('renderer')} ({m.get('vendor')}), driver {m.get('driver')}, OpenGL "
             f"{m.get('gl_version')}; `{m.get('mode')}` mode; timing: {src}.*\n")
 
@@ -497,6 +506,84 @@ def _m(v):
 
 def _seed(fig, x, series):
     return next((p.y for p in fig.points if p.x == x and p.series == series), None)
+
+
+def _limits_section(results: dict, index: dict) -> list[str]:
+    """summary.md's "Distance from the hardware limits": the limits measured by ``mane bench
+    limits`` and each stage's fraction of them (``limits.distance_rows``)."""
+    from .limits import distance_rows, peaks_of
+
+    L = ["", "## Distance from the hardware limits", ""]
+    lim = results.get("limits") or {}
+    rows = index.get("distance_from_limits")
+    rows = distance_rows(results) if rows is None else rows
+    if lim.get("results"):
+        peaks = lim.get("peaks") or peaks_of(lim["results"])
+        L += [_machine(results, "limits"),
+              "The limits, measured on this GPU by `mane bench limits` (`limits.json`: each row's `method` says how; "
+              "the figure is from the fastest of the timed runs):", ""]
+        lrows = []
+        for r in lim["results"]:
+            if r.get("status") != "ok":
+                continue
+            if r["bench"] == "dram":
+                lrows.append(["DRAM, streaming copy", f"{_f(r['value'], '{:.1f}')} GB/s (read + written)",
+                              f"{r['buffer_bytes'] >> 20} MiB buffers, median {_f(r['value_median'], '{:.1f}')}"])
+            elif r["bench"] == "raster":
+                lrows.append([f"raster units, {r['msaa']}x MSAA",
+                              f"{_f(r['triangles_per_s'] / 1e9, '{:.4g}')} G triangles/s, "
+                              f"{_f(r['samples_per_s'] / 1e9, '{:.4g}')} G samples/s",
+                              f"{r['triangles']} triangles of {r['triangle_pixels']:g} px at "
+                              f"{r['size'][0]}x{r['size'][1]}, trivial fragment shader"])
+            elif r["bench"] == "atomics":
+                where = "random words" if r["pattern"] == "random" else "consecutive words a thread"
+                lrows.append([f"atomicMin {r['bits']}-bit, {where}",
+                              f"{_f(r['value'] / 1e9, '{:.4g}')} G operations/s",
+                              f"{r['ops']} operations into {r['words']} words (1920x1080x4 samples)"])
+        if peaks.get("dram_tabulated_GBps"):
+            lrows.append([f"DRAM, tabulated peak ({peaks.get('dram_tabulated_model')})",
+                          f"{peaks['dram_tabulated_GBps']:.0f} GB/s", "mane.bench.common.PEAK_DRAM_BANDWIDTH"])
+        L.append(md_table(["limit", "measured", "how"], lrows))
+        skipped = [f"{r['name']} ({r.get('reason')})" for r in lim["results"] if r.get("status") != "ok"]
+        if skipped:
+            L += [f"Not measured here: {'; '.join(skipped)}.", ""]
+    else:
+        L += ["The limits were not measured in this run (`mane bench all --only limits` measures them); the solver "
+              "is compared with the tabulated DRAM peak only.", ""]
+    bw = (results.get("sim") or {}).get("bandwidth") or {}
+    if bw.get("achieved_GBps") is None:
+        L += [f"Solver DRAM bandwidth: {bw.get('note', 'not measured')}.", ""]
+    shown = [r for r in rows if r["stage"] == "solver" or r.get("section") in ("target", "target_rasterizer")]
+    L += ["Each stage against its limit (fraction = achieved / measured limit; all render rows in "
+          "`limits_distance.csv`):", ""]
+    L.append(md_table(["stage", "path", "configuration", "achieved", "measured limit", "fraction",
+                       "tabulated limit", "fraction of tabulated"],
+                      [[r["stage"], r["path"],
+                        f"{r.get('configuration')}" + (f", msaa {r['msaa']}" if r.get("msaa") else ""),
+                        f"{_f(r['achieved'], '{:.4g}')} {r['unit']}", _f(r.get("limit"), "{:.4g}"),
+                        _f(None if r.get("fraction") is None else 100 * r["fraction"], "**{:.1f}%**"),
+                        _f(r.get("tabulated_limit"), "{:.4g}"),
+                        _f(None if r.get("tabulated_fraction") is None else 100 * r["tabulated_fraction"], "{:.1f}%")]
+                       for r in shown]))
+    est = [r for r in shown if r.get("samples_per_s") is not None]
+    if est:
+        L += ["", "Hardware hair pass, samples (estimated: the compute rasteriser's sample visits of the same "
+              "strands, times the pass's draws):", ""]
+        L.append(md_table(["configuration", "samples / frame", "samples/s", "measured limit", "fraction"],
+                          [[r["configuration"], r["samples_estimated"], _f(r["samples_per_s"], "{:.4g}"),
+                            _f(r.get("samples_limit"), "{:.4g}"),
+                            _f(None if r.get("samples_fraction") is None else 100 * r["samples_fraction"], "{:.1f}%")]
+                           for r in est]))
+    comp = [r for r in shown if r["path"].startswith("compute")]
+    if comp:
+        L += ["", "Compute rasteriser (one extra frame with hair_raster.comp's RASTER_STATS counters): "
+              + "; ".join(f"{r['configuration']}: {r['sample_visits']} samples scanned, {r['sample_writes']} in "
+                          f"front of the head, {r['atomics']} atomics in {_f(r['time_ms'], '{:.4f}')} ms "
+                          f"({r['time_source']}), "
+                          + _f(None if r.get("fraction_sequential") is None else 100 * r["fraction_sequential"],
+                               "{:.1f}%") + " of the consecutive-word atomicMin figure" for r in comp)
+              + ". The rasteriser walks neighbouring samples, so it can beat the random-address limit.", ""]
+    return L
 
 
 def summary_markdown(results: dict, index: dict, fits: list[dict], comparison=None) -> str:
@@ -657,26 +744,7 @@ def summary_markdown(results: dict, index: dict, fits: list[dict], comparison=No
                       [[f["variable"], f["target"], f["series"], f["groups"], f"{f['exponent_median']:.2f}",
                         f"{f['exponent_min']:.2f} .. {f['exponent_max']:.2f}", f"{f['r2_min']:.3f}", f["points"]]
                        for f in fits]))
-    L += ["", "## Distance from the hardware limits", ""]
-    bw = (results.get("sim") or {}).get("bandwidth") or {}
-    if bw.get("achieved_GBps") is not None:
-        frac = bw.get("fraction_of_peak")
-        L.append(f"- solver, integrate kernel ({bw.get('configuration')}): {bw['bytes_per_step'] / 1e6:.1f} MB in "
-                 f"{bw['time_ms']:.4f} ms = {bw['achieved_GBps']:.1f} GB/s"
-                 + (f" = **{frac * 100:.1f}%** of the {bw['peak_GBps']:.0f} GB/s DRAM peak ({bw['peak_model']})"
-                    if frac is not None else " (no DRAM peak known for this renderer)"))
-    else:
-        L.append(f"- solver DRAM bandwidth: {bw.get('note', 'not measured')}")
-    for r in _ok(results, "render", "target"):
-        passes = r.get("gpu_passes_ms") or r.get("passes_ms") or {}
-        hair = _m(passes.get("hair"))
-        if hair:
-            segs = r.get("rendered_segments") or 0
-            w, h = r.get("size") or (0, 0)
-            L.append(f"- hair pass ({r['name']}, msaa {r.get('msaa')}): {hair:.3f} ms = "
-                     f"{segs / hair / 1e3:.4g} M segments/s, {w * h * (r.get('msaa') or 1) / hair / 1e3:.4g} "
-                     "M frame samples/s; no peak raster rate is tabulated in mane.bench.common, so the "
-                     "fraction of the raster limit is not computed")
+    L += _limits_section(results, index)
     # ---- quality
     q = results.get("quality")
     if q:

@@ -406,15 +406,17 @@ class Bench(BenchRows):
 
     # ------------------------------------------------------------------ one configuration
     def measure(self, bench: str, name: str, *, guides: int, points: int, settings: dict,
-                required=(), lights=None, camera=None, budget_scale: float = 1.0, **fields) -> None:
-        """Render one configuration and add its row (or a skipped / error row)."""
+                required=(), lights=None, camera=None, budget_scale: float = 1.0, raster_stats: bool = False,
+                **fields) -> None:
+        """Render one configuration and add its row (or a skipped / error row). ``raster_stats``:
+        where the compute rasteriser draws, one more frame (not timed) counts its samples."""
         fields = dict(guides=int(guides), guide_points=int(points),
                       strands_per_guide=settings.get("strands_per_guide"),
                       segments_requested=settings.get("segments"), **fields)
         with self._guard(bench, name, **fields):
             s, dropped = make_settings(settings, required)
             groom = self.work.groom(guides, points)
-            timing = self._time(s, groom, lights, camera, budget_scale)
+            timing = self._time(s, groom, lights, camera, budget_scale, raster_stats)
             row = self._row(bench, name, **fields, **timing)
             row["settings"] = settings_dict(s)
             if self._release_error:
@@ -422,7 +424,7 @@ class Bench(BenchRows):
             if dropped:
                 row["settings_not_in_renderer"] = dropped
 
-    def _time(self, s, groom, lights, camera, budget_scale: float = 1.0) -> dict:
+    def _time(self, s, groom, lights, camera, budget_scale: float = 1.0, raster_stats: bool = False) -> dict:
         from ..render import Renderer
 
         ctx, cfg = self.ctx, self.cfg
@@ -480,6 +482,8 @@ class Bench(BenchRows):
             gapless = self._gapless(r, cam, lights, N_eff, stats(submit)["mean"])
 
             info = {k: v for k, v in r.stats().items() if k != "passes"}
+            # sample_visits, sample_writes, raster_atomics (HairComputePass.count_samples): one more frame
+            counts = r.get_pass("hair_compute").count_samples(cam, lights) if raster_stats and r.compute_raster else {}
             frame_stats = stats(frame_gpu)
             gpu_mean = (gapless.get("gpu_ms") or {}).get("mean") or frame_stats["mean"]
             eye, target = np.asarray(cam.eye, float), np.asarray(cam.target, float)
@@ -504,6 +508,7 @@ class Bench(BenchRows):
                 "camera_distance_m": float(np.linalg.norm(eye - target)),
                 "lights": len(lights) if lights is not None else 3,
                 "renderer_stats": info,
+                **counts,
                 "warnings": list(getattr(r, "warnings", [])),
             }
         finally:
@@ -581,13 +586,13 @@ class Bench(BenchRows):
         self.measure("target", name, guides=guides, points=TARGET_POINTS, settings=settings,
                      required=("shading", "shadows", "shadow_map_size", "msaa", "strands_per_guide", "segments"),
                      budget_scale=5.0, shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512,
-                     msaa=4, dom_layers=3, rasterizer=self._auto_rasterizer())
+                     msaa=4, dom_layers=3, rasterizer=self._auto_rasterizer(), raster_stats=True)
         # the same frame with the other rasteriser ("auto" picked one for this GPU)
         other = "hardware" if self._auto_rasterizer() == "compute" else "compute"
         self.measure("target_rasterizer", f"{name} {other} rasteriser", guides=guides, points=TARGET_POINTS,
                      settings={**settings, "rasterizer": other}, required=("rasterizer",), budget_scale=5.0,
                      shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512, msaa=4, dom_layers=3,
-                     rasterizer=other)
+                     rasterizer=other, raster_stats=True)
 
     def _auto_rasterizer(self) -> str:
         from ..gpu.context import renderer_name

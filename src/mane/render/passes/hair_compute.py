@@ -34,6 +34,7 @@ from .expand import EXPANDED_BINDING, pulls
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
 VIS_BINDING, VIS_ID_BINDING, COVER_BINDING = 8, 9, 10
+STATS_BINDING, STATS_SLOTS = 11, 64    # hair_raster.comp's RASTER_STATS counters
 HDR_IMAGE_UNIT = 0
 COVER_SCALE = 4096.0    # hair_vis.glsl
 SCENE_DEPTH_UNIT = 6
@@ -73,6 +74,8 @@ class HairComputePass(Pass):
         self._key = None
         self.capture = False       # True: keep each frame's visibility (read_capture) before shading
         self.captured = None
+        self.count_stats = False   # True: hair_raster.comp counts its samples (RASTER_STATS); see count_samples
+        self.raster_stats = None
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -121,9 +124,11 @@ class HairComputePass(Pass):
         size = self.sample_size()
         segments = expand.strands * (expand.points - 1)
         defines = {"VIS64": int(self.vis64)}
+        stats = self._stats_buffer() if self.count_stats else None
+        raster_defines = {**defines, "RASTER_STATS": 1} if stats is not None else defines
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
-                cs = compute_shader(ctx, HERE / "hair_raster.comp", {**defines, "RASTER_PASS": raster_pass},
+                cs = compute_shader(ctx, HERE / "hair_raster.comp", {**raster_defines, "RASTER_PASS": raster_pass},
                                     include_dirs=[RENDER_DIR])
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(SCENE_DEPTH_UNIT)
@@ -133,6 +138,8 @@ class HairComputePass(Pass):
                 gx = min(groups, MAX_GROUPS_X)
                 cs.run(gx, math.ceil(groups / gx))
                 ctx.memory_barrier()
+        if stats is not None:
+            self.raster_stats = self._read_stats(stats)
         if self.capture:
             self.captured = self._read_buffers()
         with r.profiler.section("hair_shade"):
@@ -146,6 +153,33 @@ class HairComputePass(Pass):
             w, h = r.settings.render_size
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()
+
+    # ------------------------------------------------------------------ statistics
+    def count_samples(self, camera=None, lights=None) -> dict:
+        """Render one frame with hair_raster.comp's counters on (RASTER_STATS; the normal
+        shaders have none): ``sample_visits`` (samples the segments scan-convert), ``sample_writes``
+        (those in front of the head, each an atomic min and a coverage add), ``raster_atomics``
+        (every atomic on the per-sample buffers: 2 per write, and on the 32-bit path the id pass's
+        atomicMax) and ``raster_atomic_bits`` (64: the depth-and-id min is one 64-bit atomic)."""
+        self.count_stats, self.raster_stats = True, None
+        try:
+            self.renderer.render(camera, lights)
+        finally:
+            self.count_stats = False
+        return dict(self.raster_stats or {})
+
+    def _stats_buffer(self):
+        buf = self.ctx.buffer(reserve=STATS_SLOTS * 16)
+        buf.write(bytes(STATS_SLOTS * 16))
+        buf.bind_to_storage_buffer(STATS_BINDING)
+        return buf
+
+    def _read_stats(self, buf) -> dict:
+        c = np.frombuffer(buf.read(), np.uint32).reshape(STATS_SLOTS, 4).astype(np.uint64).sum(axis=0)
+        buf.release()
+        scanned, written, id_atomics = (int(v) for v in c[:3])
+        return {"sample_visits": scanned, "sample_writes": written, "raster_atomics": 2 * written + id_atomics,
+                "raster_atomic_bits": 64 if self.vis64 else 32}
 
     def _read_buffers(self) -> dict:
         """The sample grid's nearest segment (first point's index into the expanded strands, -1:

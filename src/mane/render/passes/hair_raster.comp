@@ -12,10 +12,25 @@ uniform int u_num_segments;         // rendered strands x (points - 1)
 #include "raster_view.glsl"
 
 uint g_id;
+#ifndef RASTER_STATS
+#define RASTER_STATS 0
+#endif
+#if RASTER_STATS
+// statistics, off by default (HairComputePass.count_samples): per slot (work group mod 64),
+// samples scanned, samples in front of the scene (RASTER_PASS 0 / VIS64) and the pass-1 id atomics
+layout(std430, binding = 11) buffer RasterStats { uint raster_stats[]; };
+uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u;
+#endif
 
 void visit(ivec2 q, float z, float cov) {
+#if RASTER_STATS
+    g_scanned++;
+#endif
     if (!(z >= 0.0 && z < 1.0)) return;
     if (z >= texelFetch(u_scene_depth, q / u_grid, 0).r) return;
+#if RASTER_STATS
+    g_written++;
+#endif
     uint idx = sample_index(q, u_raster_size.x / u_grid, u_grid);
     uint zb = floatBitsToUint(z);
 #if VIS64
@@ -25,7 +40,12 @@ void visit(ivec2 q, float z, float cov) {
     atomicMin(vis_depth[idx], zb);
     atomicAdd(cover[idx], cover_units(cov));
 #else
-    if (vis_depth[idx] == zb) atomicMax(vis_id[idx], g_id + 1u);   // 0: none
+    if (vis_depth[idx] == zb) {
+        atomicMax(vis_id[idx], g_id + 1u);   // 0: none
+#if RASTER_STATS
+        g_id_atomics++;
+#endif
+    }
 #endif
 }
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
@@ -46,4 +66,13 @@ void main() {
     g_id = uint(i);
     raster_segment(a.s, b.s, a.window_z, b.window_z, a.half_width, b.half_width, a.coverage, b.coverage,
                    u_raster_size);
+#if RASTER_STATS
+    uint slot = (gl_WorkGroupID.x & 63u) * 4u;
+#if VIS64 || RASTER_PASS == 0
+    atomicAdd(raster_stats[slot], g_scanned);
+    atomicAdd(raster_stats[slot + 1u], g_written);
+#else
+    atomicAdd(raster_stats[slot + 2u], g_id_atomics);
+#endif
+#endif
 }
