@@ -50,13 +50,14 @@ def _render(gl, groom, head=None, capture=False, azimuth=25.0, **kw):
     return r
 
 
-@pytest.mark.parametrize("msaa,min_px,width", [(1, 1.0, 0.0006), (4, 1.0, 0.0006), (1, 0.0, 0.03)])
-def test_visibility_and_coverage_match_the_numpy_twin(gl, msaa, min_px, width):
-    # thin strands widened to a sample with coverage < 1, on 1 and 2x2 samples per pixel; and
-    # wide strands (several samples across) with no widening
+@pytest.mark.parametrize("msaa,min_px,width,geometry", [(1, 1.0, 0.0006, "ribbons"), (4, 1.0, 0.0006, "ribbons"),
+                                                         (1, 0.0, 0.03, "ribbons"), (4, 1.0, 0.0006, "lines")])
+def test_visibility_and_coverage_match_the_numpy_twin(gl, msaa, min_px, width, geometry):
+    # thin strands widened to a sample with coverage < 1, on 1 and 2x2 samples per pixel; wide
+    # strands (several samples across) with no widening; lines: a pixel wide, opaque
     g = wavy_groom()
     r = _render(gl, g, capture=True, rasterizer="compute", msaa=msaa, min_pixel_width=min_px,
-                strands_per_guide=4, segments=20, width=width)
+                strands_per_guide=4, segments=20, width=width, geometry=geometry)
     try:
         assert r.compute_raster and r.stats()["rasterizer"] == "compute"
         hc = r.get_pass("hair_compute")
@@ -67,7 +68,7 @@ def test_visibility_and_coverage_match_the_numpy_twin(gl, msaa, min_px, width):
         W, H = hc.sample_size()
         ids, cover = rasterize(e, dict(view_proj=v.view_proj, eye=v.eye, forward=v.forward, ortho=v.ortho,
                                        pixel_size=v.pixel_size, min_pixel_width=v.min_pixel_width,
-                                       size=(W, H), grid=grid))
+                                       size=(W, H), grid=grid, lines=geometry == "lines"))
     finally:
         r.release()
     assert got["ids"].shape == ids.shape == (72 * grid, 96 * grid)

@@ -7,8 +7,9 @@ import math
 import numpy as np
 
 
-def project(points, view_proj, eye, forward, ortho, pixel_size, min_pixel_width, size, grid):
-    """points (M, 4): xyz, width -> dict of s (M, 2) samples, window_z, depth, half_width, coverage, ok."""
+def project(points, view_proj, eye, forward, ortho, pixel_size, min_pixel_width, size, grid, lines=False):
+    """points (M, 4): xyz, width -> dict of s (M, 2) samples, window_z, depth, half_width, coverage, ok.
+    ``lines``: one pixel wide and opaque whatever the width (geometry="lines")."""
     P = np.asarray(points, np.float64)
     c = np.c_[P[:, :3], np.ones(len(P))] @ np.asarray(view_proj, np.float64).T
     ok = c[:, 3] > 1e-6
@@ -20,7 +21,10 @@ def project(points, view_proj, eye, forward, ortho, pixel_size, min_pixel_width,
     ws = P[:, 3] / pixel * grid
     wmin = 1.0 if min_pixel_width > 0 else 0.0
     coverage = np.where(ws < wmin, ws / max(wmin, 1e-30), 1.0)
-    return {"s": s, "window_z": ndc[:, 2] * 0.5 + 0.5, "depth": depth, "half_width": 0.5 * np.maximum(ws, wmin),
+    half = 0.5 * np.maximum(ws, wmin)
+    if lines:
+        coverage, half = np.ones_like(coverage), np.full_like(half, 0.5 * grid)
+    return {"s": s, "window_z": ndc[:, 2] * 0.5 + 0.5, "depth": depth, "half_width": half,
             "coverage": coverage, "ok": ok}
 
 

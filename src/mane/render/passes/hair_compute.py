@@ -204,6 +204,7 @@ class HairComputePass(Pass):
         set_view(cs, frame.view)
         set_uniform(cs, "u_raster_size", tuple(int(v) for v in size))
         set_uniform(cs, "u_grid", int(grid))
+        set_uniform(cs, "u_lines", int(self.renderer.settings.geometry == "lines"))
         set_uniform(cs, "u_points_per_strand", int(points))
 
     def _release_buffers(self) -> None:

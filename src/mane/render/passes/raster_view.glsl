@@ -8,6 +8,7 @@ uniform float u_pixel_size;   // world size of a pixel at unit depth (perspectiv
 uniform float u_min_pixel_width;   // > 0: strands narrower than a sample widen to one, coverage < 1
 uniform ivec2 u_raster_size;  // the sample grid (pixels x u_grid)
 uniform int u_grid;           // samples per pixel along x and y
+uniform int u_lines;          // 1: GL_LINES-like, one pixel wide whatever the strand's width, opaque
 
 struct RasterPoint {
     vec2 s;            // sample units
@@ -34,6 +35,10 @@ RasterPoint raster_point(vec3 P, float width) {
     float wmin = u_min_pixel_width > 0.0 ? 1.0 : 0.0;
     r.coverage = ws < wmin ? ws / wmin : 1.0;
     r.half_width = 0.5 * max(ws, wmin);
+    if (u_lines != 0) {
+        r.coverage = 1.0;
+        r.half_width = 0.5 * float(u_grid);
+    }
     return r;
 }
 
