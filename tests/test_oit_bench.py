@@ -31,9 +31,17 @@ def test_bench_runs_every_method_and_reports_bytes(gl, tiny):
     for r in ok:
         assert r["frame_ms"]["mean"] > 0
         assert (r["oit_bytes"] > 0) == (r["method"] != "none")
+    # both rasterizers: the compute forms of the A-buffer, K-buffer, DBK-buffer, ShortCut (and
+    # the opaque "none"), each row saying which drew it
+    drawn = {(r["method"].split("/")[0], r["rasterizer"]) for r in rows}
+    for m in ("a_buffer", "k_buffer", "dbk_buffer", "shortcut", "none"):
+        assert (m, "compute") in drawn and (m, "hardware") in drawn, m
+    assert ("sorted_blending", "compute") not in drawn
+    assert {r["rasterizer"] for r in result["target"]["rows"]} == {"compute", "hardware"}
     assert result["memory"] and result["target"]["rows"]
     text = oit_bench.format_text(result)
     assert "Hunz Fig. 42" in text and "dbk_buffer" in text and "target" in text
+    assert "rasterizer" in text and "compute/atomic" in text
 
 
 def test_memory_table_puts_hunz_beside_the_measured_bytes(gl):

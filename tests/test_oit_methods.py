@@ -45,8 +45,9 @@ def sphere(radius=0.04, center=(0.0, 0.0, -0.07)):
     return Mesh(np.asarray(s.vertices) + center, np.asarray(s.faces))
 
 
+# the hardware methods (triangles); tests/test_oit_compute.py: the compute rasteriser's forms
 BASE = dict(size=(120, 90), msaa=1, shadows="none", background=(0.16, 0.17, 0.19), strands_per_guide=8,
-            width=0.0012, oit_opacity=0.6, segments=16)
+            width=0.0012, oit_opacity=0.6, segments=16, rasterizer="hardware")
 
 
 @pytest.fixture(scope="module")

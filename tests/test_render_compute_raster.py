@@ -169,3 +169,20 @@ def test_deep_opacity_maps_by_compute_agree_with_the_hardware_ones(gl):
     assert np.median(np.abs(a[..., 3] - b[..., 3])[both]) < 2e-3   # z0 (m)
     for k in range(3):
         assert abs(b[..., k][both].sum() / a[..., k][both].sum() - 1.0) < 0.03
+
+
+def test_oit_methods_with_a_compute_form_keep_the_compute_rasteriser(gl):
+    g = wavy_groom()
+    r = _render(gl, g, rasterizer="compute", oit="dbk_buffer", shadows="deep_opacity", shadow_map_size=64)
+    try:
+        assert r.compute_raster and not r.warnings
+        assert r.stats()["rasterizer"] == "compute" and r.oit_stats()["rasterizer"] == "compute"
+    finally:
+        r.release()
+    # sorted blending has no compute form: the hardware draws it, and says why
+    r = _render(gl, g, rasterizer="compute", oit="sorted_blending")
+    try:
+        assert not r.compute_raster and r.stats()["rasterizer"] == "hardware"
+        assert any("sorted_blending" in w for w in r.warnings)
+    finally:
+        r.release()

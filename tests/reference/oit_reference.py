@@ -71,11 +71,11 @@ def resolve_display(hdr, background=(0.0, 0.0, 0.0), exposure: float = 1.0, tone
 
 
 def collect_fragments(settings, groom, head, camera, lights, ctx, max_tries: int = 6) -> dict:
-    """Render with an A-buffer whose pool grows until nothing overflows; the fragments and the
-    HDR colour under the hair."""
+    """Render with an A-buffer (triangles: rasterizer="hardware") whose pool grows until nothing
+    overflows; the fragments and the HDR colour under the hair."""
     from mane.render import Renderer
 
-    r = Renderer(settings.replace(oit="a_buffer", oit_k=0), ctx=ctx, profile=False)
+    r = Renderer(settings.replace(oit="a_buffer", oit_k=0, rasterizer="hardware"), ctx=ctx, profile=False)
     try:
         r.set_strands(groom)
         r.set_head(head)
@@ -110,3 +110,55 @@ def image_error(image, ref) -> dict:
     d = np.abs(np.asarray(image, np.float64) - np.asarray(ref, np.float64)) / 255.0
     return {"mean": float(d.mean()), "max": float(d.max()), "p99": float(np.quantile(d, 0.99)),
             "pixels_over_1_255": int((d.max(axis=-1) > 1.0 / 255 + 1e-9).sum())}
+
+
+# ---------------------------------------------------------------- the compute rasteriser's reference
+def collect_compute_fragments(settings, groom, head, camera, lights, ctx) -> dict:
+    """Every fragment of the compute rasteriser (settings.rasterizer="compute": a (pixel,
+    segment) pair in front of the head) with its premultiplied colour, recorded by the compute
+    OIT's capture pass (an append of every fragment, no per-pixel structure), and the HDR
+    colour under the hair."""
+    from mane.render import Renderer
+
+    r = Renderer(settings.replace(oit="a_buffer", oit_k=0, rasterizer="compute"), ctx=ctx, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        p = r.get_pass("oit")
+        p.capture_under = True
+        m = p.current()
+        assert getattr(m, "compute", False), "the compute OIT path was not chosen"
+        m.capture = True
+        frame = r.render(camera, lights)
+        f = dict(m.captured)
+        f["under"] = frame.targets["oit_under"]
+        f["gpu_image"] = r.read_image()
+        f["stats"] = r.oit_stats()
+        f["view"] = frame.view
+        f["expanded"] = r.get_pass("expand").read()
+        return f
+    finally:
+        r.release()
+
+
+def compute_reference(settings, groom, head, camera, lights, ctx) -> dict:
+    """The exact image of the compute rasteriser's fragments: each pixel's sorted by window
+    depth (ties by segment id, as the compute resolves break them) and blended front to back
+    in float64 over the scene, then resolve.frag in NumPy."""
+    f = collect_compute_fragments(settings, groom, head, camera, lights, ctx)
+    hdr = blend_fragments(f["pixel"], f["window_z"], f["rgba"], f["size"], f["segment"], f["under"])
+    img = resolve_display(hdr, settings.background, settings.exposure, settings.tone_mapping)
+    return {"image": img, "hdr": hdr, "fragments": f}
+
+
+def per_pixel_sorted(f) -> list:
+    """The fragments of each pixel, sorted by (window depth, segment): a list of index arrays
+    (by pixel index) into the fragment arrays; pixels without fragments are absent (dict)."""
+    order = np.lexsort((f["segment"], f["window_z"], f["pixel"]))
+    pix = f["pixel"][order]
+    start = np.r_[0, np.flatnonzero(np.diff(pix)) + 1, len(pix)]
+    return {int(pix[a]): order[a:b] for a, b in zip(start[:-1], start[1:])}
+
+
+def display(hdr, settings):
+    return resolve_display(hdr, settings.background, settings.exposure, settings.tone_mapping)

@@ -353,6 +353,7 @@ def oit(ctx, cfg, image_dir, log) -> dict:
     from ..mesh import Mesh
     from ..render import Camera, Light, Renderer, RenderSettings
     from ..render.oit import METHODS
+    from ..render.oit.compute import COMPUTE_METHODS
 
     ref = load_reference("oit_reference")
     rng = np.random.default_rng(3)
@@ -367,16 +368,23 @@ def oit(ctx, cfg, image_dir, log) -> dict:
     cam = Camera(eye=(0.0, -0.01, 0.45), target=(0.0, -0.01, 0.0), fov_y=30.0, near=0.05, far=3.0)
     lights = [Light(intensity=2.0)]
     base = dict(size=tuple(cfg["oit_size"]), msaa=1, shadows="none", background=(0.16, 0.17, 0.19),
-                strands_per_guide=8, width=0.0012, oit_opacity=0.6, segments=16)
+                strands_per_guide=8, width=0.0012, oit_opacity=0.6, segments=16, rasterizer="hardware")
     log("oit: exact reference (all fragments, sorted in NumPy)")
     reference = ref.reference(RenderSettings(**base), groom, head, cam, lights, ctx)
+    # the compute rasteriser's methods against the exact sort of the compute rasteriser's fragments
+    log("oit: exact reference of the compute rasteriser's fragments")
+    references = {"hardware": reference,
+                  "compute": ref.compute_reference(RenderSettings(**{**base, "rasterizer": "compute"}), groom, head,
+                                                   cam, lights, ctx)}
     per_pixel = np.bincount(reference["fragments"]["pixel"])
     rows, images = [], {}
-    for method in ("none",) + tuple(METHODS):
-        log(f"oit: {method}")
-        row = {"method": method, "status": "ok", "reason": None}
+    runs = [(m, "hardware") for m in ("none",) + tuple(METHODS)] + [(m, "compute") for m in COMPUTE_METHODS]
+    for method, raster in runs:
+        label = method if raster == "hardware" else f"{method} (compute)"
+        log(f"oit: {label}")
+        row = {"method": label, "rasterizer": raster, "status": "ok", "reason": None}
         try:
-            r = Renderer(RenderSettings(**{**base, "oit": method}), ctx=ctx, profile=False)
+            r = Renderer(RenderSettings(**{**base, "oit": method, "rasterizer": raster}), ctx=ctx, profile=False)
             try:
                 r.set_strands(groom)
                 r.set_head(head)
@@ -385,9 +393,9 @@ def oit(ctx, cfg, image_dir, log) -> dict:
                 st = r.stats()
             finally:
                 r.release()
-            row.update(ref.image_error(img, reference["image"]))
+            row.update(ref.image_error(img, references[raster]["image"]))
             row.update({k: st.get(k) for k in ("oit_bytes", "oit_overflow", "oit_k") if k in st})
-            images[method] = img
+            images[label] = (img, references[raster]["image"])
         except Exception as exc:
             row.update(status="error", reason=f"{type(exc).__name__}: {exc}"[:400])
         rows.append(row)
@@ -395,16 +403,17 @@ def oit(ctx, cfg, image_dir, log) -> dict:
            "fragments": int(len(reference["fragments"]["pixel"])), "max_depth": int(per_pixel.max()),
            "setup": f"48 wavy guides x 8 strands, alpha 0.6, over a sphere, {base['size'][0]}x{base['size'][1]}",
            "measure": "absolute difference from the exact image in [0, 1] (of 255): mean, max, p99; pixels off "
-                      "by more than 1/255"}
+                      "by more than 1/255; '(compute)' rows: the compute rasteriser's form against the exact sort "
+                      "of the compute rasteriser's fragments"}
     if image_dir is not None:
         n = len(images)
         fig, axes = _figure(n + 1, 2, size=(1.9, 1.6))
         _imshow(axes[0][0], reference["image"], "exact sort")
         axes[1][0].axis("off")
-        for j, (method, img) in enumerate(images.items(), start=1):
+        for j, (method, (img, exact)) in enumerate(images.items(), start=1):
             e = next(r for r in rows if r["method"] == method)
             _imshow(axes[0][j], img, f"{method}\nmean {e['mean'] * 255:.2f}/255")
-            d = np.clip(np.abs(img.astype(np.int16) - reference["image"].astype(np.int16)) * 4, 0, 255)
+            d = np.clip(np.abs(img.astype(np.int16) - exact.astype(np.int16)) * 4, 0, 255)
             _imshow(axes[1][j], d.astype(np.uint8), "4x |difference|")
         fig.suptitle("Transparency: each method against the exact per-pixel sort", fontsize=9)
         fig.tight_layout()

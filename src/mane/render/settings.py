@@ -106,8 +106,9 @@ class RenderSettings:
     per visible segment: Unreal's and Frostbite's way for thin strands; ``msaa`` n becomes a
     ceil(sqrt(n))^2 grid of samples per pixel, the head keeps one) or "auto": "compute" on GPUs
     built for computing with few raster units (NVIDIA H100/H200/H800/A100/A800/GH200/B100/
-    B200), else "hardware". Needs pipeline="compute" and no distance LOD; the OIT methods draw
-    by hardware."""
+    B200), else "hardware". Needs pipeline="compute" and no distance LOD; of the OIT methods the
+    A-buffer, K-buffer, DBK-buffer and ShortCut have compute forms (mane.render.oit.compute),
+    sorted blending and random subsets draw by hardware."""
     depth_prepass: bool = True
     """With MSAA: draw the hair's depth first (alpha to coverage), then shade it with the depth
     test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible strand

@@ -4,7 +4,9 @@
     r.render(); r.stats()["oit_bytes"]
 
 Methods, one module each: ``sorted_blending``, ``random_subsets``, ``a_buffer``,
-``k_buffer``, ``dbk_buffer``, ``shortcut`` (see ``base.OitMethod`` for the interface).
+``k_buffer``, ``dbk_buffer``, ``shortcut`` (see ``base.OitMethod`` for the interface). Where the
+renderer uses the compute rasteriser (``settings.rasterizer``), the A-buffer, K-buffer,
+DBK-buffer and ShortCut run on compute shaders instead of triangles (``compute.py``).
 """
 from __future__ import annotations
 
@@ -34,7 +36,12 @@ def method_class(name: str):
 
 
 def make_method(name: str, renderer):
-    return method_class(name)(renderer)
+    """The method object: its compute-rasteriser form (``compute.py``) where the renderer draws
+    the hair with compute shaders (``compute.uses_compute``), else the hardware one."""
+    from .compute import compute_class
+
+    cls = compute_class(name, renderer) if name in METHOD_MODULES else None
+    return (cls or method_class(name))(renderer)
 
 
 __all__ = ["METHODS", "LABELS", "method_class", "make_method"]

@@ -32,6 +32,8 @@ SHRINK_FRAMES = 8
 class PPLLMethod(OitMethod):
     """The linked-list storage the A-buffer and the DBK-buffer share."""
 
+    node_bytes = NODE_BYTES     # the compute A-buffer's nodes are 12 B
+
     def __init__(self, renderer):
         super().__init__(renderer)
         self.capacity = 0
@@ -51,10 +53,10 @@ class PPLLMethod(OitMethod):
             from ...gpu.capabilities import get_capabilities
 
             limit = get_capabilities(self.ctx).limits.get("max_shader_storage_block_size") or (1 << 31)
-            cap = int(limit) // NODE_BYTES
+            cap = int(limit) // self.node_bytes
             mb = int(self.settings.oit_max_bytes)
             if mb > 0:
-                cap = min(cap, max(1, (mb - 4 * self.pixels) // NODE_BYTES))
+                cap = min(cap, max(1, (mb - 4 * self.pixels) // self.node_bytes))
             self._max_capacity = max(1, cap)
         return self._max_capacity
 
@@ -69,7 +71,7 @@ class PPLLMethod(OitMethod):
     def set_capacity(self, nodes: int) -> None:
         nodes = int(min(max(nodes, 1024), self.max_capacity()))
         try:
-            self.buffer("nodes", nodes * NODE_BYTES)
+            self.buffer("nodes", nodes * self.node_bytes)
         except GPUMemoryError as exc:
             if self.get("nodes") is None:
                 raise
@@ -111,7 +113,7 @@ class PPLLMethod(OitMethod):
                 self.grown += 1
             if self.capacity < self.fragments:
                 msg = (f"{self.name}: the node pool is capped at {self.capacity} nodes "
-                       f"({self.capacity * NODE_BYTES / 2**20:.0f} MiB; oit_max_bytes or the GPU's largest SSBO): "
+                       f"({self.capacity * self.node_bytes / 2**20:.0f} MiB; oit_max_bytes or the GPU's largest SSBO): "
                        f"fragments beyond it are dropped")
                 if msg not in self.warnings:
                     self.warnings.append(msg)
@@ -175,7 +177,7 @@ class PPLLMethod(OitMethod):
                     "oit_overflow_frames": self.overflow_frames, "oit_pool_nodes": self.capacity,
                     "oit_pool_grown": self.grown, "oit_pool_shrunk": self.shrunk, "oit_max_list": self.max_list,
                     "oit_fragments_per_pixel": self.fragments / max(1, self.pixels),
-                    "oit_bytes_needed": 4 * self.pixels + NODE_BYTES * self.fragments})
+                    "oit_bytes_needed": 4 * self.pixels + self.node_bytes * self.fragments})
         return out
 
 

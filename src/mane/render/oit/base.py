@@ -282,7 +282,7 @@ class OitMethod:
 
     def stats(self) -> dict:
         return {"oit": self.name, "oit_bytes": self.bytes(), "oit_bytes_detail": self.bytes_detail(),
-                "oit_k": self.k, "oit_warnings": list(self.warnings)}
+                "oit_k": self.k, "oit_warnings": list(self.warnings), "rasterizer": "hardware"}
 
     def release(self) -> None:
         self._drop_fbos()

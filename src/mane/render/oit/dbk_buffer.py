@@ -36,12 +36,15 @@ HIST_FIRST, HIST_BINS = 8, 64
 CALIBRATION_PASSES = 3
 
 
-class DBKBuffer(PPLLMethod):
-    name = "dbk_buffer"
-    method_id = 5
+class AutoShift:
+    """The automatic depth shift (``oit_auto_shift``), shared by the hardware DBK-buffer and
+    the compute one (compute.ComputeDBKBuffer): the state, the first frame's calibration and
+    the update from a frame's counters (words 2..4 and the histogram from word 8, which both
+    resolves fill alike). The host class provides ``settings``, ``collect()``,
+    ``measure_layer(frame)`` (one measuring pass: layer, measure-only resolve), ``overflow``
+    and ``_pending``."""
 
-    def __init__(self, renderer):
-        super().__init__(renderer)
+    def init_shift(self) -> None:
         self.shift = float(self.settings.oit_depth_shift)
         self.hist_max = 4.0 * self.shift
         self.history = False
@@ -55,6 +58,64 @@ class DBKBuffer(PPLLMethod):
     @property
     def auto(self) -> bool:
         return bool(self.settings.oit_auto_shift)
+
+    def calibrate(self, frame) -> None:
+        """First frame: measure the layer and adapt the shift before drawing."""
+        for _ in range(CALIBRATION_PASSES):
+            self.measure_layer(frame)
+            before = self.shift
+            self._pending = True
+            self.collect()
+            if abs(self.shift - before) <= 0.1 * before and not self.overflow:
+                break
+
+    def target_k(self, alpha: float) -> int:
+        """Fragments a layer must hold for (1 - alpha)^k < oit_threshold (2..64)."""
+        alpha = min(max(float(alpha), 1e-3), 0.999)
+        k = math.ceil(math.log(float(self.settings.oit_threshold)) / math.log(1.0 - alpha))
+        return int(min(max(k, 2), 64))
+
+    def update_shift(self, c: np.ndarray) -> None:
+        """A frame's counters: c[2] layer fragments, c[3] hair pixels, c[4] alpha sum x 64,
+        c[HIST_FIRST:] the histogram of the depth each pixel needs."""
+        self.hair_pixels = int(c[3])
+        self.layer_fragments = float(c[2]) / max(1, int(c[3]))
+        if int(c[2]) > 0:
+            self.mean_alpha = float(c[4]) / 64.0 / float(c[2])
+        hist = c[HIST_FIRST:HIST_FIRST + HIST_BINS].astype(np.int64)
+        if not self.auto:
+            return
+        if self.mean_alpha is not None:
+            self.k_target = self.target_k(self.mean_alpha)
+        if hist.sum() == 0:
+            self.history = True
+            return
+        self.history = True
+        q = float(self.settings.oit_shift_quantile)
+        cum = np.cumsum(hist)
+        b = int(np.searchsorted(cum, q * cum[-1]))
+        width = self._measure_hist_max / HIST_BINS
+        new = (b + 1) * width          # the bin's far edge
+        floor = 2.0 * float(self.settings.width)
+        new = float(min(max(new, 0.25 * self.shift, floor), 4.0 * self.shift))
+        self.shift = new
+        self.hist_max = 4.0 * new
+        self.shifts.append(new)
+
+    def shift_stats(self) -> dict:
+        return {"oit_shift_m": self.shift, "oit_auto_shift": self.auto,
+                "oit_layer_fragments_per_pixel": self.layer_fragments, "oit_hair_pixels": self.hair_pixels,
+                "oit_threshold": float(self.settings.oit_threshold), "oit_k_target": self.k_target,
+                "oit_mean_alpha": self.mean_alpha}
+
+
+class DBKBuffer(AutoShift, PPLLMethod):
+    name = "dbk_buffer"
+    method_id = 5
+
+    def __init__(self, renderer):
+        super().__init__(renderer)
+        self.init_shift()
 
     def resize(self) -> None:
         super().resize()
@@ -120,59 +181,20 @@ class DBKBuffer(PPLLMethod):
     def resolve(self, frame) -> None:
         self.composite(self._resolve_program())
 
-    def calibrate(self, frame) -> None:
-        """First frame: measure the layer and adapt the shift before drawing."""
-        for _ in range(CALIBRATION_PASSES):
-            self._clear()
-            self._layer(frame)
-            prog = self._resolve_program(measure_only=True)
-            self.composite(prog)
-            self.barrier()
-            before = self.shift
-            self._pending = True
-            self.collect()
-            if abs(self.shift - before) <= 0.1 * before and not self.overflow:
-                break
-
-    # ------------------------------------------------------------------ measurement
-    def target_k(self, alpha: float) -> int:
-        """Fragments a layer must hold for (1 - alpha)^k < oit_threshold (2..64)."""
-        alpha = min(max(float(alpha), 1e-3), 0.999)
-        k = math.ceil(math.log(float(self.settings.oit_threshold)) / math.log(1.0 - alpha))
-        return int(min(max(k, 2), 64))
+    def measure_layer(self, frame) -> None:
+        """One calibration pass (AutoShift.calibrate): layer and measure-only resolve."""
+        self._clear()
+        self._layer(frame)
+        self.composite(self._resolve_program(measure_only=True))
+        self.barrier()
 
     def after_frame(self, c: np.ndarray) -> None:
-        super().after_frame(c)
-        self.hair_pixels = int(c[3])
-        self.layer_fragments = float(c[2]) / max(1, int(c[3]))
-        if int(c[2]) > 0:
-            self.mean_alpha = float(c[4]) / 64.0 / float(c[2])
-        hist = c[HIST_FIRST:HIST_FIRST + HIST_BINS].astype(np.int64)
-        if not self.auto:
-            return
-        if self.mean_alpha is not None:
-            self.k_target = self.target_k(self.mean_alpha)
-        if hist.sum() == 0:
-            self.history = True
-            return
-        self.history = True
-        q = float(self.settings.oit_shift_quantile)
-        cum = np.cumsum(hist)
-        b = int(np.searchsorted(cum, q * cum[-1]))
-        width = self._measure_hist_max / HIST_BINS
-        new = (b + 1) * width          # the bin's far edge
-        floor = 2.0 * float(self.settings.width)
-        new = float(min(max(new, 0.25 * self.shift, floor), 4.0 * self.shift))
-        self.shift = new
-        self.hist_max = 4.0 * new
-        self.shifts.append(new)
+        super().after_frame(c)      # the pool (PPLLMethod)
+        self.update_shift(c)
 
     def stats(self) -> dict:
         out = super().stats()
-        out.update({"oit_shift_m": self.shift, "oit_auto_shift": self.auto,
-                    "oit_layer_fragments_per_pixel": self.layer_fragments, "oit_hair_pixels": self.hair_pixels,
-                    "oit_threshold": float(self.settings.oit_threshold), "oit_k_target": self.k_target,
-                    "oit_mean_alpha": self.mean_alpha})
+        out.update(self.shift_stats())
         return out
 
     @classmethod

@@ -29,7 +29,7 @@ import numpy as np
 from ...gpu.buffers import check_allocation
 from ...gpu.glsl import compute_shader
 from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view
-from .expand import EXPANDED_BINDING, pulls
+from .expand import EXPANDED_BINDING
 
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
@@ -225,8 +225,14 @@ def _shadow_id(renderer) -> int:
 
 def unsupported_reason(renderer) -> str | None:
     """Why the compute rasteriser cannot draw with the renderer's settings (None: it can)."""
-    if not pulls(renderer):
-        return ("the compute rasteriser needs pipeline='compute' without distance LOD or an OIT method; "
+    from ..oit.compute import COMPUTE_METHODS
+
+    s = renderer.settings
+    if getattr(s, "pipeline", "compute") != "compute" or s.lod:
+        return ("the compute rasteriser needs pipeline='compute' and no distance LOD; "
+                "the hair is drawn by hardware")
+    oit = getattr(s, "oit", "none")
+    if oit != "none" and oit not in COMPUTE_METHODS:
+        return (f"the OIT method {oit!r} has no compute form (those with one: {', '.join(COMPUTE_METHODS)}); "
                 "the hair is drawn by hardware")
     return None
-

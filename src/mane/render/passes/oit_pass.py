@@ -2,7 +2,9 @@
 the opaque head, in place of HairPass: the method's fill draws and its composite over the HDR
 target. ``capture_under = True`` keeps a copy of the HDR colour before the hair
 (``frame.targets["oit_under"]``, float32 RGBA, bottom row first): the validation's reference
-composites over it."""
+composites over it. Where the renderer draws the hair with compute shaders
+(``settings.rasterizer``), the A-buffer, K-buffer, DBK-buffer and ShortCut come in their compute
+form (``mane.render.oit.compute``): ``stats()["rasterizer"]`` says which ran."""
 from __future__ import annotations
 
 import numpy as np
@@ -26,9 +28,11 @@ class OitPass(Pass):
     def current(self):
         """The method object of the current settings (made, or remade when the name changed)."""
         from ..oit import make_method
+        from ..oit.compute import uses_compute
 
         name = self.renderer.settings.oit
-        if self.method is not None and self.method.name != name:
+        if self.method is not None and (self.method.name != name or
+                                        getattr(self.method, "compute", False) != uses_compute(self.renderer)):
             self.method.release()
             self.method = None
         if self.method is None and name != "none":
@@ -50,7 +54,7 @@ class OitPass(Pass):
         if getattr(s, "oit", "none") == "none":
             return {"oit": "none", "oit_bytes": 0}
         m = self.current()
-        return m.stats()
+        return m.stats()   # "rasterizer": the method's own (hardware methods keep the renderer's)
 
     def release(self) -> None:
         if self.method is not None:
