@@ -1,7 +1,8 @@
 """``mane doctor``: what OpenGL this machine gives mane, and what mane can do with it.
 
 Prints the renderer, version, software or GPU, the extensions and limits that matter,
-GPU memory and the feature table, then runs a tiny compute shader as a self-test.
+GPU memory and the feature table, then runs a tiny compute shader as a self-test
+(``mane.gpu.microbench.selftest``).
 With ``--json``: one JSON object. Without a usable OpenGL 4.3 (no libEGL, macOS's 4.1)
 it says what is missing and how to get it, and exits 1.
 """
@@ -66,48 +67,6 @@ def diagnose_failure(error: Exception) -> dict:
         if system == "Windows":
             fixes.insert(0, "Windows: mane's headless path uses EGL; run it under WSL2 with Mesa or a GPU driver")
     return {"error": str(error), "missing": missing, "fix": fixes}
-
-
-def _selftest(ctx) -> dict:
-    """Compile common.glsl into a compute shader, run it, check the numbers."""
-    import time
-
-    import numpy as np
-
-    from ..gpu.glsl import SHARED_SHADER_DIR, _compile, load_source
-
-    src_path = SHARED_SHADER_DIR / "common.glsl"
-    t0 = time.perf_counter()
-    try:
-        import tempfile
-        from pathlib import Path
-
-        with tempfile.TemporaryDirectory() as tmp:
-            p = Path(tmp) / "doctor_selftest.comp"
-            p.write_text(
-                '#version 430 core\n#include "common.glsl"\n'
-                "layout(local_size_x = 64) in;\n"
-                "layout(std430, binding = 0) buffer Data { float v[]; };\n"
-                "void main() { uint i = gl_GlobalInvocationID.x;\n"
-                "  v[i] = v[i] * 2.0 + PI + rand01(i, 7u) * 0.0; }\n")
-            src = load_source(p)
-            shader = _compile(ctx, "compute shader", {"compute": src}, lambda: ctx.compute_shader(src.text))
-        data = np.arange(256, dtype=np.float32)
-        buf = ctx.buffer(data.tobytes())
-        try:
-            buf.bind_to_storage_buffer(0)
-            shader.run(256 // 64)
-            ctx.memory_barrier()
-            out = np.frombuffer(buf.read(), dtype=np.float32)
-        finally:
-            buf.release()
-            shader.release()
-        ok = bool(np.allclose(out, data * 2 + np.pi, rtol=1e-6))
-        ms = (time.perf_counter() - t0) * 1e3
-        return {"ok": ok, "detail": f"compute shader with {src_path.name} ran in {ms:.1f} ms"
-                + ("" if ok else ", but returned wrong numbers")}
-    except Exception as exc:
-        return {"ok": False, "detail": f"{type(exc).__name__}: {exc}"}
 
 
 # --------------------------------------------------------------------------- output
@@ -195,12 +154,13 @@ def format_failure(diag: dict) -> str:
 
 def build_report(ctx, selftest: bool = True) -> dict:
     from ..gpu.capabilities import Capabilities
+    from ..gpu.microbench import selftest as run_selftest
 
     caps = Capabilities.query(ctx)
     report = caps.as_dict()
     report["libraries"] = _library_versions()
     if selftest:
-        report["selftest"] = _selftest(ctx)
+        report["selftest"] = run_selftest(ctx)   # a tiny compute shader, checked
     return report
 
 

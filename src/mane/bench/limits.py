@@ -8,42 +8,39 @@ each stage of mane is from it (issue 7: "each stage's distance from its hardware
 Sections (``bench`` in each row); every row says its unit and how it was measured:
 
 ``dram``
-    A streaming copy (``limits_copy.comp``: one uvec4 a thread, coalesced) between two buffers
-    much larger than the L2 (GPU: 256 MiB quick, 1 GiB default, 1.5 GiB full; software
+    A streaming copy (``mane/gpu/limits_copy.comp``: one uvec4 a thread, coalesced) between two
+    buffers much larger than the L2 (GPU: 256 MiB quick, 1 GiB default, 1.5 GiB full; software
     renderers: 8-64 MiB). GB/s = (bytes read + bytes written) / time, the way the simulator's
     integrate bandwidth is counted (``sim_bench.integrate_bytes``).
 ``raster``
-    The raster units' peak on hair-like geometry (``limits_raster.vert`` / ``.frag``): strips of
-    32 quads 4 x 1 pixels, one instance per strip, drawn as triangle strips with vertex pulling
-    (as ``hair_pull.vert`` draws a strand), so every triangle covers 2 pixels; they tile the
-    target pixel-aligned, ``layers`` times over, with a trivial fragment shader, no depth test,
-    no blending, into an RGBA16F target (the renderer's HDR format) with 4x MSAA and with 1
-    sample. Triangles/s, samples/s (a ``GL_SAMPLES_PASSED`` query counts the samples written)
-    and pixels/s (fragment shader invocations: the pixels covered).
+    The raster units' peak on hair-like geometry (``mane/gpu/limits_raster.vert`` / ``.frag``):
+    strips of 32 quads 4 x 1 pixels, one instance per strip, drawn as triangle strips with vertex
+    pulling (as ``hair_pull.vert`` draws a strand), so every triangle covers 2 pixels; they tile the
+    target pixel-aligned, ``layers`` times over, with a trivial fragment shader, no depth test, no
+    blending, into an RGBA16F target (the renderer's HDR format) with 4x MSAA and with 1 sample.
+    Triangles/s, samples/s (a ``GL_SAMPLES_PASSED`` query counts the samples written) and pixels/s
+    (fragment shader invocations: the pixels covered).
 ``atomics``
-    ``atomicMin`` throughput (``limits_atomic.comp``) into a buffer of 1920 x 1080 x 4 words (the
-    compute rasteriser's per-sample visibility buffer at the target's size): 32-bit, and 64-bit
-    where ``GL_NV_shader_atomic_int64`` exists; every operation at a random word (the limit), and
-    each thread's operations at consecutive words (a thread walking a segment's samples, as
-    ``hair_raster.comp`` does: more local than random, so the rasteriser may beat the random figure).
+    ``atomicMin`` throughput (``mane/gpu/limits_atomic.comp``) into a buffer of 1920 x 1080 x 4
+    words (the compute rasteriser's per-sample visibility buffer at the target's size): 32-bit, and
+    64-bit where ``GL_NV_shader_atomic_int64`` exists; every operation at a random word (the limit),
+    and each thread's operations at consecutive words (a thread walking a segment's samples, as
+    ``hair_raster.comp`` does: more local than random, so the rasteriser may beat the random
+    figure).
 
 Each measurement: one untimed run (compiles, touches the memory), then ``reps`` runs, each a
 section of ``mane.gpu.profiler.GpuProfiler`` (GL_TIMESTAMP pairs on GPUs; on software renderers
 CPU wall time between two ``ctx.finish()``). A row's ``value`` is from the fastest run (the
-limit), ``value_median`` from the median one.
+limit), ``value_median`` from the median one. The kernels, draws and their shaders are in
+``mane.gpu.microbench``; this module times them and writes the rows.
 """
 from __future__ import annotations
 
-import math
 import time
-from pathlib import Path
 
 from .common import BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stats, table, title_line
 
-HERE = Path(__file__).resolve().parent
 SAMPLE_GRID_WORDS = 1920 * 1080 * 4        # the compute rasteriser's 4x sample grid at 1920x1080
-LOCAL = 256
-MAX_GROUPS_X = 65535
 STRIP_SEGMENTS, SEG_PX, WIDTH_PX = 32, 4.0, 1.0   # a strip: 32 quads of 4 x 1 pixels (2 px triangles)
 
 # "gpu": hardware; "software": llvmpipe and the like (seconds in all)
@@ -68,12 +65,6 @@ MODE_CONFIG = {
     },
 }
 SECTIONS = ("dram", "raster", "atomics")
-
-
-def _groups(n: int) -> tuple[int, int]:
-    g = max(1, math.ceil(n / LOCAL))
-    gx = min(g, MAX_GROUPS_X)
-    return gx, math.ceil(g / gx)
 
 
 class Bench(BenchRows):
@@ -113,53 +104,28 @@ class Bench(BenchRows):
         return (f"{int(self.cfg['reps'])} runs after an untimed one, each a GpuProfiler section "
                 f"({self.prof.source}: {self.prof.reason}); value: the fastest run, value_median: the median")
 
-    def _buffer(self, nbytes: int, what: str, fill: int | None = None):
-        from ..gpu.buffers import check_allocation
-
-        check_allocation(self.ctx, nbytes, what)
-        buf = self.ctx.buffer(reserve=nbytes)
-        if fill is not None:
-            buf.clear(chunk=bytes([fill]) * 4)
-        return buf
-
     # ------------------------------------------------------------------ DRAM
     def dram(self) -> None:
         from ..errors import GPUMemoryError
-        from ..gpu.glsl import compute_shader
+        from ..gpu.microbench import CopyKernel
 
         mib = int(self.cfg["copy_mib"])
         with self._guard("dram", f"copy {mib} MiB"):
             while True:   # halve the buffers until two fit (at least 64 MiB on a GPU)
                 name, size = f"copy {mib} MiB", mib << 20
                 try:
-                    src = self._buffer(size, "the copy benchmark's source")
-                    src.write(b"\x5a" * 64, offset=size - 64)   # checked in the copy afterwards
-                    try:
-                        dst = self._buffer(size, "the copy benchmark's destination")
-                    except Exception:
-                        src.release()
-                        raise
+                    kernel = CopyKernel(self.ctx, size)
                     break
                 except GPUMemoryError:
                     if mib <= (8 if self.software else 64):
                         raise
                     mib //= 2
+            count = kernel.count
             try:
-                cs = compute_shader(self.ctx, HERE / "limits_copy.comp")
-                count = size // 16
-                cs["u_count"] = count
-                gx, gy = _groups(count)
-
-                def copy():
-                    src.bind_to_storage_buffer(0)
-                    dst.bind_to_storage_buffer(1)
-                    cs.run(gx, gy)
-
-                t = self._time("dram", copy)
-                ok = bytes(dst.read(size=64, offset=size - 64)) == b"\x5a" * 64
+                t = self._time("dram", kernel.run)
+                ok = kernel.copied_ok()
             finally:
-                src.release()
-                dst.release()
+                kernel.release()
             if not ok:
                 raise RuntimeError("the copy kernel did not copy (the destination's last bytes differ)")
             moved = 2 * size
@@ -173,7 +139,7 @@ class Bench(BenchRows):
 
     # ------------------------------------------------------------------ raster units
     def raster(self) -> None:
-        from ..gpu.glsl import program
+        from ..gpu.microbench import RasterStrips, max_samples as gl_max_samples
 
         ctx = self.ctx
         W, H = (int(v) for v in self.cfg["raster_size"])
@@ -183,52 +149,25 @@ class Bench(BenchRows):
         strips = per_row * rows * layers
         triangles = strips * 2 * STRIP_SEGMENTS
         pixels = int(strips * strip_px * WIDTH_PX)      # pixel-aligned: each pixel covered once a layer
-        max_samples = int(ctx.info.get("GL_MAX_SAMPLES", 4) or 4)
+        max_samples = gl_max_samples(ctx)
         for msaa in (4, 1):
             name = f"msaa {msaa} {W}x{H}"
             with self._guard("raster", name, msaa=msaa, size=[W, H]):
                 if msaa > max_samples:
                     raise Skip(f"{msaa}x MSAA: this OpenGL gives at most {max_samples} samples")
-                prog = program(ctx, vertex=HERE / "limits_raster.vert", fragment=HERE / "limits_raster.frag",
-                               defines={"SEGMENTS": STRIP_SEGMENTS})
-                prog["u_size"] = (float(W), float(H))
-                prog["u_strips_per_row"] = per_row
-                prog["u_rows"] = rows
-                prog["u_seg_px"] = SEG_PX
-                prog["u_width_px"] = WIDTH_PX
-                vao = ctx.vertex_array(prog, [])
-                if msaa > 1:
-                    color = ctx.renderbuffer((W, H), 4, samples=msaa, dtype="f2")
-                else:
-                    color = ctx.texture((W, H), 4, dtype="f2")
-                fbo = ctx.framebuffer([color])
-                previous = ctx.fbo     # given back before fbo is released (a Renderer keeps ctx.fbo)
-                try:
-                    def draw():
-                        fbo.use()
-                        ctx.disable(ctx.DEPTH_TEST | ctx.BLEND | ctx.CULL_FACE)
-                        vao.render(ctx.TRIANGLE_STRIP, vertices=2 * (STRIP_SEGMENTS + 1), instances=strips)
-
-                    fbo.use()
-                    fbo.clear(0.0, 0.0, 0.0, 0.0)
-                    t = self._time(f"raster{msaa}", draw)
+                target = RasterStrips(ctx, (W, H), msaa, strips, per_row=per_row, rows=rows,
+                                      segments=STRIP_SEGMENTS, seg_px=SEG_PX, width_px=WIDTH_PX)
+                try:   # release() gives the context its framebuffer back
+                    t = self._time(f"raster{msaa}", target.draw)
                     samples, samples_source = pixels * msaa, "pixels covered x samples (computed)"
                     try:
-                        q = ctx.query(samples=True)
-                        with q:
-                            draw()
-                        if q.samples > 0:
-                            samples, samples_source = int(q.samples), "GL_SAMPLES_PASSED query"
+                        passed = target.samples_passed()
+                        if passed > 0:
+                            samples, samples_source = passed, "GL_SAMPLES_PASSED query"
                     except Exception as exc:   # no occlusion query: the computed count stands
                         samples_source += f" (the query failed: {type(exc).__name__})"
                 finally:
-                    if previous is not None:
-                        previous.use()
-                    else:              # headless: none bound before (as Renderer.release does)
-                        ctx.fbo = None
-                    fbo.release()
-                    color.release()
-                    vao.release()
+                    target.release()
                 best, med = t["min"] * 1e-3, t["median"] * 1e-3
                 self._row("raster", name, msaa=msaa, size=[W, H], layers=layers, instances=strips,
                           triangles=triangles, triangle_pixels=SEG_PX * WIDTH_PX / 2, pixels=pixels,
@@ -246,7 +185,7 @@ class Bench(BenchRows):
 
     # ------------------------------------------------------------------ atomics
     def atomics(self) -> None:
-        from ..gpu.glsl import compute_shader
+        from ..gpu.microbench import AtomicKernel
         from ..render.passes.hair_compute import has_atomic64
 
         threads, ops = int(self.cfg["atomic_threads"]), int(self.cfg["atomic_ops"])
@@ -259,25 +198,11 @@ class Bench(BenchRows):
                     if bits == 64 and not have64:
                         raise Skip("no 64-bit atomics (GL_NV_shader_atomic_int64): the compute rasteriser "
                                    "uses two 32-bit passes here")
-                    buf = self._buffer(words * bits // 8, "the atomics benchmark's buffer", fill=0xFF)
+                    kernel = AtomicKernel(self.ctx, words, bits, pattern, threads, ops)
                     try:
-                        cs = compute_shader(self.ctx, HERE / "limits_atomic.comp",
-                                            {"ATOMIC64": int(bits == 64), "PATTERN": pattern})
-                        cs["u_words"] = words
-                        cs["u_threads"] = threads
-                        cs["u_ops"] = ops
-                        gx, gy = _groups(threads)
-                        seed = [0]
-
-                        def run():
-                            seed[0] += 1
-                            cs["u_seed"] = (seed[0] * 2654435761) & 0xFFFFFFFF
-                            buf.bind_to_storage_buffer(0)
-                            cs.run(gx, gy)
-
-                        t = self._time(f"atomic{bits}{label}", run)
+                        t = self._time(f"atomic{bits}{label}", kernel.run)
                     finally:
-                        buf.release()
+                        kernel.release()
                     n = threads * ops
                     self._row("atomics", name, bits=bits, pattern=label, words=words, buffer_bytes=words * bits // 8,
                               threads=threads, ops_per_thread=ops, ops=n, time_ms=t,

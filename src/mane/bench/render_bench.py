@@ -69,6 +69,7 @@ import time
 import numpy as np
 
 from ..errors import UsageError
+from ..gpu import microbench
 from .common import title_line, BenchRows, Skip, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
 
 TARGET_MS = 4.0
@@ -290,43 +291,12 @@ class Workloads:
 
 
 # --------------------------------------------------------------------------- gapless GPU time
-BUSY_COMP = """#version 430
-layout(local_size_x = 1) in;
-layout(std430, binding = BINDING) buffer BenchSink { float bench_sink[]; };
-uniform int u_iterations;
-void main() {
-    float x = 1.0 + 1e-3 * float(gl_WorkGroupID.x);
-    for (int i = 0; i < u_iterations; ++i)
-        x = fract(x * 1.0000013 + 0.1234567);
-    bench_sink[gl_WorkGroupID.x] = x;
-}
-"""
+class GpuPreload(microbench.GpuPreload):
+    """``mane.gpu.microbench.GpuPreload`` (a serial compute job that keeps the GPU busy while the
+    CPU issues a frame, so a timestamp pair around the frame reads the GPU's own time, without
+    the idle gaps Python's issuing leaves), calibrated in GPU milliseconds."""
 
-
-class GpuPreload:
-    """Keeps the GPU busy (one serial compute invocation) while the CPU issues a frame.
-
-    With the GPU behind, the frame's commands are all queued before it starts on them, so a
-    timestamp pair around the frame reads the GPU's own time, without the idle gaps that
-    Python's issuing between passes leaves otherwise. The sink buffer sits at the last SSBO
-    binding, out of the renderer's way."""
-
-    def __init__(self, ctx):
-        from ..gpu.capabilities import gl_function
-
-        self.ctx = ctx
-        self.binding = max(7, int(ctx.info.get("GL_MAX_SHADER_STORAGE_BUFFER_BINDINGS", 8) or 8) - 1)
-        self.shader = ctx.compute_shader(BUSY_COMP.replace("BINDING", str(self.binding)))
-        self.sink = ctx.buffer(reserve=16)
-        self._flush = gl_function(ctx, "glFlush", None)
-        self.iterations_per_ms: float | None = None
-
-    def dispatch(self, iterations: int) -> None:
-        self.sink.bind_to_storage_buffer(self.binding)
-        self.shader["u_iterations"] = int(min(max(1, iterations), 2**31 - 1))
-        self.shader.run(1)
-        if self._flush is not None:
-            self._flush()   # start it now, while the CPU issues the frame
+    iterations_per_ms: float | None = None
 
     def calibrate(self, prof, want_ms: float = 2.0) -> float:
         """Iterations per GPU millisecond, timed with ``prof`` (a gpu-timer GpuProfiler); the CPU wall
@@ -360,13 +330,6 @@ class GpuPreload:
         ms = (prof.samples("bench.preload_check", wait=True) or [0.0])[0]
         prof.reset()
         return ms
-
-    def release(self) -> None:
-        for o in (self.shader, self.sink):
-            try:
-                o.release()
-            except Exception:
-                pass
 
 
 # --------------------------------------------------------------------------- the benchmark
