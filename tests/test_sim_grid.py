@@ -16,7 +16,9 @@ pytestmark = pytest.mark.gpu
 VARIANTS = {
     "atomic": dict(method="atomic"),   # what a context gets by default
     "binned-fixed": dict(method="atomic", splat="binned", float_atomics=False),
-    "binned-float": dict(method="atomic", splat="binned", float_atomics=True),
+    "binned-float": dict(method="atomic", splat="binned", float_atomics=True, aggregate=False),
+    # the binned splat summing runs of particles in one cell in registers first (float sums only)
+    "binned-float-run": dict(method="atomic", splat="binned", float_atomics=True, aggregate=True),
     "direct-fixed": dict(method="atomic", splat="direct", float_atomics=False),
     "direct-float": dict(method="atomic", splat="direct", float_atomics=True),
     "raster": dict(method="raster"),
@@ -169,16 +171,25 @@ def test_atomic_and_raster_agree_and_fixed_point_is_deterministic(gl):
         np.testing.assert_array_equal(grids[variant]["velocity"], ref_grid["velocity"])
 
 
-@pytest.mark.parametrize("variant", ["binned-fixed", "binned-float"])
+@pytest.mark.parametrize("variant", ["binned-fixed", "binned-float", "binned-float-run"])
 @pytest.mark.parametrize("R,n,chunk", [(16, 1, 4096), (64, 5000, 256), (97, 20000, 1024), (129, 3000, 4096)])
 def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
     """Tiles at the grid's far faces (R - 1 not a multiple of 8), chunks across several tiles,
-    a single particle, hot nodes (a clump of identical positions), NaN particles left out."""
+    a single particle, hot nodes (a clump of identical positions), NaN particles left out,
+    and runs of consecutive particles along lines (strands), a few per cell."""
     p, v = scene(n, seed=R)
     if n > 100:
         p[: n // 10, :3] = p[0, :3]                   # 10% of the particles on one point
         p[n // 10: n // 10 + 3, :3] = np.nan          # not splatted by either
-    direct = make(gl, R, variant.replace("binned", "direct"))
+        # 20% in strands of 16 particles a fraction of a cell apart (several consecutive ones per cell)
+        first, count = n // 2, n // 5 // 16 * 16
+        rng = np.random.default_rng(R + 1)
+        roots = rng.normal(size=(count // 16, 3)) * (0.3, 0.5, 0.2) + (0.1, 1.6, -0.05)
+        dirs = rng.normal(size=(count // 16, 3))
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        steps = np.arange(16)[None, :, None] * (0.4 / (R - 1)) * dirs[:, None]
+        p[first:first + count, :3] = (roots[:, None] + steps).reshape(-1, 3)
+    direct = make(gl, R, "direct-" + variant.split("-")[1])
     binned = make(gl, R, variant, chunk=chunk)
     assert binned.splat_schedule == "binned" and direct.splat_schedule == "direct"
     bounds = GridBounds(gl).set(np.nanmin(p[:, :3], axis=0) - 0.01, np.nanmax(p[:, :3], axis=0) + 0.01)

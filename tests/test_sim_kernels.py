@@ -237,9 +237,11 @@ def test_velocity_matches_twin(gl, rest):
     assert_close(padded(sim, "velocities"), want)
 
 
-@pytest.mark.parametrize("method", ["dftl", "pbd"])
-def test_steps_match_twin(gl, method):
-    """k full steps of the GPU solver against k steps of the twin, from the same start."""
+@pytest.mark.parametrize("method, defines", [("dftl", {}), ("pbd", {}),
+                                             ("dftl", {"CULL_PRIMS": 0, "PREFETCH": 1, "FAST_ROTATION": 0})])
+def test_steps_match_twin(gl, method, defines):
+    """k full steps of the GPU solver against k steps of the twin, from the same start (DFTL: the
+    per-strand kernel's defaults, and its earlier form: no culling, prefetching, rotations from K^2)."""
     # curly strands: with straight ones every joint's bending plane is float32 noise, which
     # the non-converged PBD amplifies step after step (a conditioning issue, not a bug)
     rest = ref.helix_strands(S=4, N=12, radius=0.03, pitch=0.1, turns=1.0, spacing=0.03)
@@ -251,6 +253,7 @@ def test_steps_match_twin(gl, method):
     cols = [Sphere(center=(0.03, 0.895, -0.015), radius=0.025, friction=0.2),
             Capsule(a=(0.0, 0.95, -0.05), b=(0.1, 0.95, -0.05), radius=0.03, mode="penalty", stiffness=500.0)]
     sim = make_sim(gl, rest, settings, cols)
+    sim.strand_defines = defines
     w = inv_mass(sim)
     assert max(c.depth(rest.reshape(-1, 3)).max() for c in cols) > -0.01  # close to the hair
     x, prev, v = rest.copy(), rest.copy(), np.zeros_like(rest)
@@ -418,6 +421,47 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
         sim.run_pass(name, st, h)
     assert_close(padded(sim, "positions"), got)
     assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
+
+
+@pytest.mark.parametrize("defines", [{}, {"CULL_PRIMS": 0}, {"PREFETCH": 1}, {"FAST_ROTATION": 0},
+                                     {"CULL_PRIMS": 0, "PREFETCH": 1, "FAST_ROTATION": 0}])
+def test_strand_kernel_switches_match_twin(gl, defines):
+    """The per-strand kernel with each of its switches (primitives out of a strand's reach culled
+    or not, the next vertex's loads prefetched or not, rotations from n n^T or from K^2) against
+    the twin: the hair is pressed into a sphere, a capsule and an ellipsoid; two more capsules and
+    an ellipsoid lie beyond the reach of every strand, or of some, from its root (culled)."""
+    settings = SimSettings(local_shape_stiffness=0.2, bending_stiffness=0.3, shape_iterations=2, dftl_damping=0.7)
+    sim, rest, cols, x, prev = collision_setup(gl, settings, mesh=False)
+    reach = float(np.linalg.norm(np.diff(rest, axis=1), axis=2).sum(axis=1).max())
+    root = ref.apply(HEAD_SMALL, rest[0, 0])
+    far = [Capsule(a=root + (0.0, reach + 0.08, 0.0), b=root + (0.1, reach + 0.1, 0.0), radius=0.03),
+           Ellipsoid(transform=_at(*(root + (reach + 0.2, 0.0, 0.0))), radii=(0.02, 0.05, 0.03)),
+           Capsule(a=root + (0.0, -reach - 0.02, 0.0), b=root + (0.0, -reach - 0.3, 0.0), radius=0.025)]
+    sim.colliders = sim.colliders + far
+    sim.upload_colliders(sim.state)
+    sim.upload_colliders(sim.state)
+    sim.strand_defines = defines
+    w = inv_mass(sim)
+    h = 1 / 240
+    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
+    shaped = ref.shape(x, w, rest, HEAD_SMALL, 0.2, 0.3, 2)
+    # and a sphere that only the tip of the most stretched strand reaches, nearly its length from
+    # its root (culling it for that strand with a reach 3 cm short would lose the contact)
+    tips = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols + far)[0][:, -1]
+    extent = np.linalg.norm(tips - ref.apply(HEAD_SMALL, rest[:, 0]), axis=1)
+    s = int(np.argmax(extent))
+    near_tip = Sphere(center=tuple(tips[s] + (0.004, 0.0, 0.0)), radius=0.01)
+    assert extent[s] - 0.014 > seg[s].sum() - 0.03
+    sim.colliders = sim.colliders + [near_tip]
+    sim.upload_colliders(sim.state)
+    sim.upload_colliders(sim.state)
+    assert sim.run_pass("length", sim.state, h)
+    want, want_d = ref.dftl(shaped, w, seg, rest, HEAD_SMALL, prev, cols + far + [near_tip])
+    assert np.linalg.norm(want[s, -1] - tips[s]) > 1e-3
+    assert np.linalg.norm(want - shaped, axis=2).max() > 1e-3   # the colliders took part
+    assert_close(padded(sim, "positions"), want)
+    assert_close(padded(sim, "velocities"), ref.velocity(want, prev, want_d, w, h, 0.7, settings.max_speed),
+                 scale=float(np.abs(want).max()) / h)
 
 
 def test_fused_integrate_penalty_and_nan(gl, rest):

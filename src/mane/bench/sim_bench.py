@@ -292,6 +292,7 @@ class Bench(BenchRows):
             "other_ms": (gpu_stats["mean"] - sum(ordered.values())) if ordered and gpu_stats.get("mean") else None,
             "nan_recoveries": sim.nan_recoveries,
             "warnings": list(sim.warnings),
+            "solver_config": solver_config(sim),
         }
 
     # ------------------------------------------------------------------ sections
@@ -344,7 +345,7 @@ class Bench(BenchRows):
             sim = None
             last = (S, N) == tuple(self.cfg["full_solver"][-1])
             # the fused strand solve with both grid methods, then the separate passes
-            for method, fused in (("atomic", True), ("raster", True), ("atomic", False)):
+            for method, fused in self.FULL_VARIANTS:
                 name = f"{S}x{N} {method}" + ("" if fused else " separate")
                 fields = dict(strands=S, vertices=N, particles=S * N, grid_method=method,
                               grid_resolution=self.cfg["full_grid_res"], sdf_resolution=self.cfg["sdf_res"],
@@ -362,6 +363,11 @@ class Bench(BenchRows):
                 if last:
                     self.grid_friction(sim.state)
                 sim.release()
+
+    FULL_VARIANTS = (("atomic", True), ("raster", True), ("atomic", False))
+    """full_solver's configurations: (grid method, fused strand solve)."""
+    GRID_VARIANTS = (("atomic", {}), ("atomic", {"splat": "direct"}), ("raster", {}))
+    """grid_friction's splats: (method, GridFriction options)."""
 
     # stages of GridFriction, in the order the grid friction table shows them
     GRID_STAGES = ("bounds", "bin", "splat", "normalise", "gather")
@@ -458,8 +464,9 @@ class Bench(BenchRows):
     def grid_friction(self, state) -> None:
         S, N = state.num_strands, state.points_per_strand
         for R in self.cfg["grid_res"]:
-            for method, options in (("atomic", {}), ("atomic", {"splat": "direct"}), ("raster", {})):
-                label = method if not options else f"{method} {options['splat']}"
+            for method, options in self.GRID_VARIANTS:
+                label = " ".join([method] + [str(v) if k == "splat" else (k if v is True else f"{k}={v}")
+                                             for k, v in options.items()])
                 name = f"{R}^3 {label} ({S}x{N})"
                 fields = dict(resolution=R, method=method, variant=label, strands=S, vertices=N, particles=S * N)
                 with self._guard("grid_friction", name, **fields):
@@ -637,6 +644,14 @@ class Bench(BenchRows):
             if name not in self.SECTIONS:
                 raise ValueError(f"unknown section {name!r}; sections: {', '.join(self.SECTIONS)}")
             getattr(self, name)()
+
+
+def solver_config(sim) -> dict:
+    """The simulator's kernel choices (class-level switches) that a row was measured with."""
+    names = ("strand_group_size", "shape_pipeline", "fold_integrate", "fold_gather", "fold_bounds",
+             "strand_defines", "grid_options")
+    out = {n: getattr(sim, n) for n in names if hasattr(sim, n)}
+    return {k: (dict(v) if isinstance(v, dict) else v) for k, v in out.items()}
 
 
 # --------------------------------------------------------------------------- analysis

@@ -52,10 +52,43 @@ float sdf_box_distance(sampler3D tex, vec3 lo, float h, vec3 x) {
 #endif
 
 #if PRIMS
+// CULL: the strand kernels narrow the primitives a strand's sweep tests to those it can reach:
+// every particle the sweep places is within the strand's rest arc length of its root (DFTL keeps
+// each segment at its rest length), so a primitive farther than that from the root cannot hold
+// one, and prims_touch need not test it (bit ci of prims_mask, for the first 32 primitives).
+#define CULL (PRIMS <= 32)
+uint prims_mask = 0xffffffffu;
+
+// The projection-mode primitives within reach (metres) of root: bit ci set (all of them for a
+// non-finite root).
+uint prims_reachable(vec3 root, float reach) {
+    uint mask = 0u;
+    for (int ci = 0; ci < PRIMS && ci < 32; ++ci) {
+        Collider c = colliders[ci];
+        vec3 pl = transform_point(c.world_to_local, root);
+        vec3 radii = c.size.xyz + vec3(c.size.w);
+        float dist;
+        if (int(c.shape.x) == 1) {   // ellipsoid: inside the sphere of its largest radius
+            dist = length(pl) - max(radii.x, max(radii.y, radii.z));
+        } else {
+            vec3 q = vec3(0.0, int(c.shape.x) == 2 ? clamp(pl.y, -c.shape.z, c.shape.z) : 0.0, 0.0);
+            dist = length(pl - q) - radii.x;
+        }
+        if (!(dist > reach) && int(c.shape.y) == 0) mask |= 1u << uint(ci);
+    }
+    return mask;
+}
+
 // Whether p is inside any projection-mode primitive (never false when collider_depth > 0).
 bool prims_touch(vec3 p) {
     bool any_in = false;
+#if CULL
+    if (prims_mask == 0u) return false;
+#endif
     for (int ci = 0; ci < PRIMS; ++ci) {
+#if CULL
+        if ((prims_mask & (1u << uint(ci))) == 0u) continue;
+#endif
         Collider c = colliders[ci];
         vec3 pl = transform_point(c.world_to_local, p);
         vec3 radii = c.size.xyz + vec3(c.size.w);

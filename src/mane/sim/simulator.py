@@ -75,20 +75,25 @@ def _mat4(m) -> tuple:
 
 
 def _set(shader, name: str, value) -> None:
-    try:
-        uniform = shader[name]
-    except KeyError:  # optimised away or unused by this kernel
+    """Set a uniform the kernel kept (drivers drop unused ones). The simulator's kernels get their
+    uniforms only through here and ``_write``, which remember the last value on the uniform and
+    skip the GL call when it has not changed (most uniforms stay the same from step to step)."""
+    uniform = shader.get(name, None)
+    if uniform is None:  # optimised away or unused by this kernel
         return
-    uniform.value = value
+    if getattr(uniform, "_mane_last", None) != value:
+        uniform.value = value
+        uniform._mane_last = value
 
 
 def _write(shader, name: str, data: bytes) -> None:
     """Raw bytes into a (uniform array) uniform, if the kernel has it."""
-    try:
-        uniform = shader[name]
-    except KeyError:
+    uniform = shader.get(name, None)
+    if uniform is None:
         return
-    uniform.write(data)
+    if getattr(uniform, "_mane_last", None) != data:
+        uniform.write(data)
+        uniform._mane_last = data
 
 
 @dataclass
@@ -264,20 +269,20 @@ class Simulator:
         folded = self.folded_passes()
         gather_in_guard = self._gather_in_guard()
         bounds_in_length = self._bounds_in_length()
+        # the state's buffers are bound once; the passes that bind others (friction, volume, sdf)
+        # bind them again when they are done
+        self._bind(st)
         for name in PASSES:
             if name in folded:
                 continue
             if bounds_in_length and name == "length":
-                self._bind(st)
                 self._pass_length(st, h, bounds=True)
             elif (gather_in_guard or bounds_in_length) and name == "friction":
-                self._bind(st)
                 self._pass_friction(st, h, gather=not gather_in_guard, reduced=bounds_in_length)
             elif gather_in_guard and name == "guard":
-                self._bind(st)
                 self._pass_guard(st, h, gather=True)
             else:
-                self.run_pass(name, st, h)
+                getattr(self, f"_pass_{name}")(st, h)
         st.time += h
         st.steps += 1
         st.last_dt = h
@@ -373,8 +378,16 @@ class Simulator:
     """shape iterations pipelined in one pass over a strand (1..4; the others take a pass
     each, through memory). More stages mean more registers per thread: on an H200 at 100k x
     32 (full solver, 2 iterations) 1 was fastest: fused length pass 0.62 ms, 0.80 with 2."""
-    strand_group_size = 64
-    """work group size of the per-strand kernels (one thread per strand)."""
+    strand_group_size = 32
+    """work group size of the per-strand kernels (one thread per strand). H200, 100k x 32, full
+    solver (2026-11-22): fused length pass 0.506 ms at 32, 0.523 at 64, 0.526 at 128."""
+    strand_defines: dict = {}
+    """extra defines of the per-strand kernel, 0 or 1 each, over its defaults (strand_solve.comp):
+    ``CULL_PRIMS`` (default 1: the primitives out of a strand's reach are not tested),
+    ``PREFETCH`` (default 0: 1 loads the next vertex while one is solved), ``FAST_ROTATION``
+    (default 1: axis rotations from n n^T instead of K^2). Same results to float round-off; the
+    defaults were the fastest on an H200 (100k x 32, full solver, 2026-11-22: fused length pass
+    0.597 ms with none of them, 0.523 with culling, 0.491 with all three and groups of 32)."""
     keep_corrections = False
     """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
     corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
@@ -399,11 +412,13 @@ class Simulator:
         stages = max(1, min(int(self.shape_pipeline), 4, s.shape_iterations)) if shape else 1
         # integrate in the first pass over the strand: a shape pre-pass when there is one
         mode = (2 if shape and s.shape_iterations > stages else 1) if integrate else 0
-        sh = self._shader("strand_solve", SHAPE=int(shape), DFTL=int(dftl), VELOCITY=int(velocity),
-                          PRIMS=prims, NSDF=len(sdfs), STAGES=stages, LOCAL_SIZE=int(self.strand_group_size),
-                          INTEGRATE=mode, PENALTY=int(integrate and self._penalty_on()),
-                          CORRECTIONS=int(not velocity or self.keep_corrections), BOUNDS=int(bounds is not None),
-                          BOUNDS_BINDING=AUX_BOUNDS_BINDING)
+        defines = dict(SHAPE=int(shape), DFTL=int(dftl), VELOCITY=int(velocity), PRIMS=prims, NSDF=len(sdfs),
+                       STAGES=stages, LOCAL_SIZE=int(self.strand_group_size), INTEGRATE=mode,
+                       PENALTY=int(integrate and self._penalty_on()),
+                       CORRECTIONS=int(not velocity or self.keep_corrections), BOUNDS=int(bounds is not None),
+                       BOUNDS_BINDING=AUX_BOUNDS_BINDING)
+        defines.update(self.strand_defines)
+        sh = self._shader("strand_solve", **defines)
         if bounds is not None:
             bounds.buffer.bind_to_storage_buffer(AUX_BOUNDS_BINDING)
         _set(sh, "num_strands", st.num_strands)
@@ -547,11 +562,17 @@ class Simulator:
         return bool(self.fold_bounds and s.friction > 0 and s.length_method == "dftl"
                     and "sdf" in self.folded_passes())
 
+    grid_options: dict = {}
+    """keyword arguments of the friction pass's ``GridFriction`` (``float_atomics``, ``splat``,
+    ``chunk``, ``aggregate``); replace the dict (do not mutate it) to change them."""
+
     def _friction_grid(self) -> GridFriction:
         s = self.settings
-        key = (s.grid_resolution, s.grid_method)
+        key = (s.grid_resolution, s.grid_method, tuple(sorted(self.grid_options.items())))
         if self._grid is None or self._grid_key != key:
-            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method)
+            if self._grid is not None:
+                self._grid.release()
+            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method, **self.grid_options)
             self._grid_key = key
         return self._grid
 

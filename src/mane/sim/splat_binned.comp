@@ -19,7 +19,8 @@
 //                  the chunk, clear a shared node tile, add each particle's 8 corners to it, flush
 //                  the touched nodes to the accumulator (grid_accum.glsl's format). A particle whose
 //                  stencil the splat finds outside its tile (it cannot, unless the compiler rounds
-//                  the two stages differently) goes straight to the accumulator.
+//                  the two stages differently) goes straight to the accumulator. AGGREGATE (float
+//                  atomics only): runs of particles in one cell are summed in registers first.
 //
 // A particle that brings no mass (pinned with pinned_mass 0) or whose position is not finite is
 // not binned (the direct splat would clamp a NaN onto some node; the NaN guard resets it anyway).
@@ -146,6 +147,10 @@ void main() {
 #endif
 
 #if STAGE_SPLAT
+#if !defined(AGGREGATE) || !ACC_FLOAT
+#undef AGGREGATE
+#define AGGREGATE 0
+#endif
 layout(local_size_x = 256) in;
 #define TN (TILE_CELLS + 1)
 #define TILE_NODES uint(TN * TN * TN)
@@ -194,6 +199,51 @@ void tile_flush(uint j, uint node) {
 #endif
 }
 
+#if AGGREGATE
+// AGGREGATE (float atomics only): an invocation's run of sorted slots is mostly consecutive
+// particles of a strand, and consecutive particles often share a cell: their 8 corner
+// contributions (m w, m w v) are summed in registers while the cell stays the same, and go to
+// the tile (or the accumulator) when it changes: fewer shared atomics, the same sums up to float
+// rounding (float atomics are order-dependent anyway).
+void run_clear(inout vec4 run[8]) {
+    for (int c = 0; c < 8; ++c) run[c] = vec4(0.0);
+}
+
+void run_flush(vec4 run[8], ivec3 base, ivec3 origin) {
+    ivec3 local = base - origin;
+    bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
+    for (int c = 0; c < 8; ++c) {
+        vec4 a = run[c];
+        if (a.x == 0.0) continue;
+        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        if (inside) {
+            ivec3 l = local + corner;
+            tile_add(uint(l.x + TN * (l.y + TN * l.z)), a.x, a.yzw);
+        } else {
+            acc_add(node_index(base + corner), a.x, a.yzw);
+        }
+    }
+}
+
+// Particle i into the run of register sums (cell: the run's cell, -1 for none yet).
+void run_particle(uint i, inout ivec3 cell, inout vec4 run[8], ivec3 origin) {
+    vec4 p = positions[i];
+    float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
+    vec3 v = velocities[i].xyz;
+    NodeStencil s = node_stencil(p.xyz);
+    if (s.base != cell) {
+        if (cell.x >= 0) run_flush(run, cell, origin);
+        cell = s.base;
+        run_clear(run);
+    }
+    for (int c = 0; c < 8; ++c) {
+        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        float mw = m * corner_weight(s.frac, corner);
+        run[c] += vec4(mw, mw * v);
+    }
+}
+#endif
+
 void main() {
     uint lid = gl_LocalInvocationID.x;
     uint total = START(NUM_TILES);
@@ -224,6 +274,13 @@ void main() {
         // would make a warp's shared atomics collide on the same node
         uint per = (seg_end - pos + 255u) / 256u;
         uint run_end = min(seg_end, pos + (lid + 1u) * per);
+#if AGGREGATE
+        ivec3 cell = ivec3(-1);
+        vec4 run[8];                           // per corner: (m w, m w v) of the run
+        run_clear(run);
+        for (uint slot = pos + lid * per; slot < run_end; ++slot) run_particle(ORDER(slot), cell, run, origin);
+        if (cell.x >= 0) run_flush(run, cell, origin);
+#else
         for (uint slot = pos + lid * per; slot < run_end; ++slot) {
             uint i = ORDER(slot);
             vec4 p = positions[i];
@@ -241,6 +298,7 @@ void main() {
                 else acc_add(node_index(s.base + corner), mw, mw * v);
             }
         }
+#endif
         barrier();
         for (uint j = lid; j < TILE_NODES; j += 256u) {
             ivec3 l = ivec3(int(j) % TN, (int(j) / TN) % TN, int(j) / (TN * TN));

@@ -51,6 +51,11 @@
 //    each vertex: 1 in the last pass over the strand, 2 in the first of the shape pre-passes
 //    (the simulator picks 2 when there are pre-passes). Saves integrate's own pass over the
 //    positions, velocities and rest positions. PENALTY (0/1): penalty-mode colliders exist.
+//  CULL_PRIMS (0/1, default 1): every particle the sweep places lies within the strand's rest
+//    arc length of its root, so the primitives farther than that from the root are left out of
+//    the strand's tests (contact.glsl's prims_mask); the same results, fewer tests.
+//  PREFETCH (0/1, default 0): load the next vertex's data while one is solved (more registers;
+//    slower on an H200). FAST_ROTATION (0/1, default 1): see axis_rotation.
 #include "sim_common.glsl"
 #include "collide.glsl"
 #include "contact.glsl"
@@ -83,6 +88,15 @@
 #endif
 #ifndef PENALTY
 #define PENALTY 1
+#endif
+#ifndef CULL_PRIMS
+#define CULL_PRIMS 1
+#endif
+#ifndef PREFETCH
+#define PREFETCH 0
+#endif
+#ifndef FAST_ROTATION
+#define FAST_ROTATION 1
 #endif
 
 layout(local_size_x = LOCAL_SIZE) in;
@@ -176,10 +190,19 @@ float angle_of(float sn, float cs) {  // atan2(sn, cs) for sn >= 0
 }
 
 // Rotation by angle (radians) about the unit axis (Rodrigues).
+// FAST_ROTATION (0/1): 1 writes it as c I + s K + (1 - c) n n^T (K^2 = n n^T - I for a unit axis
+// n), column by column, instead of forming K^2: the same matrix to float round-off, fewer operations.
 mat3 axis_rotation(vec3 axis, float angle) {
     float c = cos(angle), s = sin(angle);
+#if FAST_ROTATION
+    vec3 tn = (1.0 - c) * axis, sn = s * axis;
+    return mat3(tn.x * axis + vec3(c, sn.z, -sn.y),
+                tn.y * axis + vec3(-sn.z, c, sn.x),
+                tn.z * axis + vec3(sn.y, -sn.x, c));
+#else
     mat3 K = mat3(vec3(0.0, axis.z, -axis.y), vec3(-axis.z, 0.0, axis.x), vec3(axis.y, -axis.x, 0.0));
     return mat3(1.0) + s * K + (1.0 - c) * (K * K);
+#endif
 }
 
 // Rotation by the fraction f of the angle from a to b, about a x b.
@@ -291,6 +314,13 @@ vec3 sweep_stages(inout Sweep S0, inout Sweep S1, inout Sweep S2, inout Sweep S3
 }
 #endif
 
+// The primitives the strand rooted at origin (first particle base) can reach (contact.glsl's CULL).
+void cull_prims(vec3 origin, uint base) {
+#if DFTL && PRIMS && CULL && CULL_PRIMS
+    prims_mask = prims_reachable(origin, rest_info[base + uint(NV) - 1u].y * 1.001 + 1e-4);
+#endif
+}
+
 #if DFTL && CONTACT
 // Particle k back at distance l from its leader a after a collision moved it from p to q
 // (outward normal n there): the point at distance l from a nearest q on the plane through
@@ -330,6 +360,7 @@ void solve(uint s) {
     vec3 origin = positions[base].xyz;  // the shape sweeps work relative to the root (less round-off)
 #endif
     bounds_add(origin);
+    cull_prims(origin, base);
     int count = 1;
 #if SHAPE
     mat3 F0 = H * mat3(root_frames[3u * s].xyz, root_frames[3u * s + 1u].xyz, root_frames[3u * s + 2u].xyz);
@@ -375,17 +406,33 @@ void solve(uint s) {
     bool vfree = rest_positions[base].w > 0.0;
 #endif
 #endif
-    // the last pass: the remaining sweeps, DFTL, collisions, velocities; the next vertex's
-    // data is loaded while this one is worked on
-    vec4 nx = positions[base + 1u], nrest = rest_positions[base + 1u], ninfo = rest_info[base + 1u];
+    // the last pass: the remaining sweeps, DFTL, collisions, velocities; with PREFETCH the next
+    // vertex's data is loaded while this one is worked on (else where it is used: fewer registers)
+    vec4 nx, nrest, ninfo, nref, nprev;
+#if PREFETCH
+    nx = positions[base + 1u];
+    nrest = rest_positions[base + 1u];
+    ninfo = rest_info[base + 1u];
 #if SHAPE
-    vec4 nref = shape_refs[base + 1u];
+    nref = shape_refs[base + 1u];
 #endif
 #if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
-    vec4 nprev = prev_positions[base + 1u];
+    nprev = prev_positions[base + 1u];
+#endif
 #endif
     for (uint k = 1u; k < uint(NV); ++k) {
         uint i = base + k;
+#if !PREFETCH
+        nx = positions[i];
+        nrest = rest_positions[i];
+        ninfo = rest_info[i];
+#if SHAPE
+        nref = shape_refs[i];
+#endif
+#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
+        nprev = prev_positions[i];
+#endif
+#endif
         vec4 x = nx, rest = nrest, info = ninfo;
 #if SHAPE
         vec3 ref = nref.xyz;
@@ -396,7 +443,7 @@ void solve(uint s) {
 #elif DFTL && (CONTACT || VELOCITY)
         vec3 x0 = nprev.xyz;
 #endif
-        if (k + 1u < uint(NV)) {
+        if (PREFETCH != 0 && k + 1u < uint(NV)) {
             nx = positions[i + 1u];
             nrest = rest_positions[i + 1u];
             ninfo = rest_info[i + 1u];
