@@ -392,6 +392,12 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
                     timing={"total_seconds": time.perf_counter() - started})
     if meta_ctx:
         meta["gpu_memory"] = meta_ctx.get("gpu_memory", meta.get("gpu_memory"))
+        if all(e.get("status") == "loaded" for e in index["targets"].values()):
+            # --only none: the machine is the runs' (the JSON's), not the one rebuilding the files
+            here = f"{meta['renderer']}, `{' '.join(meta['host']['argv'])}`"
+            meta.update({k: meta_ctx[k] for k in ("date", "renderer", "vendor", "driver", "gl_version", "host",
+                                                  "mane_version") if k in meta_ctx})
+            meta["rebuilt_from_json_on"] = here
     index = {"meta": meta, **index}
     index["targets_met"] = _targets_met(results)
     if out is not None:
@@ -596,7 +602,9 @@ def summary_markdown(results: dict, index: dict, fits: list[dict], comparison=No
          f"**{meta['driver']}**, OpenGL {meta['gl_version']}; GPU memory: "
          f"{(meta.get('gpu_memory') or {}).get('total')} B ({(meta.get('gpu_memory') or {}).get('source')}); host "
          f"{meta['host']['platform']}, {meta['host']['cpu_count']} CPUs; "
-         f"`{' '.join(meta['host']['argv'])}`.", "",
+         f"`{' '.join(meta['host']['argv'])}`."
+         + (f" These files were rebuilt from the runs' JSON on {meta['rebuilt_from_json_on']}."
+            if meta.get("rebuilt_from_json_on") else ""), "",
          "Times are milliseconds: GPU timestamps on GPUs, CPU wall time with `ctx.finish()` on software renderers "
          "(each target's JSON `meta.timing` says which). Published values are the seeds' own, on their hardware "
          "(`seed_figures.csv` gives the source of each; '~' marks values read by eye from a chart or derived "
