@@ -161,16 +161,55 @@ def test_expansion_reruns_only_when_the_guides_change(gl):
         r.release()
 
 
-def test_lod_and_oit_keep_the_tessellation_pipeline(gl):
+def test_oit_and_captures_keep_the_tessellation_pipeline(gl):
     from mane.render.passes.expand import pulls
 
-    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute", lod=True), ctx=gl, profile=False)
+    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute", oit="sorted_blending"), ctx=gl, profile=False)
     try:
         assert not pulls(r)
     finally:
         r.release()
-    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute"), ctx=gl, profile=False)
+    r = Renderer(RenderSettings(size=(64, 48), pipeline="compute", lod=True), ctx=gl, profile=False)
     try:
         assert pulls(r) and not pulls(r, capture=True)
     finally:
         r.release()
+
+
+@pytest.mark.parametrize("distance", [0.0, 0.7, 1.2, 3.0])
+def test_lod_expansion_matches_the_numpy_lod_twin(gl, distance):
+    # the distance LOD in the compute expansion: per guide segment L = wanted / guide segments
+    # distinct points at u = min(k / L, 1); strand j of a guide has alpha clamp(c - j, 0, 1),
+    # c = density x strands per guide, the width scaled by it (0: dropped); the width multiplier
+    g = wavy_groom()
+    s = RenderSettings(size=(64, 48), msaa=1, pipeline="compute", lod=True, lod_start=0.5, lod_end=2.5,
+                       segments=40, strands_per_guide=8, stray_fraction=0.0)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(g)
+        r.strands.update_frames()
+        roots = g.as_padded()[:, 0].astype(np.float64)
+        eye = roots[0] + np.array([0.0, 0.0, distance])
+        r.lod_eye = eye
+        e = r.get_pass("expand").read()
+    finally:
+        r.release()
+    spg, N = 8, g.as_padded().shape[1]
+    sub = e.shape[1] // (N - 1)
+    for gi in range(g.num_strands):
+        d = float(np.linalg.norm(roots[gi] - eye))
+        f = sm.lod_factors(d, s)
+        level = float(np.clip(f["segments"] / (N - 1), 1.0, sub))
+        _, alpha = sm.lod_strands(f["density"], spg, True)
+        alpha = np.asarray(alpha).reshape(-1)
+        for j in range(spg):
+            pts = e[gi * spg + j]
+            w_want = s.width * (1.0 + (s.width_tip - 1.0) * np.linspace(0, 1, 1)) * f["width"] * alpha[j]
+            np.testing.assert_allclose(pts[0, 3], w_want[0], rtol=1e-4, atol=1e-9)
+            if alpha[j] == 0:
+                assert np.all(pts[:, 3] == 0)
+                continue
+            seg0 = pts[: sub + 1, :3]       # the first guide segment's points
+            steps = np.linalg.norm(np.diff(seg0, axis=0), axis=1)
+            moving = int(np.sum(steps > 1e-7))
+            assert moving == int(np.ceil(level - 1e-6)), (gi, j, level, moving)

@@ -40,6 +40,7 @@ void main() {
     int i = strand * u_points_per_strand + (k - strand * per);
     vec4 p0 = expanded[2 * i];
     vec4 p1 = expanded[2 * i + 2];
+    if (!(p0.w > 0.0 || p1.w > 0.0)) return;   // a strand the distance LOD dropped
     RasterPoint a = raster_point(p0.xyz, p0.w);
     RasterPoint b = raster_point(p1.xyz, p1.w);
     if (!a.ok || !b.ok) return;

@@ -45,7 +45,8 @@ class ExpandPass(Pass):
 
     def key(self):
         r = self.renderer
-        return (id(r.strands), id(r.settings), id(r._strand_table), getattr(r, "_geometry_version", 0))
+        eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
+        return (id(r.strands), id(r.settings), id(r._strand_table), getattr(r, "_geometry_version", 0), eye)
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
@@ -58,18 +59,18 @@ class ExpandPass(Pass):
         sub = subdivisions(s, N)
         multi = s.interpolation_mode != "single"
         defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
-                   "LOD": 0}
+                   "LOD": int(bool(s.lod))}
         cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
         if multi:
             table = r.strand_table()
             table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
             strands = int(table.count)
-            set_strand_uniforms(r, cs)
+            set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
             _set(cs, "u_num_render", strands)
             key = self.key()   # the table may just have been built
         else:
             strands = st.num_guides * int(s.strands_per_guide)
-            set_strand_uniforms(r, cs)
+            set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
         points = (N - 1) * sub + 1
         nbytes = max(strands * points * 32, 32)
         if self.buffer is None or self.buffer.size != nbytes:
@@ -112,11 +113,11 @@ class ExpandPass(Pass):
 
 
 def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:
-    """Whether the hair is drawn from the expanded buffer (pipeline="compute"): not with the
-    distance LOD, a capture, a pass's own geometry stage or an OIT method (those keep the
-    tessellation pipeline)."""
+    """Whether the hair is drawn from the expanded buffer (pipeline="compute"): not with a
+    capture, a pass's own geometry stage or a hardware OIT method (those keep the tessellation
+    pipeline). The distance LOD is expanded too (strand_expand.comp), once per camera position."""
     s = renderer.settings
-    return (getattr(s, "pipeline", "tessellation") == "compute" and not s.lod and not capture
+    return (getattr(s, "pipeline", "tessellation") == "compute" and not capture
             and geometry_file is None and getattr(s, "oit", "none") == "none")
 
 

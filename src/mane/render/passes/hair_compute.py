@@ -228,9 +228,8 @@ def unsupported_reason(renderer) -> str | None:
     from ..oit.compute import COMPUTE_METHODS
 
     s = renderer.settings
-    if getattr(s, "pipeline", "compute") != "compute" or s.lod:
-        return ("the compute rasteriser needs pipeline='compute' and no distance LOD; "
-                "the hair is drawn by hardware")
+    if getattr(s, "pipeline", "compute") != "compute":
+        return "the compute rasteriser needs pipeline='compute'; the hair is drawn by hardware"
     oit = getattr(s, "oit", "none")
     if oit != "none" and oit not in COMPUTE_METHODS:
         return (f"the OIT method {oit!r} has no compute form (those with one: {', '.join(COMPUTE_METHODS)}); "

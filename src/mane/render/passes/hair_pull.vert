@@ -53,4 +53,5 @@ void main() {
     g_alpha = a;
     g_depth = dot(P - u_eye, u_view_dir);
     gl_Position = u_view_proj * vec4(P, 1.0);
+    if (!(pw.w > 0.0)) gl_Position = vec4(0.0, 0.0, -2.0, 1.0);   // dropped by the LOD: clipped
 }
