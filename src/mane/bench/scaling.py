@@ -132,7 +132,8 @@ def scaling_fits(results: dict) -> list[dict]:
     # ---- transparency
     oit_ok = [r for r in oit if r.get("status") == "ok"]
     _add(fits, "pixels", "oit", "methods", "frame_ms.mean",
-         _group(oit_ok, lambda r: f"{r['method']} {r['shadows']} {r['groom']}", lambda r: r["size"][0] * r["size"][1],
+         _group(oit_ok, lambda r: f"{r['method']} {r.get('rasterizer', 'hardware')} {r['shadows']} {r['groom']}",
+                lambda r: r["size"][0] * r["size"][1],
                 lambda r: _mean(r.get("frame_ms"))), "pixels")
     return fits
 
