@@ -186,3 +186,18 @@ def test_oit_methods_with_a_compute_form_keep_the_compute_rasteriser(gl):
         assert any("sorted_blending" in w for w in r.warnings)
     finally:
         r.release()
+
+
+def test_head_msaa_setting(gl):
+    # the head multisampled (resolved before the hair is drawn over it) or single-sampled
+    groom, head = default_scene(num_guides=60, points=8, subdivisions=3)
+    imgs = {}
+    for on in (True, False):
+        r = _render(gl, groom, head, rasterizer="compute", msaa=4, head_msaa=on)
+        try:
+            assert r.compute_raster and r.samples == (4 if on else 1)
+            imgs[on] = r.read_image().astype(int)
+        finally:
+            r.release()
+    d = np.abs(imgs[True] - imgs[False])
+    assert 0 < d.mean() < 3   # edges of the head change, the picture does not

@@ -148,10 +148,12 @@ def test_deep_opacity_layers(gl):
     assert lit[hair].astype(float).mean() < unlit[hair].astype(float).mean() - 1.0   # self-shadowing darkens
 
 
+@pytest.mark.parametrize("rasterizer", ["hardware", "compute"])
 @pytest.mark.parametrize("aa", [dict(msaa=2), dict(msaa=4), dict(supersample=2), dict(msaa=4, supersample=2),
                                 dict(msaa=8)])
-def test_antialiasing_modes(gl, aa):
-    r = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)), **aa)
+def test_antialiasing_modes(gl, aa, rasterizer):
+    # the head's silhouette: MSAA (and supersampling) with either rasteriser for the hair
+    r = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)), rasterizer=rasterizer, **aa)
     try:
         img = r.render_image(CAM)
         assert r.samples <= int(gl.info["GL_MAX_SAMPLES"])
@@ -159,7 +161,7 @@ def test_antialiasing_modes(gl, aa):
             assert r.warnings
     finally:
         r.release()
-    base = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)))
+    base = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)), rasterizer=rasterizer)
     try:
         ref = base.render_image(CAM)
     finally:

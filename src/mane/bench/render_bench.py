@@ -556,6 +556,11 @@ class Bench(BenchRows):
                      settings={**settings, "rasterizer": other}, required=("rasterizer",), budget_scale=5.0,
                      shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512, msaa=4, dom_layers=3,
                      rasterizer=other, raster_stats=True)
+        if self._auto_rasterizer() == "compute":   # the head with one sample, the hair with four
+            self.measure("target_rasterizer", f"{name} compute rasteriser, head 1 sample", guides=guides,
+                         points=TARGET_POINTS, settings={**settings, "head_msaa": False}, required=("head_msaa",),
+                         budget_scale=5.0, shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512,
+                         msaa=4, dom_layers=3, rasterizer="compute")
 
     def _auto_rasterizer(self) -> str:
         from ..gpu.context import renderer_name

@@ -117,9 +117,10 @@ class Renderer:
             # the OIT methods keep fragments per pixel: single-sampled (coverage alpha anti-aliases)
             self.samples = 1
         self._renderer_string = renderer_name(self.ctx)
-        if self.compute_raster:
-            self.samples = 1   # the head: one sample; the hair: the compute rasteriser's grid
-        elif wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
+        self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
+        if self.compute_raster and not self.settings.head_msaa:
+            self.samples = 1
+        if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
             self.warnings.append(unsupported_reason(self))
         self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
@@ -335,7 +336,9 @@ class Renderer:
                 color = ctx.renderbuffer(size, 4, samples=self.samples, dtype="f2")
                 depth = ctx.depth_renderbuffer(size, samples=self.samples)
                 tex = ctx.texture(size, 4, dtype="f2")
-                self._targets["hdr_resolved"] = (ctx.framebuffer([tex]), tex)
+                dtex = ctx.depth_texture(size)   # the compute rasteriser tests the hair against it
+                dtex.compare_func = ""
+                self._targets["hdr_resolved"] = (ctx.framebuffer([tex], dtex), tex, dtex)
             else:   # textures: the compute rasteriser reads the depth and writes the colour
                 color = ctx.texture(size, 4, dtype="f2")
                 depth = ctx.depth_texture(size)
@@ -344,19 +347,26 @@ class Renderer:
         return self._targets["hdr"][0]
 
     def hdr_textures(self):
-        """The single-sampled HDR target's (colour, depth) textures."""
+        """The HDR target's (colour, depth) as single-sample textures: with MSAA the target is
+        resolved into them now (colour averaged, depth of a sample), and later passes (the
+        compute rasteriser's shading, then resolve) work on the resolved colour."""
         self.hdr_fbo()
         if self.samples > 1:
-            raise UsageError("the HDR target is multisampled: its depth is not a texture")
+            self.resolved_hdr()
+            _, color, depth = self._targets["hdr_resolved"]
+            return color, depth
         _, color, depth = self._targets["hdr"]
         return color, depth
 
     def resolved_hdr(self):
-        """The HDR colour as a single-sample texture (blitting the MSAA target into it)."""
+        """The HDR colour as a single-sample texture (blitting the MSAA target into it once a
+        frame)."""
         fbo, color, _ = self._targets["hdr"]
         if self.samples > 1:
-            dst, tex = self._targets["hdr_resolved"]
-            self.ctx.copy_framebuffer(dst, fbo)
+            dst, tex, _ = self._targets["hdr_resolved"]
+            if not self._hdr_resolved:
+                self.ctx.copy_framebuffer(dst, fbo)
+                self._hdr_resolved = True
             return tex
         return color
 
@@ -415,8 +425,10 @@ class Renderer:
         lights = list(lights) if lights is not None else default_lights()
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
-        if (getattr(self.settings, "oit", "none") != "none" or self.compute_raster) and self.samples > 1:
+        one = getattr(self.settings, "oit", "none") != "none" or (self.compute_raster and not self.settings.head_msaa)
+        if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
+        self._hdr_resolved = False
         frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
         self.lod_eye = frame.view.eye
         if lights and self.settings.shadows != "none":

@@ -17,7 +17,8 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
 
 What differs from the hardware path: every strand behind the nearest one in a sample darkens
 it by its coverage but shows its colour only through the nearest's (as in Unreal's
-visibility buffer); the head is drawn with one sample per pixel.
+visibility buffer). With MSAA the head is drawn multisampled and resolved (colour and depth)
+before the hair is scan-converted against it (Renderer.hdr_textures).
 """
 from __future__ import annotations
 
