@@ -34,6 +34,8 @@ class Quality:
     pcf: int = 3
     sim_dt: float = 1.0 / 120.0
     friction: float = 0.05
+    viewer_sim_dt: float | None = None
+    """the viewer's simulation step (None: ``sim_dt``): the viewer's frame rate, not the clip's."""
 
     def render_settings(self, **changes):
         from ..render import RenderSettings
@@ -47,21 +49,26 @@ class Quality:
 
 # llvmpipe on 2 CPU cores: 960x540 at 15+ frames per second (simulation and rendering) with a
 # shadow map instead of deep opacity, Kajiya-Kay instead of Marschner, fewer rendered strands
-# and segments, and 48 Hz simulation steps (2 per frame of the 24 fps clip) without hair-hair
-# friction. ``_calibrate`` (and the viewer) step further down (SOFTWARE_LADDER) on a machine
-# slower than that.
+# and segments (12 points a guide: 11 segments, one per guide segment), and 48 Hz simulation
+# steps (2 per frame of the 24 fps clip) without hair-hair friction; the viewer, at 15-20
+# frames per second, steps at 30 Hz (2 steps a frame: each costs ~3.5 ms on llvmpipe, nearly
+# all of it dispatch overhead). ``_calibrate`` (and the viewer) step further down
+# (SOFTWARE_LADDER) on a machine slower than that.
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=3,
-                   sim_dt=1.0 / 48.0, friction=0.0)
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0)
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
+# Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
+# guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
+# shadow look-ups of the head and the hair cost more than their shading).
 SOFTWARE_LADDER = (
-    ("4 segments per strand", dict(segments=4)),
     ("2 strands per guide", dict(strands_per_guide=2)),
+    ("1-texel shadow filter", dict(pcf=1)),
     ("no shadows", dict(shadows="none")),
     ("1 strand per guide", dict(strands_per_guide=1)),
 )
 TARGET_FPS = 15.0
-HEADROOM = 1.05      # calibrate a little above the target: the clip's loop also encodes video
+HEADROOM = 1.05      # scale until a little above the target: the clip's loop also encodes video
 PROFILE_EVERY = 4    # on a software renderer, time every 4th frame (CPU timing drains the pipeline)
 
 
@@ -72,14 +79,15 @@ def demo_scene(q: Quality):
     return default_scene(num_guides=q.guides, points=q.points)
 
 
-def demo_sim_settings(q: Quality, wind: bool = True):
-    """The demo's simulation: soft long hair, gusts from the front-left (wind acts through drag)."""
+def demo_sim_settings(q: Quality, wind: bool = True, dt: float | None = None):
+    """The demo's simulation: soft long hair, gusts from the front-left (wind acts through drag).
+    ``dt``: the step (default ``q.sim_dt``)."""
     from ..sim import SimSettings, WindSettings
 
     return SimSettings(
         # Enough shape to keep the groomed parting and waves (and the face clear) while the
         # head nods and the wind blows; the tips still swing by a centimetre or two.
-        dt=q.sim_dt, friction=q.friction, local_shape_stiffness=0.3, global_shape_stiffness=0.1,
+        dt=q.sim_dt if dt is None else float(dt), friction=q.friction, local_shape_stiffness=0.3, global_shape_stiffness=0.1,
         global_shape_range=0.6, drag=1.0 if wind else 0.0,
         wind=WindSettings(velocity=(0.6, 0.0, 1.2), gust=1.0, turbulence=0.6) if wind else WindSettings(),
     )
@@ -158,7 +166,7 @@ def _run_viewer(args) -> int:
     try:
         seconds = args.seconds
         n = viewer.run(seconds=seconds)
-        print(f"  {n} frames, {viewer.fps:.1f} frames per second at the end")
+        print(f"  {n} frames, {viewer.fps:.1f} frames per second at the end; {viewer.quality_report()}")
     finally:
         viewer.close()
     return 0
@@ -232,7 +240,8 @@ def _run_headless(args) -> int:
     seconds = args.seconds if args.seconds is not None else q.seconds
     print(f"mane demo on {renderer_name(ctx)}: quality {q.name}")
     if software and q is SOFTWARE:
-        print(f"  scaled down: {q.guides} guides x {q.strands_per_guide} strands, {q.segments} segments, "
+        drawn = (q.points - 1) * math.ceil(q.segments / (q.points - 1))   # whole guide segments
+        print(f"  scaled down: {q.guides} guides x {q.strands_per_guide} strands, {drawn} segments, "
               f"{q.size[0]}x{q.size[1]}, no MSAA, {q.shading} shading, {q.shadows} {q.shadow_map_size}, "
               f"{1 / q.sim_dt:.0f} Hz simulation (a GPU runs {GPU.guides} x {GPU.strands_per_guide} at "
               f"{GPU.size[0]}x{GPU.size[1]}, {GPU.msaa}x MSAA, {GPU.shading}, {GPU.shadows})")

@@ -43,7 +43,7 @@ def run(args) -> int:
             viewer.screenshot(args.screenshot)
             viewer.frame()
             print(f"mane view: screenshot {viewer.last_screenshot}")
-        print(f"mane view: {n} frames, {viewer.fps:.1f} frames per second")
+        print(f"mane view: {n} frames, {viewer.fps:.1f} frames per second; {viewer.quality_report()}")
         if viewer.error:
             print(f"mane view: last error: {viewer.error}")
     finally:

@@ -487,7 +487,9 @@ def _lights(v, ed, imgui) -> None:
     ed_open(v)
     if not imgui.collapsing_header("Lights"):
         return
-    imgui.text_wrapped("ctrl + left drag turns the selected light")
+    imgui.text_wrapped("drag a light's handle (the ball in its colour) to move or turn it; "
+                       "ctrl + left drag turns the selected light")
+    _, v.show_light_handles = imgui.checkbox("show handles", v.show_light_handles)
     remove = None
     for i, light in enumerate(list(v.lights)):
         imgui.push_id(f"light{i}")
@@ -566,14 +568,23 @@ def _performance(v, imgui) -> None:
                          scale_min=0.0, scale_max=float(max(arr.max(), 1.0)),
                          graph_size=imgui.ImVec2(-1, 48))
     _, v.auto_quality = imgui.checkbox(f"keep {v.target_fps:g} fps (scale down)", v.auto_quality)
-    imgui.set_item_tooltip("below the target frame rate, take fewer segments, then fewer strands, then no shadows")
+    imgui.set_item_tooltip("below the target frame rate, take fewer strands, then a 1-texel shadow filter, "
+                           "then no shadows, then one strand per guide")
+    if v.auto_quality:
+        measured = f" at {v.auto_quality_fps:.1f} fps" if v.auto_quality_fps else ""
+        imgui.same_line()
+        imgui.text(f"{v.auto_quality_state}{measured}")
     source = v.renderer.profiler.source
     imgui.text(f"GPU ms per pass ({'CPU-timed: software renderer' if source == 'cpu' else source})")
     hist = {k: s for k, s in v.pass_history.items() if s}
-    top = max([s[-1] for s in hist.values()] + [1e-3])
-    for name, s in hist.items():
-        ms = float(np.mean(s[-10:]))
-        imgui.progress_bar(min(ms / top, 1.0), imgui.ImVec2(-1, 0), f"{name} {ms:.2f} ms")
+    total = sum(float(np.mean(s[-10:])) for s in hist.values()) or 1e-3
+    for name, s in hist.items():    # a live plot per pass, each on its own scale
+        arr = np.asarray(s, np.float32)
+        ms = float(np.mean(arr[-10:]))
+        imgui.plot_lines(f"##{name}", arr, overlay_text=f"{name} {ms:.2f} ms ({100 * ms / total:.0f}%)",
+                         scale_min=0.0, scale_max=float(max(arr.max(), 1e-3)) * 1.1,
+                         graph_size=imgui.ImVec2(-1, 26))
+        imgui.set_item_tooltip(f"{name}: the last {len(arr)} frames, 0 to {arr.max():.2f} ms")
 
 
 def _capture(v, imgui) -> None:

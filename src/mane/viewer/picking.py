@@ -1,9 +1,11 @@
-"""Picking the collision sphere with the mouse and dragging it on a view plane (no GL here).
+"""Picking the collision sphere and the lights' handles with the mouse, and dragging them (no GL here).
 
     ray = pixel_ray(camera, x, y, width, height)          # window pixels, top-left origin
     t = ray_sphere(ray, centre, radius)                   # distance along the ray, or None
     drag = PlaneDrag.start(ray, centre, camera.forward)   # the plane through the centre, facing the camera
     new_centre = drag.move(pixel_ray(camera, x2, y2, width, height))
+    turn = SphereDrag.start(ray, centre, radius, handle)  # a handle on a sphere about centre
+    direction = turn.move(pixel_ray(camera, x2, y2, width, height))   # unit, from the centre
 
 ``keyboard_offset`` turns W/A/S/D/Q/E into a displacement in the camera's frame (as in the
 Vulkan hair demo: W/S forward and back, A/D left and right, Q/E down and up).
@@ -48,6 +50,12 @@ def project(camera: Camera, point, width: int, height: int) -> tuple[float, floa
     return ((ndc[0] + 1.0) * 0.5 * width - 0.5, (1.0 - ndc[1]) * 0.5 * height - 0.5)
 
 
+def in_front(camera: Camera, point) -> bool:
+    """True when ``point`` lies in front of the camera (past its near plane)."""
+    d = np.asarray(point, np.float64) - np.asarray(camera.eye, np.float64)
+    return float(np.dot(d, camera.forward)) > float(camera.near)
+
+
 def ray_sphere(ray: Ray, center, radius: float) -> float | None:
     """Distance along ``ray`` to the first hit of the sphere (0 when the origin is inside), or None."""
     oc = ray.origin - np.asarray(center, np.float64)
@@ -61,6 +69,24 @@ def ray_sphere(ray: Ray, center, radius: float) -> float | None:
     if t1 < 0:
         return None
     return max(t0, 0.0)
+
+
+def ray_sphere_hits(ray: Ray, center, radius: float) -> tuple[float, float] | None:
+    """Both distances along ``ray`` where its line crosses the sphere (t0 <= t1), or None."""
+    oc = ray.origin - np.asarray(center, np.float64)
+    b = float(np.dot(oc, ray.direction))
+    c = float(np.dot(oc, oc)) - float(radius) ** 2
+    disc = b * b - c
+    if disc < 0:
+        return None
+    s = math.sqrt(disc)
+    return -b - s, -b + s
+
+
+def closest_on_ray(ray: Ray, point) -> np.ndarray:
+    """The point of the ray (t >= 0) nearest ``point``."""
+    t = max(float(np.dot(np.asarray(point, np.float64) - ray.origin, ray.direction)), 0.0)
+    return ray.at(t)
 
 
 def ray_plane(ray: Ray, point, normal) -> float | None:
@@ -96,6 +122,41 @@ class PlaneDrag:
         if t is None:
             return None
         return ray.at(t) + self.offset
+
+
+@dataclass
+class SphereDrag:
+    """Dragging a handle over a sphere about ``center`` (a directional light's handle: its
+    direction is the handle's, seen from the centre). The handle stays on the side of the
+    sphere it was grabbed on (facing the camera, or behind the centre); a ray that misses the
+    sphere puts it on the silhouette, at the sphere's point nearest the ray."""
+
+    center: np.ndarray
+    radius: float
+    near_side: bool
+
+    @classmethod
+    def start(cls, ray: Ray, center, radius: float, handle) -> "SphereDrag":
+        c = np.asarray(center, np.float64)
+        facing = float(np.dot(np.asarray(handle, np.float64) - c, ray.direction)) <= 0.0
+        return cls(c.copy(), float(radius), facing)
+
+    def point(self, ray: Ray) -> np.ndarray:
+        """Where the handle goes for the mouse ray: on the sphere."""
+        hits = ray_sphere_hits(ray, self.center, self.radius)
+        if hits is not None and hits[1] >= 0:
+            t = hits[0] if self.near_side and hits[0] >= 0 else hits[1]
+            return ray.at(t)
+        p = closest_on_ray(ray, self.center) - self.center
+        n = np.linalg.norm(p)
+        if n < 1e-12:
+            return self.center + self.radius * -ray.direction
+        return self.center + p / n * self.radius
+
+    def move(self, ray: Ray) -> np.ndarray:
+        """The unit direction from the centre to the handle for the mouse ray."""
+        d = self.point(ray) - self.center
+        return d / np.linalg.norm(d)
 
 
 KEY_DIRECTIONS = {
