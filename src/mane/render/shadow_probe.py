@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gpu.glsl import compute_shader
-from .passes.base import HERE, RENDER_DIR, SHADOW_IDS, bind_lighting, set_uniform
+from .passes.base import HERE, RENDER_DIR, bind_lighting, set_uniform, shadow_defines
 
 
 def probe_visibility(renderer, points, frame=None) -> np.ndarray:
@@ -26,7 +26,7 @@ def probe_visibility(renderer, points, frame=None) -> np.ndarray:
     if m == 0:
         return np.zeros(0, np.float32)
     ctx = renderer.ctx
-    cs = compute_shader(ctx, HERE / "shadow_probe.comp", {"SHADOWS": SHADOW_IDS[renderer.settings.shadows]},
+    cs = compute_shader(ctx, HERE / "shadow_probe.comp", shadow_defines(renderer.settings),
                         include_dirs=[RENDER_DIR])
     bind_lighting(renderer, cs, frame)
     data = np.zeros((m, 4), np.float32)

@@ -28,6 +28,12 @@ TONE_IDS = {"aces": 0, "reinhard": 1, "none": 2}
 PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
 
 
+def shadow_defines(settings) -> dict:
+    """lighting.glsl's defines: SHADOWS (light 0's method) and XSHADOWS (whether lights 1.. cast:
+    0 compiles their look-ups out)."""
+    return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1)}
+
+
 @dataclass
 class View:
     """A point of view for the hair's geometry shader (the camera or the key light)."""
@@ -96,7 +102,7 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "INTERPOLATION": INTERPOLATION_IDS[s.interpolation],
         "GEOMETRY_LINES": int(geometry == "lines"),
         "PASS": pass_id,
-        "SHADOWS": SHADOW_IDS[s.shadows],
+        **shadow_defines(s),
         "CAPTURE": int(capture),
         "MULTI": MULTI_IDS[s.interpolation_mode],
         "LOD": int(bool(s.lod)),

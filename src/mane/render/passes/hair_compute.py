@@ -29,7 +29,7 @@ import numpy as np
 
 from ...gpu.buffers import check_allocation
 from ...gpu.glsl import compute_shader
-from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view
+from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 from .expand import EXPANDED_BINDING
 
 LOCAL_SIZE = 128
@@ -145,7 +145,7 @@ class HairComputePass(Pass):
             self.captured = self._read_buffers()
         with r.profiler.section("hair_shade"):
             cs = compute_shader(ctx, HERE / "hair_shade.comp", {**defines, **r.shading.defines(),
-                                                                "SHADOWS": _shadow_id(r)},
+                                                                **shadow_defines(r.settings)},
                                 include_dirs=[RENDER_DIR])
             self._set_common(cs, frame, size, grid, expand.points)
             r.shading.bind(cs, ctx, r.settings)
@@ -216,12 +216,6 @@ class HairComputePass(Pass):
 
     def release(self) -> None:
         self._release_buffers()
-
-
-def _shadow_id(renderer) -> int:
-    from .base import SHADOW_IDS
-
-    return SHADOW_IDS[renderer.settings.shadows]
 
 
 def unsupported_reason(renderer) -> str | None:

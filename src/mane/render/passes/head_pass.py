@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ...gpu.glsl import program
-from .base import HERE, SHADOW_IDS, Frame, Pass, bind_lighting, set_uniform, set_view
+from .base import HERE, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 
 
 class HeadPass(Pass):
@@ -17,7 +17,7 @@ class HeadPass(Pass):
         r, ctx = self.renderer, self.ctx
         s = r.settings
         prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
-                       defines={"PASS": 0, "SHADOWS": SHADOW_IDS[s.shadows]})
+                       defines={"PASS": 0, **shadow_defines(s)})
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)

@@ -114,10 +114,14 @@ float xlight_visibility(int i, vec3 P) {
     return lit * tr;
 }
 
-// Fraction of light i that reaches P (1 for lights that cast no shadow).
+// Fraction of light i that reaches P (1 for lights that cast no shadow). XSHADOWS 0 (one
+// shadow-casting light, settings.shadow_lights = 1) compiles the other lights' look-ups out.
+#ifndef XSHADOWS
+#define XSHADOWS 1
+#endif
 float light_visibility(int i, vec3 P) {
     if (i == 0) return light0_visibility(P);
-#if SHADOWS != 0
+#if SHADOWS != 0 && XSHADOWS
     if (i < u_num_shadow_lights) return xlight_visibility(i, P);
 #endif
     return 1.0;
