@@ -39,7 +39,8 @@ def test_png_and_stats(groom_file, tmp_path, capsys):
     s = json.loads(stats.read_text())
     assert {"passes", "frames", "size", "renderer", "rendered_strands", "rendered_segments"} <= set(s)
     assert s["frames"] == 1 and s["size"] == [96, 72] and s["rendered_strands"] == 12 * 5
-    assert {"shadow_map", "hair", "resolve"} <= set(s["passes"])
+    assert {"shadow_map", "resolve"} <= set(s["passes"])
+    assert ("hair" in s["passes"]) != ("hair_compute" in s["passes"])   # raster units or compute (H100/H200)
     assert all(v >= 0 for v in s["passes"].values())
 
 
