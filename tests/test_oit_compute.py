@@ -22,7 +22,7 @@ from mane.render import Renderer, RenderSettings
 from tests.reference.oit_reference import (blend_fragments, compute_reference, display, image_error,
                                            per_pixel_sorted, reference)
 from tests.reference.raster_reference import project, scan_segment
-from tests.test_oit_methods import BASE, CAM, DENSE, LIGHTS, curtain_groom, sphere
+from tests.test_oit_methods import BASE, CAM, DENSE, LIGHTS, curtain_groom, sphere, two_frames_with_a_small_pool
 
 pytestmark = pytest.mark.gpu
 
@@ -282,17 +282,7 @@ def test_a_buffer_lists_hold_every_fragment(gl, scene, cref):
 
 
 def test_a_buffer_overflow_grows_the_pool(gl, scene, cref):
-    groom, head = scene
-    r = Renderer(RenderSettings(**{**COMPUTE, "oit": "a_buffer", "oit_nodes_per_pixel": 0.05}), ctx=gl, profile=False)
-    try:
-        r.set_strands(groom)
-        r.set_head(head)
-        first = r.render_image(CAM, LIGHTS)
-        st1 = r.stats()
-        second = r.render_image(CAM, LIGHTS)
-        st2 = r.stats()
-    finally:
-        r.release()
+    first, st1, second, st2 = two_frames_with_a_small_pool(gl, scene, COMPUTE)
     assert st1["oit_overflow"] > 0 and st2["oit_overflow"] == 0 and st2["oit_pool_grown"] >= 1
     assert np.isfinite(first.astype(float)).all()
     assert image_error(second, cref["image"])["mean"] < image_error(first, cref["image"])["mean"]

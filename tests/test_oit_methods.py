@@ -162,18 +162,24 @@ def test_every_method_against_the_reference(gl, scene, ref, capsys):
             print(f"  {m:16s} mean {err['mean'] * 255:6.3f}  max {err['max'] * 255:6.1f}  bytes {b}")
 
 
-def test_a_buffer_overflow_is_counted_and_the_pool_grows(gl, scene, ref):
+def two_frames_with_a_small_pool(gl, scene, settings):
+    """An A-buffer whose pool holds 0.05 nodes a pixel: (first image, its stats, second image,
+    its stats); the first overflows, the pool grows for the second."""
     groom, head = scene
-    r = Renderer(RenderSettings(**{**BASE, "oit": "a_buffer", "oit_nodes_per_pixel": 0.05}), ctx=gl, profile=False)
+    r = Renderer(RenderSettings(**{**settings, "oit": "a_buffer", "oit_nodes_per_pixel": 0.05}), ctx=gl, profile=False)
     try:
         r.set_strands(groom)
         r.set_head(head)
         first = r.render_image(CAM, LIGHTS)
         st1 = r.stats()
         second = r.render_image(CAM, LIGHTS)
-        st2 = r.stats()
+        return first, st1, second, r.stats()
     finally:
         r.release()
+
+
+def test_a_buffer_overflow_is_counted_and_the_pool_grows(gl, scene, ref):
+    first, st1, second, st2 = two_frames_with_a_small_pool(gl, scene, BASE)
     assert st1["oit_overflow"] > 0 and st1["oit_fragments"] > st1["oit_pool_nodes"] - st1["oit_overflow"]
     assert st2["oit_overflow"] == 0 and st2["oit_pool_grown"] >= 1
     assert st2["oit_pool_nodes"] >= st1["oit_fragments"]
