@@ -25,6 +25,8 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GPUError, ManeError, UsageError
+from ..render.gizmos import GizmoPass, handle_color  # noqa: F401  (GizmoPass, handle_color: re-exported)
+from ..render.present import Presenter
 from .camera_control import OrbitControl
 from .picking import PlaneDrag, SphereDrag, in_front, keyboard_offset, pixel_ray, project, ray_sphere
 
@@ -51,24 +53,6 @@ STYLE_PRESETS: dict[str, tuple[dict, dict]] = {
     "wet (clumped)": (dict(local_shape_stiffness=0.02, damping=4.0),
                       dict(clump_radius=0.002, clump_tip=0.2, stray_fraction=0.05, curl_radius=0.0)),
 }
-
-BLIT_VERTEX = """
-#version 330
-out vec2 uv;
-void main() {
-    vec2 p = vec2((gl_VertexID << 1) & 2, gl_VertexID & 2);
-    uv = p;
-    gl_Position = vec4(p * 2.0 - 1.0, 0.0, 1.0);
-}
-"""
-BLIT_FRAGMENT = """
-#version 330
-uniform sampler2D u_image;
-in vec2 uv;
-out vec4 frag;
-void main() { frag = vec4(texture(u_image, uv).rgb, 1.0); }
-"""
-
 
 def display_available() -> bool:
     """True when an X11 or Wayland display is named and GLFW can initialise on it."""
@@ -134,234 +118,6 @@ def create_window(size=(960, 540), title: str = "mane", visible: bool = True, vs
     return wnd
 
 
-def _sphere_mesh(lat: int, lon: int) -> tuple[np.ndarray, np.ndarray]:
-    """A unit sphere: (vertices (N, 3) float32, triangle indices (M,) int32)."""
-    th = np.linspace(0, np.pi, lat + 1)
-    ph = np.linspace(0, 2 * np.pi, lon + 1)
-    T, P = np.meshgrid(th, ph, indexing="ij")
-    pts = np.stack([np.sin(T) * np.cos(P), np.cos(T), np.sin(T) * np.sin(P)], -1).reshape(-1, 3)
-    i, j = np.meshgrid(np.arange(lat), np.arange(lon), indexing="ij")
-    a, b = (i * (lon + 1) + j).ravel(), ((i + 1) * (lon + 1) + j).ravel()
-    idx = np.stack([a, b, a + 1, a + 1, b, b + 1], 1).ravel()
-    return pts.astype(np.float32), idx.astype(np.int32)
-
-
-class GizmoPass:
-    """Draws the collision sphere (see-through, depth tested) and the lights' handles (small
-    balls in each light's colour, with a line from the scene's centre for directional lights;
-    faint where the scene hides them) into the renderer's HDR target: 5 draws in all."""
-
-    name = "gizmos"
-    reads = ("hdr",)
-    writes = ("hdr",)
-
-    VERTEX = """
-    #version 430
-    in vec3 in_position;
-    uniform mat4 u_view_proj;
-    uniform vec4 u_sphere;   // centre, radius
-    out vec3 v_normal;
-    out vec3 v_world;
-    void main() {
-        v_normal = in_position;
-        v_world = u_sphere.xyz + in_position * u_sphere.w;
-        gl_Position = u_view_proj * vec4(v_world, 1.0);
-    }
-    """
-    FRAGMENT = """
-    #version 430
-    in vec3 v_normal;
-    in vec3 v_world;
-    uniform vec3 u_eye;
-    uniform vec3 u_color;
-    uniform float u_alpha;
-    out vec4 frag;
-    void main() {
-        vec3 N = normalize(v_normal);
-        vec3 V = normalize(u_eye - v_world);
-        float rim = pow(1.0 - abs(dot(N, V)), 2.0);
-        float lambert = 0.35 + 0.65 * max(dot(N, normalize(vec3(-0.4, 0.8, 0.5))), 0.0);
-        float a = clamp(u_alpha + 0.5 * rim, 0.0, 1.0);
-        frag = vec4(u_color * lambert * a, a);    // premultiplied, like the hair
-    }
-    """
-    # the handles: one instanced draw of small balls, (centre, radius) and (rgb, alpha) per ball
-    HANDLE_VERTEX = """
-    #version 430
-    in vec3 in_position;
-    in vec4 in_ball;
-    in vec4 in_rgba;
-    uniform mat4 u_view_proj;
-    out vec3 v_normal;
-    out vec3 v_world;
-    out vec4 v_rgba;
-    void main() {
-        v_normal = in_position;
-        v_world = in_ball.xyz + in_position * in_ball.w;
-        v_rgba = in_rgba;
-        gl_Position = u_view_proj * vec4(v_world, 1.0);
-    }
-    """
-    HANDLE_FRAGMENT = """
-    #version 430
-    in vec3 v_normal;
-    in vec3 v_world;
-    in vec4 v_rgba;
-    uniform vec3 u_eye;
-    uniform float u_fade;
-    out vec4 frag;
-    void main() {
-        float facing = abs(dot(normalize(v_normal), normalize(u_eye - v_world)));
-        float a = v_rgba.a * u_fade;
-        frag = vec4(v_rgba.rgb * (0.55 + 0.45 * facing) * a, a);    // lit from the viewer, premultiplied
-    }
-    """
-    LINE_VERTEX = """
-    #version 430
-    in vec3 in_position;
-    in vec4 in_rgba;
-    uniform mat4 u_view_proj;
-    out vec4 v_rgba;
-    void main() { v_rgba = in_rgba; gl_Position = u_view_proj * vec4(in_position, 1.0); }
-    """
-    LINE_FRAGMENT = """
-    #version 430
-    in vec4 v_rgba;
-    uniform float u_fade;
-    out vec4 frag;
-    void main() { float a = v_rgba.a * u_fade; frag = vec4(v_rgba.rgb * a, a); }
-    """
-    MAX_BALLS = 3 * 8      # 3 per light (the ring's two and the handle)
-    MAX_LINES = 8
-
-    def __init__(self, renderer, viewer):
-        self.renderer, self.viewer = renderer, viewer
-        self.ctx = renderer.ctx
-        self._prog = self._handle_prog = self._line_prog = None
-        self._vao = self._handle_vao = self._line_vao = None
-        self._balls = self._lines = None
-        self._buffers = ()
-
-    def enabled(self, frame) -> bool:
-        v = self.viewer
-        return (v.sphere is not None and v.show_sphere) or (v.show_light_handles and bool(v.lights))
-
-    def _build(self):
-        ctx = self.ctx
-        self._prog = ctx.program(vertex_shader=self.VERTEX, fragment_shader=self.FRAGMENT)
-        self._handle_prog = ctx.program(vertex_shader=self.HANDLE_VERTEX, fragment_shader=self.HANDLE_FRAGMENT)
-        self._line_prog = ctx.program(vertex_shader=self.LINE_VERTEX, fragment_shader=self.LINE_FRAGMENT)
-        pts, idx = _sphere_mesh(16, 32)
-        vbo, ibo = ctx.buffer(pts.tobytes()), ctx.buffer(idx.tobytes())
-        self._vao = ctx.vertex_array(self._prog, [(vbo, "3f", "in_position")], index_buffer=ibo, index_element_size=4)
-        small, small_idx = _sphere_mesh(8, 12)   # a handle is a few pixels across
-        hvbo, hibo = ctx.buffer(small.tobytes()), ctx.buffer(small_idx.tobytes())
-        self._balls = ctx.buffer(reserve=self.MAX_BALLS * 32, dynamic=True)
-        self._handle_vao = ctx.vertex_array(self._handle_prog, [(hvbo, "3f", "in_position"),
-                                                                (self._balls, "4f 4f/i", "in_ball", "in_rgba")],
-                                            index_buffer=hibo, index_element_size=4)
-        self._lines = ctx.buffer(reserve=self.MAX_LINES * 2 * 28, dynamic=True)
-        self._line_vao = ctx.vertex_array(self._line_prog, [(self._lines, "3f 4f", "in_position", "in_rgba")])
-        self._buffers = (vbo, ibo, hvbo, hibo, self._balls, self._lines)
-
-    def run(self, frame) -> None:
-        if self._prog is None:
-            self._build()
-        ctx, v = self.ctx, self.viewer
-        fbo = self.renderer.hdr_fbo()
-        fbo.use()
-        view_proj = np.asarray(frame.view.view_proj, np.float32).T.copy().tobytes()
-        eye = tuple(float(x) for x in frame.view.eye)
-        ctx.enable(ctx.BLEND)
-        ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
-        fbo.depth_mask = False     # see-through: the gizmos write no depth
-        try:
-            if v.sphere is not None and v.show_sphere:
-                ctx.enable(ctx.DEPTH_TEST)
-                p = self._prog
-                p["u_view_proj"].write(view_proj)
-                if "u_eye" in p:
-                    p["u_eye"].value = eye
-                hot = v.dragging_sphere or v.hover_sphere
-                c = v.sphere.transform[:3, 3]
-                p["u_sphere"].value = (float(c[0]), float(c[1]), float(c[2]), float(v.sphere.radius))
-                p["u_color"].value = (0.35, 0.75, 1.6) if hot else (0.25, 0.45, 0.9)
-                p["u_alpha"].value = 0.25 if hot else 0.15
-                self._vao.render()
-            if v.show_light_handles and v.lights:
-                self._handles(view_proj, eye)
-        finally:
-            fbo.depth_mask = True
-            ctx.disable(ctx.BLEND)
-            ctx.enable(ctx.DEPTH_TEST)
-
-    def handle_geometry(self) -> tuple[np.ndarray, np.ndarray]:
-        """(balls (B, 8): centre, radius, rgb, alpha in drawing order; line vertices (L, 7):
-        position, rgba) for the viewer's lights."""
-        v = self.viewer
-        balls, lines = [], []
-        for i, light in enumerate(v.lights[: self.MAX_LINES]):
-            pos = v.light_handle_position(i)
-            hot = i in (v.hover_light, v.dragging_light)
-            selected = i == v.selected_light
-            rgb = handle_color(light)
-            if not light.is_point:     # the direction: a line from the scene's centre
-                a = 0.6 if (hot or selected) else 0.3
-                lines += [[*v.light_centre, *rgb, a], [*pos, *rgb, a]]
-            r = v.light_handle_radius(pos)
-            if selected or hot:        # a white ring around the selected or grabbed one
-                balls.append([*pos, r * 1.45, 1.2, 1.2, 1.2, 0.9 if hot else 0.6])
-                balls.append([*pos, r * 1.2, 0.02, 0.02, 0.02, 1.0])
-            balls.append([*pos, r, *rgb, 1.0])
-        return (np.asarray(balls, np.float32).reshape(-1, 8)[: self.MAX_BALLS],
-                np.asarray(lines, np.float32).reshape(-1, 7))
-
-    def _handles(self, view_proj, eye) -> None:
-        """The lights' handles: where the scene hides them, faint (they stay visible and
-        pickable), else bright."""
-        ctx = self.ctx
-        balls, lines = self.handle_geometry()
-        if len(balls):
-            self._balls.write(balls.tobytes())
-        if len(lines):
-            self._lines.write(lines.tobytes())
-        hp, lp = self._handle_prog, self._line_prog
-        hp["u_view_proj"].write(view_proj)
-        lp["u_view_proj"].write(view_proj)
-        if "u_eye" in hp:
-            hp["u_eye"].value = eye
-        ctx.enable(ctx.DEPTH_TEST)
-        try:
-            for depth_func, fade in ((">=", 0.35), ("<", 1.0)):
-                ctx.depth_func = depth_func
-                hp["u_fade"].value = fade
-                lp["u_fade"].value = fade
-                if len(lines):
-                    self._line_vao.render(ctx.LINES, vertices=len(lines))
-                if len(balls):
-                    self._handle_vao.render(instances=len(balls))
-        finally:
-            ctx.depth_func = "<"
-
-    def release(self) -> None:
-        for o in (self._vao, self._handle_vao, self._line_vao, *self._buffers, self._prog, self._handle_prog,
-                  self._line_prog):
-            if o is not None:
-                o.release()
-        self._prog = self._handle_prog = self._line_prog = None
-        self._vao = self._handle_vao = self._line_vao = None
-        self._balls = self._lines = None
-        self._buffers = ()
-
-
-def handle_color(light) -> tuple[float, float, float]:
-    """A light's handle colour: its colour, brightest channel at 1.6 (HDR, before tone mapping)."""
-    c = np.maximum(np.asarray(light.color, float), 0.0)
-    m = float(c.max())
-    c = c / m if m > 0 else np.ones(3)
-    return tuple(float(x) * 1.6 for x in c)
-
-
 class Viewer:
     """The ``mane view`` window (see the module doc). ``window``: a moderngl-window window to
     use (default: a new GLFW one of ``size``)."""
@@ -408,8 +164,7 @@ class Viewer:
         self.editor = None
         self.show_panel = True
         self.panel_drawn = False
-        self._blit_prog = self.ctx.program(vertex_shader=BLIT_VERTEX, fragment_shader=BLIT_FRAGMENT)
-        self._blit_vao = self.ctx.vertex_array(self._blit_prog, [])
+        self._presenter = Presenter(self.ctx)
 
         # state
         self.error: str | None = None
@@ -851,19 +606,8 @@ class Viewer:
                                 np.array([1.6 * math.cos(phase), 0.2, 1.6 * math.sin(phase)]))
 
     def _blit(self) -> None:
-        ctx = self.ctx
         out_fbo, tex = self.renderer._targets["output"]
-        if tuple(out_fbo.size) == tuple(self.wnd.fbo.size):   # a plain copy (0.9 ms on llvmpipe, 1.5 drawn)
-            ctx.copy_framebuffer(self.wnd.fbo, out_fbo)
-            self.wnd.use()
-            return
-        self.wnd.use()
-        ctx.disable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
-        tex.filter = (ctx.LINEAR, ctx.LINEAR)
-        tex.use(0)
-        self._blit_prog["u_image"].value = 0
-        self._blit_vao.render(ctx.TRIANGLES, vertices=3)
+        self._presenter.show(out_fbo, tex, self.wnd.fbo, bind=self.wnd.use)
 
     def _adapt_quality(self) -> None:
         """Every 20 frames, the frame rate of the last 20 (their mean, each frame counted at
