@@ -58,17 +58,10 @@ def in_front(camera: Camera, point) -> bool:
 
 def ray_sphere(ray: Ray, center, radius: float) -> float | None:
     """Distance along ``ray`` to the first hit of the sphere (0 when the origin is inside), or None."""
-    oc = ray.origin - np.asarray(center, np.float64)
-    b = float(np.dot(oc, ray.direction))
-    c = float(np.dot(oc, oc)) - float(radius) ** 2
-    disc = b * b - c
-    if disc < 0:
+    hits = ray_sphere_hits(ray, center, radius)
+    if hits is None or hits[1] < 0:
         return None
-    s = math.sqrt(disc)
-    t0, t1 = -b - s, -b + s
-    if t1 < 0:
-        return None
-    return max(t0, 0.0)
+    return max(hits[0], 0.0)
 
 
 def ray_sphere_hits(ray: Ray, center, radius: float) -> tuple[float, float] | None:
