@@ -97,18 +97,19 @@ class RenderSettings:
     """How the strands reach the rasteriser: "compute" (a compute pass writes every rendered
     strand's tessellated points once per frame, shared by all passes, which draw them by
     vertex pulling: instanced strips, no tessellation or geometry stages; TressFX's way) or
-    "tessellation" (isolines + geometry-shader ribbons in every pass). Distance LOD and the
-    OIT methods always use "tessellation"."""
+    "tessellation" (isolines + geometry-shader ribbons in every pass). The hardware OIT methods
+    always use "tessellation"; the distance LOD is expanded too (once per camera position)."""
     rasterizer: str = "auto"
     """Who turns the hair into pixels: "hardware" (the GPU's raster units: triangle strips,
     MSAA), "compute" (compute shaders scan-convert every segment into a per-sample visibility
     buffer, nearest segment by atomic min, coverage accumulated, then each pixel shaded once
     per visible segment: Unreal's and Frostbite's way for thin strands; ``msaa`` n becomes a
-    ceil(sqrt(n))^2 grid of samples per pixel for the hair, the head keeps n-sample MSAA) or "auto": "compute" on GPUs
-    built for computing with few raster units (NVIDIA H100/H200/H800/A100/A800/GH200/B100/
-    B200), else "hardware". Needs pipeline="compute" and no distance LOD; of the OIT methods the
-    A-buffer, K-buffer, DBK-buffer and ShortCut have compute forms (mane.render.oit.compute),
-    sorted blending and random subsets draw by hardware."""
+    ceil(sqrt(n))^2 grid of samples per pixel for the hair, the head keeps n-sample MSAA unless
+    ``head_msaa`` is off) or "auto": "compute" on GPUs built for computing with few raster units
+    (NVIDIA H100/H200/H800/A100/A800/GH200/B100/B200), else "hardware". Needs
+    pipeline="compute"; of the OIT methods the A-buffer, K-buffer, DBK-buffer and ShortCut have
+    compute forms (mane.render.oit.compute), sorted blending and random subsets draw by
+    hardware."""
     head_msaa: bool = True
     """With the compute rasteriser: draw the head with ``msaa`` samples (its silhouette
     antialiased) or with one. On H100/H200-class GPUs the multisampled clear and resolve cost
