@@ -201,3 +201,27 @@ def test_head_msaa_setting(gl):
             r.release()
     d = np.abs(imgs[True] - imgs[False])
     assert 0 < d.mean() < 3   # edges of the head change, the picture does not
+
+
+def test_shadow_map_by_compute_is_the_head_map_and_the_hair_depths_twin(gl):
+    # shadows="shadow_map": the head drawn by hardware, the hair's nearest light depths by the
+    # compute scan conversion, merged by min; "deep_opacity" keeps the head alone in that map
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    maps = {}
+    for shadows in ("deep_opacity", "shadow_map"):
+        r = _render(gl, groom, head, rasterizer="compute", shadows=shadows, shadow_map_size=128, strands_per_guide=4)
+        try:
+            maps[shadows] = r.get_pass("shadow_map").read()
+            if shadows == "shadow_map":
+                e = r.get_pass("expand").read()
+                lv = r.last_frame.light_view
+                twin = deep_opacity(e, dict(view_proj=lv.view_proj, eye=lv.eye, forward=lv.forward, ortho=lv.ortho,
+                                            pixel_size=lv.pixel_size, min_pixel_width=lv.min_pixel_width,
+                                            size=(128, 128), grid=1), (1.0, 2.0, 3.0), 0.0)
+        finally:
+            r.release()
+    want = np.minimum(maps["deep_opacity"], twin[..., 3])
+    got = maps["shadow_map"]
+    hair = np.isfinite(twin[..., 3]) & (twin[..., 3] < maps["deep_opacity"])
+    assert hair.sum() > 500                         # the hair casts where the head does not
+    assert np.mean(np.abs(got - want) < 1e-4) > 0.995

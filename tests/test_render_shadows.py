@@ -75,9 +75,9 @@ def test_reference_scene_is_not_trivial(scene):
     assert np.abs(1 - T).mean() > 0.3                    # "no shadow" is far off
 
 
-@pytest.mark.parametrize("method", list(TOLERANCE) + ["deep_opacity/compute"])
+@pytest.mark.parametrize("method", list(TOLERANCE) + ["deep_opacity/compute", "shadow_map/compute"])
 def test_transmittance_against_exact_ray_cast(gl, scene, method):
-    # deep_opacity/compute: the maps built by the compute rasteriser (datacentre GPUs' default)
+    # .../compute: the maps built by the compute rasteriser (datacentre GPUs' default)
     method, _, raster = method.partition("/")
     got, r = method_visibility(gl, scene, method, rasterizer=raster or "hardware")
     assert r.compute_raster == (raster == "compute")

@@ -92,25 +92,12 @@ class DeepOpacityPass(Pass):
         z0, layers = self._counters
         z0.bind_to_storage_buffer(Z0_BINDING)
         layers.bind_to_storage_buffer(LAYERS_BINDING)
-        expand = r.get_pass("expand")
-        expand.ensure()
-        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
-        segments = expand.strands * (expand.points - 1)
-        groups = max(1, math.ceil(segments / LOCAL_SIZE))
-        gx = min(groups, MAX_GROUPS_X)
         for dom_pass in (0, 1):
-            cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
-            set_view(cs, frame.light_view)
-            set_uniform(cs, "u_raster_size", (n, n))
-            set_uniform(cs, "u_grid", 1)
-            set_uniform(cs, "u_points_per_strand", int(expand.points))
-            set_uniform(cs, "u_num_segments", int(segments))
-            set_uniform(cs, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
-            set_uniform(cs, "u_strand_opacity", float(r.settings.strand_opacity))
-            cs.run(gx, math.ceil(groups / gx))
-            ctx.memory_barrier()
+            scan_light_depths(r, frame.light_view, n, dom_pass,
+                              layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
+                              strand_opacity=float(r.settings.strand_opacity))
         pack = compute_shader(ctx, HERE / "dom_pack.comp", include_dirs=[RENDER_DIR])
         set_uniform(pack, "u_size", n)
         set_uniform(pack, "u_far", float(FAR))
@@ -127,3 +114,27 @@ class DeepOpacityPass(Pass):
         for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity, *(self._counters or ())):
             o.release()
         self._counters = None
+
+
+def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
+                      strand_opacity: float = 0.0) -> None:
+    """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
+    buffers at Z0_BINDING and, for pass 1, LAYERS_BINDING bound by the caller): pass 0 the
+    nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
+    ctx = renderer.ctx
+    expand = renderer.get_pass("expand")
+    expand.ensure()
+    expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+    segments = expand.strands * (expand.points - 1)
+    groups = max(1, math.ceil(segments / LOCAL_SIZE))
+    gx = min(groups, MAX_GROUPS_X)
+    cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
+    set_view(cs, view)
+    set_uniform(cs, "u_raster_size", (n, n))
+    set_uniform(cs, "u_grid", 1)
+    set_uniform(cs, "u_points_per_strand", int(expand.points))
+    set_uniform(cs, "u_num_segments", int(segments))
+    set_uniform(cs, "u_dom_layers_abs", tuple(float(x) for x in layer_ends))
+    set_uniform(cs, "u_strand_opacity", float(strand_opacity))
+    cs.run(gx, math.ceil(groups / gx))
+    ctx.memory_barrier()

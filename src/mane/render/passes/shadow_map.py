@@ -1,13 +1,22 @@
 """Light 0's shadow map: nearest linear light depth (m) in an R32F texture, read with PCF.
 
 With ``shadows="shadow_map"`` the head and the hair cast; with ``"deep_opacity"`` only the
-head does (the hair's own shadow comes from the opacity layers).
+head does (the hair's own shadow comes from the opacity layers). With the compute rasteriser
+the hair's depths come from a compute scan conversion (deep_opacity.scan_light_depths, the
+deep opacity maps' z0) merged into the head's map (shadow_merge.comp).
 """
 from __future__ import annotations
 
-from ...gpu.glsl import program
-from .base import (HERE, PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair, hair_program,
-                   light_depth_target, read_f32, set_view)
+import math
+
+import numpy as np
+
+from ...gpu.glsl import compute_shader, program
+from .base import (HERE, PASS_SHADOW_DEPTH, RENDER_DIR, Frame, Pass, begin_light_depth, draw_hair, hair_program,
+                   light_depth_target, read_f32, set_uniform, set_view)
+from .deep_opacity import Z0_BINDING, scan_light_depths
+
+SHADOW_IMAGE_UNIT = 1
 
 
 class ShadowMapPass(Pass):
@@ -18,6 +27,7 @@ class ShadowMapPass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(renderer.settings.shadow_map_size))
+        self._z0 = None   # compute path: the hair's depth bits per texel
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.settings.shadows != "none" and frame.light_view is not None
@@ -32,8 +42,24 @@ class ShadowMapPass(Pass):
             set_view(prog, frame.light_view)
             r.draw_head(prog)
         if r.strands is not None and self.hair_casts():
-            draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
+            if r.compute_raster:
+                self._hair_by_compute(frame)
+            else:
+                draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
         frame.targets["shadow_map"] = self.texture
+
+    def _hair_by_compute(self, frame: Frame) -> None:
+        ctx, r = self.ctx, self.renderer
+        n = int(r.settings.shadow_map_size)
+        if self._z0 is None:
+            self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
+        self._z0.bind_to_storage_buffer(Z0_BINDING)
+        scan_light_depths(r, frame.light_view, n, 0)
+        merge = compute_shader(ctx, HERE / "shadow_merge.comp", include_dirs=[RENDER_DIR])
+        set_uniform(merge, "u_size", n)
+        self.texture.bind_to_image(SHADOW_IMAGE_UNIT, read=True, write=True)
+        merge.run(math.ceil(n / 8), math.ceil(n / 8))
+        ctx.memory_barrier()
 
     def hair_casts(self) -> bool:
         """Whether the hair is drawn into this map (else another map carries its shadow)."""
@@ -43,5 +69,6 @@ class ShadowMapPass(Pass):
         return read_f32(self.texture)
 
     def release(self) -> None:
-        for o in (self.fbo, self.texture, self.depth):
+        for o in (self.fbo, self.texture, self.depth, *((self._z0,) if self._z0 is not None else ())):
             o.release()
+        self._z0 = None
