@@ -100,19 +100,31 @@ def twin_kbuffer(f, K, under):
     out = np.zeros((w * h, 4))
     rgba = f["rgba"].astype(np.float64)
     for p, idx in per_pixel_sorted(f).items():
-        C, T = np.zeros(3), 1.0
-        for i in idx[:K]:
-            C += T * rgba[i, :3]
-            T *= 1.0 - rgba[i, 3]
-        rest = idx[K:]
-        if len(rest):
-            a = rgba[rest, 3]
-            tT = np.prod(1.0 - a)
-            if a.sum() > 1e-6:
-                C += T * rgba[rest, :3].sum(0) / a.sum() * (1.0 - tT)
-                T *= tT
+        C, T = _k_plus(rgba, idx, K)
         out[p, :3], out[p, 3] = C, 1.0 - T
     return _over(out, under, w, h)
+
+
+def _k_plus(rgba, idx, K, tail_shaded=True):
+    """(colour, transmittance) of fragments ``idx`` (sorted near to far), premultiplied: the K
+    nearest blended in order, the rest as one layer with their product of transmittances and
+    their alpha-weighted mean colour (tail_shaded False: the K-th nearest's colour)."""
+    C, T = np.zeros(3), 1.0
+    for i in idx[:K]:
+        C += T * rgba[i, :3]
+        T *= 1.0 - rgba[i, 3]
+    rest = idx[K:]
+    if len(rest):
+        a = rgba[rest, 3]
+        tT = np.prod(1.0 - a)
+        if not tail_shaded:
+            last = rgba[idx[K - 1]]
+            C += T * last[:3] / last[3] * (1.0 - tT)
+            T *= tT
+        elif a.sum() > 1e-6:
+            C += T * rgba[rest, :3].sum(0) / a.sum() * (1.0 - tT)
+            T *= tT
+    return C, T
 
 
 def twin_shortcut(f, under):
@@ -142,20 +154,7 @@ def twin_dbk(f, shift, K, under, opaque=False, tail_shaded=True):
         z0 = depth[idx].min()
         inside = depth[idx] <= np.float32(z0) + np.float32(shift)   # the shader's float32 test
         layer, behind = idx[inside], idx[~inside]
-        C, T = np.zeros(3), 1.0
-        for i in layer[:K]:
-            C += T * rgba[i, :3]
-            T *= 1.0 - rgba[i, 3]
-        rest = layer[K:]
-        if len(rest):
-            a = rgba[rest, 3]
-            tT = np.prod(1.0 - a)
-            if tail_shaded:
-                C += T * rgba[rest, :3].sum(0) / a.sum() * (1.0 - tT)
-            else:
-                last = rgba[layer[K - 1]]
-                C += T * last[:3] / last[3] * (1.0 - tT)
-            T *= tT
+        C, T = _k_plus(rgba, layer, K, tail_shaded)
         if len(behind):
             c = rgba[behind[0]]
             rgb = c[:3] / max(c[3], 1e-6)

@@ -54,16 +54,15 @@ import numpy as np
 
 from ...errors import GLFeatureError
 from ...gpu.glsl import compute_shader
-from ..passes.base import RENDER_DIR, SHADOW_IDS, Frame, bind_lighting, set_uniform, set_view
+from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
 from ..passes.expand import EXPANDED_BINDING
+from ..passes.hair_compute import has_atomic64
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
 from .dbk_buffer import AutoShift
 
 COMPUTE_METHODS = ("a_buffer", "k_buffer", "dbk_buffer", "shortcut")
 CM_IDS = {"a_buffer": 1, "k_buffer": 2, "dbk_buffer": 3, "shortcut": 4, "capture": 9}
-LOCAL_SIZE = 128
-MAX_GROUPS_X = 65535
 HDR_IMAGE_UNIT = 0
 SCENE_DEPTH_UNIT = 6
 TAIL_WORDS = 6
@@ -92,12 +91,6 @@ def compute_class(name: str, renderer):
         return None
     return {"a_buffer": ComputeABuffer, "k_buffer": ComputeKBuffer, "dbk_buffer": ComputeDBKBuffer,
             "shortcut": ComputeShortCut}.get(name)
-
-
-def has_atomic64(ctx) -> bool:
-    from ..passes.hair_compute import has_atomic64 as have
-
-    return have(ctx)
 
 
 def depth_constants(view) -> tuple[float, float, float]:
@@ -153,7 +146,7 @@ class ComputeOit(OitMethod):
              "OIT_SHADING": int(shading), "OIT_TAIL_SHADED": int(getattr(self, "tail_shaded", True))}
         if shading:
             d.update(self.r.shading.defines())
-            d["SHADOWS"] = SHADOW_IDS[self.settings.shadows]
+            d.update(shadow_defines(self.settings))
         d.update(extra)
         return d
 
@@ -180,19 +173,13 @@ class ComputeOit(OitMethod):
             defines["OIT_CM"] = int(cm)
         cs = compute_shader(ctx, HERE / "oit_raster.comp", defines, include_dirs=[HERE, RENDER_DIR])
         self._common(cs, frame, shading)
-        expand = r.get_pass("expand")
-        segments = int(expand.strands * (expand.points - 1))
-        set_uniform(cs, "u_num_segments", segments)
         for k, v in uniforms.items():
             set_uniform(cs, k, v)
         _, depth = r.hdr_textures()
         depth.use(SCENE_DEPTH_UNIT)
         set_uniform(cs, "u_scene_depth", SCENE_DEPTH_UNIT)
-        if segments > 0:
-            groups = math.ceil(segments / LOCAL_SIZE)
-            gx = min(groups, MAX_GROUPS_X)
-            with self.section(f"raster{int(pass_id)}"):
-                cs.run(gx, math.ceil(groups / gx))
+        with self.section(f"raster{int(pass_id)}"):
+            r.get_pass("expand").dispatch_segments(cs)
         ctx.memory_barrier()
 
     def resolve_pass(self, frame: Frame, measure_only: bool = False, **uniforms) -> None:

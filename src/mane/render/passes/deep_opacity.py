@@ -20,10 +20,8 @@ import math
 from ...gpu.glsl import compute_shader, program
 from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, Pass, begin_light_depth,
                    draw_hair, hair_program, light_depth_target, read_f32, set_uniform, set_view)
-from .expand import EXPANDED_BINDING
 
 Z0_BINDING, LAYERS_BINDING, DOM_IMAGE_UNIT = 11, 12, 1
-LOCAL_SIZE, MAX_GROUPS_X = 128, 65535
 
 
 class DeepOpacityPass(Pass):
@@ -122,19 +120,11 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     buffers at Z0_BINDING and, for pass 1, LAYERS_BINDING bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
-    expand = renderer.get_pass("expand")
-    expand.ensure()
-    expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
-    segments = expand.strands * (expand.points - 1)
-    groups = max(1, math.ceil(segments / LOCAL_SIZE))
-    gx = min(groups, MAX_GROUPS_X)
     cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
     set_view(cs, view)
     set_uniform(cs, "u_raster_size", (n, n))
     set_uniform(cs, "u_grid", 1)
-    set_uniform(cs, "u_points_per_strand", int(expand.points))
-    set_uniform(cs, "u_num_segments", int(segments))
     set_uniform(cs, "u_dom_layers_abs", tuple(float(x) for x in layer_ends))
     set_uniform(cs, "u_strand_opacity", float(strand_opacity))
-    cs.run(gx, math.ceil(groups / gx))
+    renderer.get_pass("expand").dispatch_segments(cs)
     ctx.memory_barrier()

@@ -80,11 +80,24 @@ class ExpandPass(Pass):
         _set(cs, "u_num_strands", strands)
         st.bind()
         self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
-        groups = math.ceil(strands * points / LOCAL_SIZE)
-        gx = min(groups, MAX_GROUPS_X)
-        cs.run(max(gx, 1), max(1, math.ceil(groups / MAX_GROUPS_X)))
+        run_1d(cs, strands * points)
         ctx.memory_barrier()
         self.points, self.strands, self._key = points, strands, key
+
+    @property
+    def segments(self) -> int:
+        """Segments of the expanded strands (points - 1 a strand)."""
+        return self.strands * max(self.points - 1, 0)
+
+    def dispatch_segments(self, cs) -> None:
+        """Run compute shader ``cs`` (local_size_x = LOCAL_SIZE) with one invocation per expanded
+        segment: the buffer at EXPANDED_BINDING, u_points_per_strand and u_num_segments set (the
+        compute rasteriser's scan conversions)."""
+        self.ensure()
+        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        _set(cs, "u_points_per_strand", int(self.points))
+        _set(cs, "u_num_segments", int(self.segments))
+        run_1d(cs, self.segments)
 
     def read(self) -> np.ndarray:
         """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random."""
@@ -110,6 +123,16 @@ class ExpandPass(Pass):
             self.buffer.release()
             self.buffer = None
         self._key = None
+
+
+def run_1d(cs, n: int) -> None:
+    """Dispatch ``cs`` (local_size_x = LOCAL_SIZE) over n invocations, x then y groups (the
+    shader flattens gl_WorkGroupID); nothing for n = 0."""
+    groups = math.ceil(int(n) / LOCAL_SIZE)
+    if groups <= 0:
+        return
+    gx = min(groups, MAX_GROUPS_X)
+    cs.run(gx, math.ceil(groups / gx))
 
 
 def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:

@@ -32,8 +32,6 @@ from ...gpu.glsl import compute_shader
 from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 from .expand import EXPANDED_BINDING
 
-LOCAL_SIZE = 128
-MAX_GROUPS_X = 65535
 VIS_BINDING, VIS_ID_BINDING, COVER_BINDING = 8, 9, 10
 STATS_BINDING, STATS_SLOTS = 11, 64    # hair_raster.comp's RASTER_STATS counters
 HDR_IMAGE_UNIT = 0
@@ -57,10 +55,10 @@ def wants_compute(settings, renderer_string: str) -> bool:
 
 
 def has_atomic64(ctx) -> bool:
+    """64-bit integer atomics on shader storage (GL_NV_shader_atomic_int64 + 64-bit ints)."""
     from ...gpu.capabilities import get_capabilities
 
-    f = get_capabilities(ctx).features.get("kbuffer_int64")
-    return bool(f is not None and f.available)
+    return get_capabilities(ctx).available("kbuffer_int64")
 
 
 class HairComputePass(Pass):
@@ -119,11 +117,9 @@ class HairComputePass(Pass):
         self._ensure_buffers()
         for binding, buf in self._buffers:
             buf.bind_to_storage_buffer(binding)
-        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
         color, depth = r.hdr_textures()
         grid = r.raster_grid
         size = self.sample_size()
-        segments = expand.strands * (expand.points - 1)
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
         raster_defines = {**defines, "RASTER_STATS": 1} if stats is not None else defines
@@ -134,10 +130,7 @@ class HairComputePass(Pass):
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(SCENE_DEPTH_UNIT)
                 set_uniform(cs, "u_scene_depth", SCENE_DEPTH_UNIT)
-                set_uniform(cs, "u_num_segments", int(segments))
-                groups = max(1, math.ceil(segments / LOCAL_SIZE))
-                gx = min(groups, MAX_GROUPS_X)
-                cs.run(gx, math.ceil(groups / gx))
+                expand.dispatch_segments(cs)
                 ctx.memory_barrier()
         if stats is not None:
             self.raster_stats = self._read_stats(stats)
@@ -148,6 +141,7 @@ class HairComputePass(Pass):
                                                                 **shadow_defines(r.settings)},
                                 include_dirs=[RENDER_DIR])
             self._set_common(cs, frame, size, grid, expand.points)
+            expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
             r.shading.bind(cs, ctx, r.settings)
             bind_lighting(r, cs, frame)
             color.bind_to_image(HDR_IMAGE_UNIT, read=True, write=True)
