@@ -197,12 +197,10 @@ class Bench(BenchRows):
     def methods(self) -> None:
         # the rasteriser "auto" picks on this GPU first, so that a time budget spent on the other
         # (the raster units of an H200 take ~100 ms a frame here) leaves its sweep whole
-        from ..gpu.context import renderer_name
-        from ..render.passes.hair_compute import wants_compute
-        from ..render.settings import RenderSettings
+        from ..render.passes.hair_compute import auto_rasterizer
 
         variants = self.variants()
-        auto = "compute" if wants_compute(RenderSettings(), renderer_name(self.ctx)) else "hardware"
+        auto = auto_rasterizer(self.ctx)
         for ras in sorted({e["rasterizer"] for _, e in variants}, key=lambda x: x != auto):
             for size in self.cfg["sizes"]:
                 for groom_kind in self.cfg["grooms"]:

@@ -540,8 +540,11 @@ class Bench(BenchRows):
 
     # ------------------------------------------------------------------ sections
     def target(self) -> None:
+        from ..render.passes.hair_compute import auto_rasterizer
+
         c = self.cfg["target"]
         guides = int(c["guides"])
+        auto = auto_rasterizer(self.ctx)
         settings = dict(size=tuple(c["size"]), segments=TARGET_SEGMENTS, strands_per_guide=TARGET_SPG,
                         shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512,
                         dom_layers=(0.05, 0.15, 1.0), msaa=4, supersample=1, geometry="ribbons")
@@ -549,25 +552,18 @@ class Bench(BenchRows):
         self.measure("target", name, guides=guides, points=TARGET_POINTS, settings=settings,
                      required=("shading", "shadows", "shadow_map_size", "msaa", "strands_per_guide", "segments"),
                      budget_scale=5.0, shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512,
-                     msaa=4, dom_layers=3, rasterizer=self._auto_rasterizer(), raster_stats=True)
+                     msaa=4, dom_layers=3, rasterizer=auto, raster_stats=True)
         # the same frame with the other rasteriser ("auto" picked one for this GPU)
-        other = "hardware" if self._auto_rasterizer() == "compute" else "compute"
+        other = "hardware" if auto == "compute" else "compute"
         self.measure("target_rasterizer", f"{name} {other} rasteriser", guides=guides, points=TARGET_POINTS,
                      settings={**settings, "rasterizer": other}, required=("rasterizer",), budget_scale=5.0,
                      shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512, msaa=4, dom_layers=3,
                      rasterizer=other, raster_stats=True)
-        if self._auto_rasterizer() == "compute":   # the head with one sample, the hair with four
+        if auto == "compute":   # the head with one sample, the hair with four
             self.measure("target_rasterizer", f"{name} compute rasteriser, head 1 sample", guides=guides,
                          points=TARGET_POINTS, settings={**settings, "head_msaa": False}, required=("head_msaa",),
                          budget_scale=5.0, shading="marschner_lut", shadows="deep_opacity", shadow_map_size=512,
                          msaa=4, dom_layers=3, rasterizer="compute")
-
-    def _auto_rasterizer(self) -> str:
-        from ..gpu.context import renderer_name
-        from ..render.passes.hair_compute import wants_compute
-        from ..render.settings import RenderSettings
-
-        return "compute" if wants_compute(RenderSettings(), renderer_name(self.ctx)) else "hardware"
 
     def _hunz_base(self, strands: int) -> tuple[int, dict]:
         spg = 16

@@ -54,6 +54,13 @@ def wants_compute(settings, renderer_string: str) -> bool:
     return r == "compute"
 
 
+def auto_rasterizer(ctx) -> str:
+    """What rasterizer="auto" picks on ``ctx``'s GPU: "compute" or "hardware"."""
+    from ...gpu.context import renderer_name
+
+    return "compute" if FEW_RASTER_UNITS.search(renderer_name(ctx) or "") else "hardware"
+
+
 def has_atomic64(ctx) -> bool:
     """64-bit integer atomics on shader storage (GL_NV_shader_atomic_int64 + 64-bit ints)."""
     from ...gpu.capabilities import get_capabilities
