@@ -205,8 +205,8 @@ def test_lod_expansion_matches_the_numpy_lod_twin(gl, distance):
         alpha = np.asarray(alpha).reshape(-1)
         for j in range(spg):
             pts = e[gi * spg + j]
-            w_want = s.width * (1.0 + (s.width_tip - 1.0) * np.linspace(0, 1, 1)) * f["width"] * alpha[j]
-            np.testing.assert_allclose(pts[0, 3], w_want[0], rtol=1e-4, atol=1e-9)
+            # at the root: the root width x the LOD width multiplier x the strand's LOD alpha
+            np.testing.assert_allclose(pts[0, 3], s.width * f["width"] * alpha[j], rtol=1e-4, atol=1e-9)
             if alpha[j] == 0:
                 assert np.all(pts[:, 3] == 0)
                 continue
