@@ -70,6 +70,22 @@ def get_context(require: int = MIN_GL_VERSION):
         return _headless
 
 
+def window_closed(window_ctx) -> None:
+    """A window whose context ``get_context`` may have handed out has closed: forget that context
+    (moderngl keeps it as its default, and ``get_context`` would hand out a dead context) and make
+    the shared headless context current again if there is one."""
+    import moderngl
+
+    store = getattr(moderngl, "_store", None)   # moderngl 5.x keeps its default context here
+    if store is not None and getattr(store, "default_context", None) is window_ctx:
+        store.default_context = None
+    if _headless is not None:
+        try:
+            _headless.__enter__()
+        except Exception:   # a context that cannot be made current: the next use says why
+            pass
+
+
 def renderer_name(ctx) -> str:
     return str(ctx.info.get("GL_RENDERER", "unknown"))
 

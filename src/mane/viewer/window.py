@@ -1010,25 +1010,9 @@ class Viewer:
             self.wnd.destroy()
         except Exception:
             pass
-        # moderngl's default context was the window's: forget it, or mane.gpu.get_context would
-        # hand out the dead window's context ("cannot create buffer") instead of a headless one
-        try:
-            import moderngl
+        from ..gpu.context import window_closed
 
-            store = getattr(moderngl, "_store", None)
-            if store is not None and getattr(store, "default_context", None) is self.ctx:
-                store.default_context = None
-        except Exception:
-            pass
-        # a headless context made before the window (mane.gpu.get_context) is current again
-        from ..gpu import context as gpu_context
-
-        headless = getattr(gpu_context, "_headless", None)
-        if headless is not None:
-            try:
-                headless.__enter__()
-            except Exception:
-                pass
+        window_closed(self.ctx)   # later headless rendering gets a live context
 
     def __enter__(self):
         return self
