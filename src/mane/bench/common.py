@@ -105,6 +105,20 @@ class BenchRows:
     traceback_limit = 4
     reason_limit: int | None = None    # longer error reasons are cut, with " ..."
 
+    def _start(self, ctx, mode: str, modes: dict, progress=None, *, profiler_source: str | None = None,
+               history: int = 1_000_000) -> None:
+        """What every benchmark sets first: ctx, mode (one of ``modes``), progress, a GPU profiler
+        (``profiler_source`` None: timer queries on GPUs, the CPU on llvmpipe), rows, started."""
+        from ..gpu.profiler import GpuProfiler
+
+        if mode not in modes:
+            raise ValueError(f"unknown mode {mode!r}; one of {', '.join(modes)}")
+        self.ctx, self.mode = ctx, mode
+        self.progress = progress or (lambda msg: None)
+        self.prof = GpuProfiler(ctx, history=history, pool_size=64, source=profiler_source)
+        self.rows: list[dict] = []
+        self.started = time.perf_counter()
+
     def _log(self, msg: str) -> None:
         self.progress(f"[{time.perf_counter() - self.started:7.1f} s] {msg}")
 

@@ -73,19 +73,11 @@ class Bench(BenchRows):
 
     def __init__(self, ctx, mode: str = "default", progress=None, *, profiler_source: str | None = None):
         from ..gpu.capabilities import get_capabilities
-        from ..gpu.profiler import GpuProfiler
 
-        if mode not in MODE_CONFIG:
-            raise ValueError(f"unknown mode {mode!r}; one of {', '.join(MODE_CONFIG)}")
-        self.ctx = ctx
-        self.mode = mode
+        self._start(ctx, mode, MODE_CONFIG, progress, profiler_source=profiler_source, history=100_000)
         self.software = bool(get_capabilities(ctx).is_software)
         self.kind = "software" if self.software else "gpu"
         self.cfg = dict(MODE_CONFIG[mode][self.kind])
-        self.progress = progress or (lambda msg: None)
-        self.prof = GpuProfiler(ctx, history=100_000, pool_size=64, source=profiler_source)
-        self.rows: list[dict] = []
-        self.started = time.perf_counter()
 
     # ------------------------------------------------------------------ timing
     def _time(self, key: str, fn) -> dict:

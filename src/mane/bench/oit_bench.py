@@ -104,15 +104,8 @@ def _method_variants(ctx, rasterizers=("hardware",)) -> list[tuple[str, dict]]:
 
 class Bench(BenchRows):
     def __init__(self, ctx, mode: str = "default", progress=None):
-        from ..gpu.profiler import GpuProfiler
-
-        if mode not in MODE_CONFIG:
-            raise ValueError(f"unknown mode {mode!r}; one of {', '.join(MODE_CONFIG)}")
-        self.ctx, self.mode, self.cfg = ctx, mode, MODE_CONFIG[mode]
-        self.progress = progress or (lambda msg: None)
-        self.prof = GpuProfiler(ctx, history=100_000, pool_size=64)
-        self.rows: list[dict] = []
-        self.started = time.perf_counter()
+        self._start(ctx, mode, MODE_CONFIG, progress, history=100_000)
+        self.cfg = MODE_CONFIG[mode]
         self._groom = None
         self._head = None
 

@@ -339,21 +339,12 @@ class Bench(BenchRows):
     reason_limit = 400
 
     def __init__(self, ctx, mode: str = "default", progress=None, *, profiler_source: str | None = None):
-        from ..gpu.profiler import GpuProfiler
-
-        if mode not in MODE_CONFIG:
-            raise ValueError(f"unknown mode {mode!r}; one of {', '.join(MODE_CONFIG)}")
-        self.ctx = ctx
-        self.mode = mode
+        self._start(ctx, mode, MODE_CONFIG, progress, profiler_source=profiler_source)
         self.cfg = MODE_CONFIG[mode]
-        self.progress = progress or (lambda msg: None)
-        self.profiler_source = profiler_source    # None: GPU timer queries on GPUs, the CPU on llvmpipe
-        self.prof = GpuProfiler(ctx, history=1_000_000, pool_size=64, source=profiler_source)
+        self.profiler_source = profiler_source
         self._preload: GpuPreload | None = None
         self.preload_note: str | None = None
         self._preload_rate: float | None = None
-        self.rows: list[dict] = []
-        self.started = time.perf_counter()
         self.work = Workloads(self._log)
         self.pass_source = None
         self.pass_source_reason = None

@@ -186,18 +186,9 @@ class Bench(BenchRows):
     """Runs the sections of one mode and collects rows."""
 
     def __init__(self, ctx, mode: str = "default", progress=None):
-        from ..gpu.profiler import GpuProfiler
-
-        if mode not in MODE_CONFIG:
-            raise ValueError(f"unknown mode {mode!r}")
-        self.ctx = ctx
-        self.mode = mode
+        self._start(ctx, mode, MODE_CONFIG, progress)
         self.cfg = MODE_CONFIG[mode]
-        self.progress = progress or (lambda msg: None)
-        self.prof = GpuProfiler(ctx, history=1_000_000, pool_size=64)
-        self.rows: list[dict] = []
         self.pass_names_seen: set[str] = set()
-        self.started = time.perf_counter()
 
     # ---- helpers (_log, _row, _guard: BenchRows)
     def _simulator(self, S: int, N: int, colliders, settings):
