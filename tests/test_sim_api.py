@@ -177,8 +177,9 @@ def test_haircut_shortens_strands(gl, rest):
 
 # ---------------------------------------------------------------------- robustness
 @pytest.mark.parametrize("where", ["positions", "velocities", "prev_positions"])
-def test_nan_injection_is_recovered(gl, rest, where):
-    settings = SimSettings(length_method="pbd", local_shape_stiffness=0.1)
+@pytest.mark.parametrize("method", ["pbd", "dftl"])   # the guard's own pass; the fused solve's
+def test_nan_injection_is_recovered(gl, rest, where, method):
+    settings = SimSettings(length_method=method, local_shape_stiffness=0.1)
     sim = Simulator(groom_of(rest), settings=settings, ctx=gl)
     clean = Simulator(groom_of(rest), settings=settings, ctx=gl)
     for _ in range(5):
@@ -322,7 +323,8 @@ def test_profiling_reports_pass_times(gl, rest):
         sim.step()
     times = sim.pass_times()
     folded = sim.folded_passes()  # their work is timed under the pass that does it
-    assert folded == {"shape": "length", "collide": "length", "sdf": "length", "velocity": "length"}
+    assert folded == {"shape": "length", "collide": "length", "sdf": "length", "velocity": "length",
+                      "guard": "length"}
     for name in ("integrate", "shape", "length", "collide", "velocity", "guard"):
         assert (name in times and times[name] >= 0) != (name in folded)
     sim.settings = replace(sim.settings, fused_strand_solve=False)
@@ -330,7 +332,7 @@ def test_profiling_reports_pass_times(gl, rest):
         sim.step()
     times = sim.pass_times()
     assert set(sim.folded_passes()) == {"collide", "sdf"}
-    for name in ("shape", "velocity"):
+    for name in ("shape", "velocity", "guard"):
         assert times[name] >= 0
 
 
@@ -377,35 +379,82 @@ def test_cli_simulate(tmp_path, rest):
     assert main(["simulate", str(src), "--out", str(tmp_path / "x.abc")]) == 2
 
 
-@pytest.mark.parametrize("method", ["atomic", "raster"])
-def test_friction_gather_folded_into_guard(gl, rest, method):
-    """substep does friction's gather in the guard's kernel (Simulator.fold_gather) and the
-    grid box's reduction in the length pass's kernel (fold_bounds): the same steps as the
-    gather pass then the guard and the bounds pass, and a strand the friction pass corrupts
-    (NaN spread through the grid) is still caught."""
-    settings = SimSettings(friction=0.3, grid_resolution=16, grid_method=method, local_shape_stiffness=0.1)
-    sims = [Simulator(groom_of(rest), [Sphere(center=(0, 0.9, 0.1), radius=0.03)], settings=settings, ctx=gl)
-            for _ in range(2)]
-    sims[1].fold_gather = sims[1].fold_bounds = False
-    assert sims[0]._gather_in_guard() and not sims[1]._gather_in_guard()
-    assert sims[0]._bounds_in_length() and not sims[1]._bounds_in_length()
-    for j in range(6):
+def _shaken(sims, steps, start=0):
+    for j in range(start, start + steps):
         for sim in sims:
             sim.set_head_transform(head_motion.shake(j / 30, pivot=(0, 0.9, 0)))
             sim.step()
-        if j == 0:  # the same positions so far: the same box, bit for bit
-            boxes = [np.concatenate(sim._grid.own_bounds.read()) for sim in sims]
-            assert np.array_equal(*boxes) and np.all(boxes[0][3:] > boxes[0][:3])
+
+
+@pytest.mark.parametrize("method", ["atomic", "raster"])
+def test_folds_match_the_separate_passes(gl, rest, method):
+    """substep's folds (Simulator.fold_gather: friction's gather deferred to the next step's
+    integrate; fold_bounds: the grid box's reduction in the length pass; fold_guard: the NaN
+    guard in the length pass) give the steps of the passes run one after the other, whether the
+    deferred gather is applied by the next integrate or settled by reading the velocities."""
+    settings = SimSettings(friction=0.3, grid_resolution=16, grid_method=method, local_shape_stiffness=0.1)
+    sims = [Simulator(groom_of(rest), [Sphere(center=(0, 0.9, 0.1), radius=0.03)], settings=settings, ctx=gl)
+            for _ in range(2)]
     a, b = sims
-    scale = float(np.abs(b.velocities()).max())
-    assert np.allclose(a.positions(), b.positions(), rtol=0, atol=1e-6)
-    assert np.allclose(a.velocities(), b.velocities(), rtol=0, atol=1e-5 * scale)
-    for sim in sims:
-        data = sim.state.read("velocities")
-        data[2 * 16 + 7, :3] = np.nan
-        sim.state.write("velocities", data)
-        sim.step()
-        assert sim.nan_recoveries >= 1
-        assert np.all(np.isfinite(sim.positions())) and np.all(np.isfinite(sim.velocities()))
-    assert a.nan_recoveries == b.nan_recoveries
-    assert np.allclose(a.positions(), b.positions(), rtol=0, atol=1e-6)
+    b.fold_gather = b.fold_bounds = b.fold_guard = False
+    assert a._defer_gather() and a._bounds_in_length() and a._guard_in_length()
+    assert not (b._defer_gather() or b._bounds_in_length() or b._guard_in_length())
+    assert a.folded_passes()["guard"] == "length" and "guard" not in b.folded_passes()
+    _shaken(sims, 1)
+    boxes = [np.concatenate(sim._grid.own_bounds.read()) for sim in sims]  # the same box, bit for bit
+    assert np.array_equal(*boxes) and np.all(boxes[0][3:] > boxes[0][:3])
+    assert a.state.pending_friction == pytest.approx(0.3) and b.state.pending_friction is None
+    _shaken(sims, 5, 1)   # each step's integrate applies the last one's gather
+    for start in (6, 9):
+        scale = float(np.abs(b.velocities()).max())
+        assert np.allclose(a.positions(), b.positions(), rtol=0, atol=1e-6)
+        assert np.allclose(a.velocities(), b.velocities(), rtol=0, atol=1e-5 * scale)
+        assert a.state.pending_friction is None   # reading settled it
+        _shaken(sims, 3, start)   # after a settled gather the next integrate has none to apply
+
+
+def test_deferred_gather_with_two_states(gl, rest):
+    """One simulator stepping two states in turn (one friction grid) gives each the steps of a
+    simulator of its own: a state's deferred gather runs before the other's splat overwrites
+    the grid; a new grid resolution settles it first too."""
+    settings = SimSettings(friction=0.3, grid_resolution=16, local_shape_stiffness=0.1)
+    sphere = [Sphere(center=(0, 0.9, 0.1), radius=0.03)]
+    shared = Simulator(groom_of(rest), sphere, settings=settings, ctx=gl)
+    other = shared.new_state()
+    alone = [Simulator(groom_of(rest), sphere, settings=settings, ctx=gl) for _ in range(2)]
+    for j in range(6):
+        if j == 3:
+            for sim in (shared, *alone):
+                sim.settings = replace(settings, grid_resolution=20)
+        for k, st in enumerate((shared.state, other)):
+            head = head_motion.shake((j + 2 * k) / 30, pivot=(0, 0.9, 0))
+            shared.set_head_transform(head, state=st)
+            shared.step(state=st)
+            alone[k].set_head_transform(head)
+            alone[k].step()
+    for st, sim in zip((shared.state, other), alone):
+        assert np.allclose(st.positions(), sim.positions(), rtol=0, atol=1e-6)
+        assert np.allclose(st.velocities(), sim.velocities(), rtol=0, atol=1e-6)
+
+
+def test_folded_guard_recovers_before_the_grid_sees_nan(gl, rest):
+    """The length pass's guard (fold_guard) resets a strand made NaN before the friction grid is
+    splatted, so no NaN spreads to its neighbours: exactly one recovery, the strand's free
+    particles back at their start-of-step positions, every other strand as in a clean run."""
+    settings = SimSettings(friction=0.3, grid_resolution=16, local_shape_stiffness=0.1)
+    sims = [Simulator(groom_of(rest), settings=settings, ctx=gl) for _ in range(2)]
+    _shaken(sims, 4)
+    sim, clean = sims
+    before = padded(sim)
+    data = sim.state.read("velocities")
+    data[2 * 16 + 7, :3] = np.nan
+    sim.state.write("velocities", data)
+    clean.velocities()   # settle its gather too: the same arithmetic as the one written back
+    _shaken(sims, 1, 4)
+    assert sim.nan_recoveries == 1
+    p = padded(sim)
+    assert np.array_equal(p[2, 1:], before[2, 1:])   # its root follows the head
+    assert np.allclose(p[2, 0], padded(clean)[2, 0], rtol=0, atol=1e-6)
+    others = [0, 1, 3, 4, 5]
+    assert np.allclose(p[others], padded(clean)[others], rtol=0, atol=1e-6)
+    assert np.all(np.isfinite(sim.velocities()))

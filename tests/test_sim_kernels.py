@@ -389,7 +389,7 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
         put(sim, name, arr)
     st.time = 0.4
     assert sim.folded_passes() == {"collide": "length", "sdf": "length", "shape": "length", "velocity": "length",
-                                   "integrate": "length"}
+                                   "integrate": "length", "guard": "length"}
     assert sim.run_pass("length", st, h)
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
     pred, start = ref.integrate(x, prev, v, rest, w, HEAD_SMALL, h, settings, cols[:3], 0.4)

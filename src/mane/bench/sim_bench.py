@@ -639,7 +639,7 @@ class Bench(BenchRows):
 
 def solver_config(sim) -> dict:
     """The simulator's kernel choices (class-level switches) that a row was measured with."""
-    names = ("strand_group_size", "shape_pipeline", "fold_integrate", "fold_gather", "fold_bounds",
+    names = ("strand_group_size", "shape_pipeline", "fold_integrate", "fold_gather", "fold_guard", "fold_bounds",
              "strand_defines", "grid_options")
     out = {n: getattr(sim, n) for n in names if hasattr(sim, n)}
     return {k: (dict(v) if isinstance(v, dict) else v) for k, v in out.items()}

@@ -7,6 +7,7 @@ layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = 1) buffer Velocities { vec4 velocities[]; };
 layout(std430, binding = 3) readonly buffer Grid { vec4 grid[]; };
 #include "grid_nodes.glsl"
+#include "grid_velocity.glsl"
 
 uniform uint num_particles;
 uniform float friction;
@@ -16,12 +17,6 @@ void main() {
     if (i >= num_particles) return;
     vec4 p = positions[i];
     if (p.w == 0.0) return;
-    NodeStencil s = node_stencil(p.xyz);
-    vec3 vg = vec3(0.0);
-    for (int c = 0; c < 8; ++c) {
-        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-        vg += corner_weight(s.frac, corner) * grid[node_index(s.base + corner)].xyz;
-    }
     vec4 v = velocities[i];
-    velocities[i] = vec4(mix(v.xyz, vg, friction), v.w);
+    velocities[i] = vec4(mix(v.xyz, grid_velocity(p.xyz), friction), v.w);
 }

@@ -7,9 +7,21 @@
 //                    x' += global_stiffness * (head * rest - x')   for k / (N-1) <= range
 // prev_positions takes x first, but only where x is finite: after NaN it keeps the
 // last valid position for the guard.
+// GATHER (0/1): first the previous step's grid friction gather, v <- (1 - f) v + f V(x) for
+// free particles (grid_gather.comp, with the grid its splat left at GRID_BINDING and the box
+// at BOUNDS_BINDING): the simulator defers it here to save a pass over the particles.
 #include "sim_common.glsl"
 #include "collide.glsl"
 #include "wind.glsl"
+#ifndef GATHER
+#define GATHER 0
+#endif
+#if GATHER
+layout(std430, binding = GRID_BINDING) readonly buffer Grid { vec4 grid[]; };
+#include "grid_nodes.glsl"
+#include "grid_velocity.glsl"
+uniform float friction;
+#endif
 
 #ifndef PENALTY
 #define PENALTY 1  // penalty-mode colliders exist (the simulator sets 0 when none do)
@@ -42,6 +54,9 @@ void main() {
         return;
     }
     vec3 v = velocities[i].xyz;
+#if GATHER
+    v = mix(v, grid_velocity(x.xyz), friction);
+#endif
     vec3 a = gravity;
     if (drag > 0.0) {
         vec3 w = vec3(0.0);

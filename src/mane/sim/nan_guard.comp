@@ -7,20 +7,7 @@
 // One thread per particle, SPG whole strands per work group (GROUP_SIZE = SPG * NV, both
 // injected by the simulator): the particles' verdicts meet in shared memory, so the reads
 // are coalesced and a strand's particles are tested side by side.
-// GATHER (0/1): grid friction's gather (grid_gather.comp: v <- (1 - f) v + f V(x) for free
-// particles, V the grid's trilinear velocity) is done here first, on the velocity the guard
-// then tests and writes back: the same result as the gather pass followed by the guard,
-// without the gather's own pass over the positions and velocities. The grid is bound at
-// GRID_BINDING, its box at BOUNDS_BINDING (not binding 7: root_frames here).
 #include "sim_common.glsl"
-#ifndef GATHER
-#define GATHER 0
-#endif
-#if GATHER
-layout(std430, binding = GRID_BINDING) readonly buffer Grid { vec4 grid[]; };
-#include "grid_nodes.glsl"
-uniform float friction;
-#endif
 
 layout(local_size_x = GROUP_SIZE) in;
 
@@ -47,22 +34,8 @@ void main() {
     if (live) {
         reach = max_stretch * rest_info[i].y + 0.01;
         vec3 root = positions[base].xyz;
-        vec4 xw = positions[i];
-        vec3 x = xw.xyz;
-        vec4 vw = velocities[i];
-        vec3 v = vw.xyz;
-#if GATHER
-        if (xw.w != 0.0) {
-            NodeStencil st = node_stencil(x);
-            vec3 vg = vec3(0.0);
-            for (int c = 0; c < 8; ++c) {
-                ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
-                vg += corner_weight(st.frac, corner) * grid[node_index(st.base + corner)].xyz;
-            }
-            v = mix(v, vg, friction);
-            velocities[i] = vec4(v, vw.w);  // a strand reset below overwrites it
-        }
-#endif
+        vec3 x = positions[i].xyz;
+        vec3 v = velocities[i].xyz;
         bool ok = finite3(x) && finite3(v) && finite3(root) && length(v) <= max_speed_abs
                   && length(x - root) <= reach;
         if (!ok) atomicOr(bad[ls], 1u);

@@ -30,12 +30,21 @@ with DFTL and ``settings.fused_strand_solve`` (the default) also ``shape`` and `
 (``strand_solve.comp``) streams each strand once per step through shape, DFTL, collisions
 and the velocity update. ``substep`` also moves two stages of the friction pass into
 neighbouring kernels (``fold_bounds``: the grid box's reduction into the length pass;
-``fold_gather``: the gather into the guard's kernel). ``run_pass`` still runs a folded
-pass's own kernel on its own (tests, diagnostics).
+``fold_gather``: the gather into the next step's integrate pass, see below), and with the
+fused solve the guard's tests and recoveries into the length pass (``fold_guard``).
+``run_pass`` still runs a folded pass's own kernel on its own (tests, diagnostics).
+
+A deferred gather: the velocities a step leaves in the GPU buffer lack its friction
+gather (v <- (1 - f) v + f V(x)) until the next step's integrate pass applies it with the
+grid and positions the step left (the same arithmetic, one pass over the particles less).
+Reading the velocities on the CPU (``SimState.read``, ``state.velocities()``,
+``snapshot``), writing any state buffer, ``run_pass`` and another state's friction pass
+run the gather first (``SimState.settle``); positions are always final.
 
 The simulator keeps no dynamic state of its own: everything that changes from step to
 step lives in its ``SimState`` (``sim.state``), and every method takes ``state=`` to
-step another one. It does cache GPU programs and the helper passes' grids.
+step another one. It does cache GPU programs and the helper passes' grids (and which state
+has a gather deferred onto its grid).
 """
 from __future__ import annotations
 
@@ -64,8 +73,8 @@ MAX_SWEEP_SDFS = 4
 """mesh colliders handled inside the length pass's sweeps (texture units 5..8); more go
 to the sdf pass after it."""
 SDF_UNIT0 = 5
-GUARD_GRID_BINDING = 10    # the guard with friction's gather: the grid and its box
-GUARD_BOUNDS_BINDING = 11
+GATHER_GRID_BINDING = 10   # integrate with a deferred friction gather: the grid and its box
+GATHER_BOUNDS_BINDING = 11
 AUX_BOUNDS_BINDING = 11    # the length pass reducing into the friction grid's box
 
 
@@ -147,6 +156,7 @@ class Simulator:
         self._grid_key = None
         self._flip = None
         self._flip_key = None
+        self._deferred: SimState | None = None   # the state whose gather waits on self._grid
         self.profile = bool(profile)
         self._timer = _Timer()
         self._profiler = None
@@ -267,22 +277,24 @@ class Simulator:
         st.head = np.asarray(head, dtype=np.float64)
         self.upload_colliders(st)
         folded = self.folded_passes()
-        gather_in_guard = self._gather_in_guard()
+        defer_gather = self._defer_gather()
         bounds_in_length = self._bounds_in_length()
+        if self.settings.friction > 0:
+            self._friction_grid()   # a new grid settles a gather deferred onto the old one first
         # the state's buffers are bound once; the passes that bind others (friction, volume, sdf)
         # bind them again when they are done
         self._bind(st)
         for name in PASSES:
             if name in folded:
                 continue
-            if bounds_in_length and name == "length":
-                self._pass_length(st, h, bounds=True)
-            elif (gather_in_guard or bounds_in_length) and name == "friction":
-                self._pass_friction(st, h, gather=not gather_in_guard, reduced=bounds_in_length)
-            elif gather_in_guard and name == "guard":
-                self._pass_guard(st, h, gather=True)
+            if name == "length":
+                self._pass_length(st, h, bounds=bounds_in_length)
+            elif name == "friction":
+                self._pass_friction(st, h, gather=not defer_gather, reduced=bounds_in_length)
             else:
                 getattr(self, f"_pass_{name}")(st, h)
+        if self.barrier_bits != 0xFFFFFFFF:
+            self.ctx.memory_barrier()
         st.time += h
         st.steps += 1
         st.last_dt = h
@@ -308,6 +320,8 @@ class Simulator:
             folded.update(shape="length", velocity="length")
             if self.fold_integrate:
                 folded["integrate"] = "length"
+        if self._guard_in_length():
+            folded["guard"] = "length"
         return folded
 
     def _fused(self) -> bool:
@@ -323,7 +337,7 @@ class Simulator:
             return
         with self._timed(name):
             shader.run(group_x=int(groups))
-        self.ctx.memory_barrier()
+        self.ctx.memory_barrier(self.barrier_bits)
 
     def run_pass(self, name: str, st: SimState | None = None, h: float | None = None) -> bool:
         """Run one pass of the step (``PASSES``) on ``st``; False when it had nothing to do.
@@ -337,6 +351,7 @@ class Simulator:
         method = getattr(self, f"_pass_{name}", None)
         if method is None:
             raise UsageError(f"unknown pass {name!r}; passes: {', '.join(PASSES)}")
+        st.settle()
         self._bind(st)
         return bool(method(st, h))
 
@@ -347,7 +362,21 @@ class Simulator:
         return (st.num_strands + 63) // 64
 
     def _pass_integrate(self, st: SimState, h: float) -> bool:
-        sh = self._shader("integrate", PENALTY=int(self._penalty_on()))
+        """integrate.comp; with the gather the last friction pass deferred (``fold_gather``) first."""
+        if self._deferred is not None and self._deferred is not st:
+            self._deferred.settle()   # another state's: the grid is about to serve this one
+            self._bind(st)
+        friction = st.take_pending() if self._deferred is st else None
+        self._deferred = None
+        if friction is None:
+            sh = self._shader("integrate", PENALTY=int(self._penalty_on()))
+        else:
+            grid = self._grid
+            sh = self._shader("integrate", PENALTY=int(self._penalty_on()), GATHER=1, GRID_RES=grid.resolution,
+                              GRID_BINDING=GATHER_GRID_BINDING, BOUNDS_BINDING=GATHER_BOUNDS_BINDING)
+            grid.grid.bind_to_storage_buffer(GATHER_GRID_BINDING)
+            grid.bounds.buffer.bind_to_storage_buffer(GATHER_BOUNDS_BINDING)
+            _set(sh, "friction", friction)
         _set(sh, "num_strands", st.num_strands)
         self._integrate_uniforms(sh, st, h)
         self._dispatch("integrate", sh, self._particle_groups(st))
@@ -388,6 +417,9 @@ class Simulator:
     (default 1: axis rotations from n n^T instead of K^2). Same results to float round-off; the
     defaults were the fastest on an H200 (100k x 32, full solver, 2026-11-22: fused length pass
     0.597 ms with none of them, 0.523 with culling, 0.491 with all three and groups of 32)."""
+    barrier_bits = 0xFFFFFFFF
+    """glMemoryBarrier bits after each pass of a step (all by default); with fewer, ``substep``
+    ends with a full barrier for the renderer and the CPU."""
     keep_corrections = False
     """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
     corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
@@ -405,7 +437,7 @@ class Simulator:
         return s.local_shape_stiffness > 0 or s.bending_stiffness > 0
 
     def _strand_solve(self, st: SimState, h: float, *, shape: bool, dftl: bool, velocity: bool,
-                      contact: bool, integrate: bool = False, bounds=None) -> None:
+                      contact: bool, integrate: bool = False, bounds=None, guard: bool = False) -> None:
         s = self.settings
         prims = self._sweep_prims(st) if contact else 0
         sdfs = self._sweep_sdfs(st) if contact else []
@@ -416,7 +448,7 @@ class Simulator:
                        STAGES=stages, LOCAL_SIZE=int(self.strand_group_size), INTEGRATE=mode,
                        PENALTY=int(integrate and self._penalty_on()),
                        CORRECTIONS=int(not velocity or self.keep_corrections), BOUNDS=int(bounds is not None),
-                       BOUNDS_BINDING=AUX_BOUNDS_BINDING)
+                       BOUNDS_BINDING=AUX_BOUNDS_BINDING, GUARD=int(guard))
         defines.update(self.strand_defines)
         sh = self._shader("strand_solve", **defines)
         if bounds is not None:
@@ -432,6 +464,8 @@ class Simulator:
         _set(sh, "dt", h)
         _set(sh, "dftl_damping", s.dftl_damping)
         _set(sh, "max_speed", s.max_speed)
+        if guard:
+            self._guard_uniforms(sh, st)
         self._bind_sdfs(sh, sdfs)
         groups = (st.num_strands + self.strand_group_size - 1) // self.strand_group_size
         self._dispatch("length" if dftl else "shape", sh, groups)
@@ -489,7 +523,8 @@ class Simulator:
             fused = s.fused_strand_solve
             self._strand_solve(st, h, shape=fused and self._shape_on(), dftl=True, velocity=fused, contact=True,
                                integrate=fused and self.fold_integrate,
-                               bounds=self._friction_grid().own_bounds if bounds else None)
+                               bounds=self._friction_grid().own_bounds if bounds else None,
+                               guard=self._guard_in_length())
             return True
         spg = max(1, 64 // st.points_per_strand)
         sdfs = self._sweep_sdfs(st)
@@ -541,15 +576,26 @@ class Simulator:
         return True
 
     fold_gather = True
-    """``substep`` with grid friction and the NaN guard on and no volume pass between them:
-    friction's gather (v <- (1 - f) v + f V(x)) is done by the guard's kernel, on the velocity
-    it then tests (the same result, one pass over the particles less). False keeps the
-    gather in the friction pass (comparisons, benchmarks). ``run_pass("friction")`` always
-    gathers."""
+    """``substep`` with grid friction, no volume pass after it and integrate run as its own
+    pass: friction's gather (v <- (1 - f) v + f V(x)) is left to the next step's integrate
+    pass, with the grid and the positions this step leaves (the same result, one pass over the
+    particles less; see the module doc). False gathers in the friction pass (comparisons,
+    benchmarks). ``run_pass("friction")`` always gathers."""
 
-    def _gather_in_guard(self) -> bool:
+    def _defer_gather(self) -> bool:
         s = self.settings
-        return bool(self.fold_gather and s.friction > 0 and s.nan_guard and not s.volume)
+        return bool(self.fold_gather and s.friction > 0 and not s.volume
+                    and "integrate" not in self.folded_passes())
+
+    fold_guard = True
+    """With the fused strand solve and no volume pass: the NaN guard's tests and recoveries are
+    done by the length pass's kernel as it leaves each strand (``folded_passes`` lists guard
+    -> length), before the friction grid sees the particles. False runs the guard's own pass
+    after friction (comparisons, benchmarks)."""
+
+    def _guard_in_length(self) -> bool:
+        s = self.settings
+        return bool(self.fold_guard and s.nan_guard and self._fused() and not s.volume)
 
     fold_bounds = True
     """``substep`` with grid friction and DFTL (no mesh collider left to the sdf pass): the
@@ -570,6 +616,8 @@ class Simulator:
         s = self.settings
         key = (s.grid_resolution, s.grid_method, tuple(sorted(self.grid_options.items())))
         if self._grid is None or self._grid_key != key:
+            if self._deferred is not None:   # its gather needs the old grid
+                self._deferred.settle()
             if self._grid is not None:
                 self._grid.release()
             self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method, **self.grid_options)
@@ -577,21 +625,33 @@ class Simulator:
         return self._grid
 
     def _pass_friction(self, st: SimState, h: float, gather: bool = True, reduced: bool = False) -> bool:
-        """Grid friction; ``gather`` False leaves the gather to the guard, ``reduced``: the
-        length pass has reduced the positions into the grid's box (``substep``'s folds)."""
+        """Grid friction; ``gather`` False defers the gather to the next integrate pass,
+        ``reduced``: the length pass has reduced the positions into the grid's box (``substep``'s folds)."""
         s = self.settings
         if s.friction <= 0:
             return False
         grid = self._friction_grid()
+        if self._deferred is not None:   # the splat overwrites the grid its gather needs
+            self._deferred.settle()
+            self._bind(st)
         with self._timed("friction"):
             bounds = grid.own_bounds
             bounds.update(st.positions, st.num_particles, reduced=reduced)
             grid.splat(st.positions, st.velocities, st.num_particles, bounds)
             if gather:
                 grid.gather(st.positions, st.velocities, st.num_particles, s.friction)
-        self.ctx.memory_barrier()
+        self.ctx.memory_barrier(self.barrier_bits)
+        if not gather:
+            st.defer_gather(s.friction, lambda friction: self._gather_now(st, friction))
+            self._deferred = st
         self._bind(st)
         return True
+
+    def _gather_now(self, st: SimState, friction: float) -> None:
+        """A deferred gather, run by ``SimState.settle``."""
+        self._grid.gather(st.positions, st.velocities, st.num_particles, friction)
+        self.ctx.memory_barrier()
+        self._deferred = None
 
     def _pass_volume(self, st: SimState, h: float) -> bool:
         s = self.settings
@@ -606,28 +666,22 @@ class Simulator:
         self._bind(st)
         return True
 
-    def _pass_guard(self, st: SimState, h: float, gather: bool = False) -> bool:
-        """The NaN guard; with ``gather`` first friction's gather with the grid its last
-        splat left (``substep`` with ``fold_gather``)."""
-        s = self.settings
-        if not s.nan_guard:
+    def _pass_guard(self, st: SimState, h: float) -> bool:
+        """The NaN guard's own pass (nan_guard.comp)."""
+        if not self.settings.nan_guard:
             return False
         spg = max(1, 64 // st.points_per_strand)
-        if gather:
-            sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand, GATHER=1,
-                              GRID_RES=self._grid.resolution, GRID_BINDING=GUARD_GRID_BINDING,
-                              BOUNDS_BINDING=GUARD_BOUNDS_BINDING)
-            self._grid.grid.bind_to_storage_buffer(GUARD_GRID_BINDING)
-            self._grid.bounds.buffer.bind_to_storage_buffer(GUARD_BOUNDS_BINDING)
-            _set(sh, "friction", float(s.friction))
-        else:
-            sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
+        sh = self._shader("nan_guard", SPG=spg, GROUP_SIZE=spg * st.points_per_strand)
         _set(sh, "num_strands", st.num_strands)
         _set(sh, "head", _mat4(st.head))
-        _set(sh, "max_stretch", s.max_stretch)
-        _set(sh, "max_speed_abs", 10.0 * s.max_speed)
+        self._guard_uniforms(sh, st)
         self._dispatch("guard", sh, (st.num_strands + spg - 1) // spg)
         return True
+
+    def _guard_uniforms(self, sh, st: SimState) -> None:
+        """The guard's limits (nan_guard.comp; strand_solve.comp with GUARD)."""
+        _set(sh, "max_stretch", self.settings.max_stretch)
+        _set(sh, "max_speed_abs", 10.0 * self.settings.max_speed)
 
     # ------------------------------------------------------------------ timing
     @contextmanager
@@ -752,6 +806,7 @@ class Simulator:
         return float(0.5 * (((x - x0)[free] / st.last_dt) ** 2).sum())
 
     def release(self) -> None:
+        self._deferred = None
         self.state.release()
 
 

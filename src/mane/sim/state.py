@@ -180,8 +180,15 @@ class StateBuffer(moderngl.Buffer):
     """A moderngl Buffer (bind it as is) that, called, reads its vec4s back as (n, 3) float32.
 
     ``state.positions`` is the buffer the renderer binds; ``state.positions()`` is a copy of
-    its xyz in NumPy.
+    its xyz in NumPy. ``before_read`` (the velocities': ``SimState.settle``) runs first.
     """
+
+    before_read = None
+
+    def read(self, *args, **kwargs) -> bytes:
+        if self.before_read is not None:
+            self.before_read()
+        return super().read(*args, **kwargs)
 
     def __call__(self) -> np.ndarray:
         return np.frombuffer(self.read(), dtype=np.float32).reshape(-1, 4)[:, :3].copy()
@@ -218,6 +225,10 @@ class SimState:
     """world transforms of the mesh colliders at the last step (for their motion)."""
     mesh_prev_worlds: list | None = None
     """... and at the step before."""
+    pending_friction: float | None = None
+    """friction factor of a grid friction gather the simulator deferred to the next step's
+    integrate pass (the velocities buffer lacks it until then; see ``settle``)."""
+    _run_pending: object = None
 
     @property
     def num_particles(self) -> int:
@@ -245,9 +256,29 @@ class SimState:
             buffers[name].__class__ = StateBuffer
         state = cls(ctx, S, N, buffers, rest, np.ascontiguousarray(inv_mass, dtype=np.float32),
                     np.ones(S))
+        buffers["velocities"].before_read = state.settle
         state.upload_rest()
         state.reset()
         return state
+
+    # ---- a deferred friction gather
+    def defer_gather(self, friction: float, run) -> None:
+        """Leave a gather with ``friction`` to the next integrate pass; ``run(friction)`` does
+        it at once (``settle``)."""
+        self.pending_friction, self._run_pending = float(friction), run
+
+    def take_pending(self) -> float | None:
+        """The deferred gather's friction factor (None when there is none), now taken."""
+        friction = self.pending_friction
+        self.pending_friction = self._run_pending = None
+        return friction
+
+    def settle(self) -> None:
+        """Run a deferred gather now, so that the velocities buffer holds the step's result."""
+        run = self._run_pending
+        friction = self.take_pending()
+        if friction is not None:
+            run(friction)
 
     def upload_rest(self) -> None:
         for name, arr in rest_data(self.base_rest, self.length_scale, self.inv_mass).items():
@@ -255,6 +286,7 @@ class SimState:
 
     def reset(self) -> None:
         """Every particle at its rest position under the current head transform, at rest."""
+        self.take_pending()
         rest = self.read("rest_positions")
         pos = np.empty_like(rest)
         pos[:, :3] = transform_points(self.head, rest[:, :3])
@@ -272,12 +304,14 @@ class SimState:
 
     # ---- read back
     def read(self, name: str) -> np.ndarray:
+        """A CPU copy of one buffer ((n, 4) float32; the guard's (4,) uint32)."""
         buf = self.buffers[name]
         if name == "guard":
             return np.frombuffer(buf.read(), dtype=np.uint32).copy()
         return np.frombuffer(buf.read(), dtype=np.float32).reshape(-1, 4).copy()
 
     def write(self, name: str, data: np.ndarray) -> None:
+        self.settle()   # the deferred gather works on what the step left
         arr = np.ascontiguousarray(data, dtype=np.uint32 if name == "guard" else np.float32)
         if arr.nbytes != self.buffers[name].size and name != "colliders":
             raise UsageError(f"{name}: {arr.nbytes} bytes for a buffer of {self.buffers[name].size}")
@@ -288,6 +322,7 @@ class SimState:
         return int(self.read("guard")[0])
 
     def release(self) -> None:
+        self.take_pending()
         for buf in self.buffers.values():
             buf.release()
         self.buffers = {}

@@ -54,6 +54,12 @@
 //  CULL_PRIMS (0/1, default 1): every particle the sweep places lies within the strand's rest
 //    arc length of its root, so the primitives farther than that from the root are left out of
 //    the strand's tests (contact.glsl's prims_mask); the same results, fewer tests.
+//  GUARD (0/1): nan_guard.comp's tests and recovery in the kernel (with DFTL and VELOCITY):
+//    the strand fails when a position or velocity it leaves is not finite, a speed exceeds
+//    max_speed_abs or a particle lies farther from the root than max_stretch * rest arc + 1 cm;
+//    a failed strand goes back to its start-of-step positions (prev_positions, when they pass
+//    the same position tests; else the rest pose under the head) with zero velocity, and is
+//    counted in guard[0] (guard[1]: the largest recovered strand + 1). Saves the guard's pass.
 //  PREFETCH (0/1, default 0): load the next vertex's data while one is solved (more registers;
 //    slower on an H200). FAST_ROTATION (0/1, default 1): see axis_rotation.
 #include "sim_common.glsl"
@@ -95,6 +101,12 @@
 #ifndef PREFETCH
 #define PREFETCH 0
 #endif
+#ifndef GUARD
+#define GUARD 0
+#endif
+#if GUARD && !(DFTL && VELOCITY)
+#error "GUARD needs DFTL and VELOCITY"
+#endif
 #ifndef FAST_ROTATION
 #define FAST_ROTATION 1
 #endif
@@ -108,6 +120,10 @@ uniform int iterations;
 uniform float dt;
 uniform float dftl_damping;
 uniform float max_speed;
+#if GUARD
+uniform float max_stretch;
+uniform float max_speed_abs;
+#endif
 
 #if BOUNDS
 #include "grid_bounds.glsl"
@@ -120,6 +136,12 @@ int float_key(float f) {  // bounds.comp's order-preserving key
     return b >= 0 ? b : b ^ 0x7fffffff;
 }
 #endif
+void bounds_forget() {  // drop what this invocation has reduced (its strand is recovered)
+#if BOUNDS
+    b_lo = vec3(uintBitsToFloat(0x7f800000u));
+    b_hi = vec3(uintBitsToFloat(0xff800000u));
+#endif
+}
 void bounds_add(vec3 p) {
 #if BOUNDS
     if (finite3(p)) {
@@ -346,6 +368,34 @@ vec3 back_to_length(vec3 a, float l, vec3 p, vec3 q, vec3 n) {
 }
 #endif
 
+#if GUARD
+// nan_guard.comp's recovery of strand s (first particle base): back to its start-of-step
+// positions when they are finite and within reach of their root, else to its rest pose under
+// the head, with zero velocities.
+void recover(uint s, uint base) {
+    vec3 root0 = prev_positions[base].xyz;
+    bool prev_ok = true;
+    for (uint k = 0u; k < uint(NV); ++k) {
+        uint i = base + k;
+        vec3 xp = prev_positions[i].xyz;
+        prev_ok = prev_ok && finite3(xp) && length(xp - root0) <= max_stretch * rest_info[i].y + 0.01;
+    }
+    bounds_forget();
+    for (uint k = 0u; k < uint(NV); ++k) {
+        uint i = base + k;
+        vec4 rest = rest_positions[i];
+        vec3 x = (prev_ok && rest.w > 0.0) ? prev_positions[i].xyz : transform_point(head, rest.xyz);
+        positions[i] = vec4(x, rest.w);
+        prev_positions[i] = vec4(x, rest.w);
+        velocities[i] = vec4(0.0);
+        corrections[i] = vec4(0.0);
+        bounds_add(x);
+    }
+    atomicAdd(guard[0], 1u);
+    atomicMax(guard[1], s + 1u);
+}
+#endif
+
 void solve(uint s) {
     uint base = s * uint(NV);
     mat3 H = mat3(head);
@@ -361,6 +411,7 @@ void solve(uint s) {
 #endif
     bounds_add(origin);
     cull_prims(origin, base);
+    bool ok = finite3(origin);  // GUARD's verdict on the strand
     int count = 1;
 #if SHAPE
     mat3 F0 = H * mat3(root_frames[3u * s].xyz, root_frames[3u * s + 1u].xyz, root_frames[3u * s + 2u].xyz);
@@ -492,6 +543,9 @@ void solve(uint s) {
 #endif
         positions[i] = vec4(p, x.w);
         bounds_add(p);
+#if GUARD
+        ok = ok && finite3(p) && length(p - origin) <= max_stretch * info.y + 0.01;
+#endif
 #if VELOCITY
         {   // particle k-1, now that d_k is known
             vec3 v = (vx - vx0) / dt;
@@ -499,6 +553,9 @@ void solve(uint s) {
             float speed = length(v);
             if (speed > max_speed) v *= max_speed / speed;
             velocities[i - 1u] = vec4(v, 0.0);
+#if GUARD
+            ok = ok && finite3(v) && length(v) <= max_speed_abs;
+#endif
             vx = p;
             vx0 = x0;
             vfree = free_;
@@ -516,6 +573,10 @@ void solve(uint s) {
     float speed = length(v);
     if (speed > max_speed) v *= max_speed / speed;
     velocities[base + uint(NV) - 1u] = vec4(v, 0.0);
+#if GUARD
+    ok = ok && finite3(v) && length(v) <= max_speed_abs;
+    if (!ok) recover(s, base);
+#endif
 #endif
 }
 
