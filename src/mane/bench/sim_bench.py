@@ -690,14 +690,17 @@ def _targets(rows: list[dict], mode: str) -> dict:
             and not r["name"].endswith(" separate")]
     at_target = [r for r in full if r.get("strands") == TARGET_STRANDS and r.get("vertices") == TARGET_VERTICES]
     out = {"full_solver_100k_x32_ms": None, "target_ms": TARGET_MS, "met": False,
-           "metric": "mean GPU time of a whole step (GpuProfiler section around Simulator.step: "
-                     "GL_TIMESTAMP on GPUs, CPU wall with ctx.finish() on software renderers)",
+           "metric": "time per step of steps run back to back (pipelined: the wall clock of K steps "
+                     "and one ctx.finish(), over K): what a running simulation pays per step, GPU idle "
+                     "included. A step timed alone (step_alone_ms: GL_TIMESTAMP pair around "
+                     "Simulator.step) also holds the GPU's wait for Python to issue its passes",
            "configuration": "DFTL + local shape & bending + 8 capsules + mesh SDF + 64^3 grid friction (atomic)"}
     if at_target:
         r = at_target[-1]
         if r["status"] == "ok":
-            v = r["step_ms"]["mean"]
+            v = r["pipelined_ms"]
             out.update(full_solver_100k_x32_ms=v, met=bool(v is not None and v <= TARGET_MS),
+                       step_alone_ms=r["step_ms"]["mean"],
                        median_ms=r["step_ms"]["median"], p95_ms=r["step_ms"]["p95"],
                        wall_ms=r["wall_ms"]["mean"], pipelined_ms=r["pipelined_ms"],
                        kernel_sum_ms=r["kernel_sum_ms"], cpu_submit_ms=r["submit_ms"]["mean"],
@@ -712,7 +715,7 @@ def _targets(rows: list[dict], mode: str) -> dict:
     else:
         measured = [r for r in full if r["status"] == "ok"]
         out["note"] = (f"not measured in {mode} mode (run without --quick)"
-                       + (f"; measured {measured[-1]['name']}: {measured[-1]['step_ms']['mean']:.3f} ms"
+                       + (f"; measured {measured[-1]['name']}: {measured[-1]['pipelined_ms']:.3f} ms"
                           if measured else ""))
     return out
 
@@ -804,7 +807,7 @@ def format_text(result: dict) -> str:
                   else f"not measured ({t.get('note', '')})"))
     if val is not None:
         out.append(f"  (kernels alone {fmt(t.get('kernel_sum_ms'))} ms, CPU issue {fmt(t.get('cpu_submit_ms'))} ms, "
-                   f"wall {fmt(t.get('wall_ms'))} ms, pipelined {fmt(t.get('pipelined_ms'))} ms; "
+                   f"wall {fmt(t.get('wall_ms'))} ms, a step timed alone {fmt(t.get('step_alone_ms'))} ms; "
                    f"bound: {t.get('likely_bound', '?')})")
     out.append("")
     out.append(table(ok("woodhouse"), [
