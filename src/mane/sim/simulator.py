@@ -293,8 +293,6 @@ class Simulator:
                 self._pass_friction(st, h, gather=not defer_gather, reduced=bounds_in_length)
             else:
                 getattr(self, f"_pass_{name}")(st, h)
-        if self.barrier_bits != 0xFFFFFFFF:
-            self.ctx.memory_barrier()
         st.time += h
         st.steps += 1
         st.last_dt = h
@@ -337,7 +335,7 @@ class Simulator:
             return
         with self._timed(name):
             shader.run(group_x=int(groups))
-        self.ctx.memory_barrier(self.barrier_bits)
+        self.ctx.memory_barrier()
 
     def run_pass(self, name: str, st: SimState | None = None, h: float | None = None) -> bool:
         """Run one pass of the step (``PASSES``) on ``st``; False when it had nothing to do.
@@ -366,7 +364,7 @@ class Simulator:
         if self._deferred is not None and self._deferred is not st:
             self._deferred.settle()   # another state's: the grid is about to serve this one
             self._bind(st)
-        friction = st.take_pending() if self._deferred is st else None
+        friction = st.take_pending()   # pending only while its grid is self._grid (see _deferred)
         self._deferred = None
         if friction is None:
             sh = self._shader("integrate", PENALTY=int(self._penalty_on()))
@@ -417,9 +415,6 @@ class Simulator:
     (default 1: axis rotations from n n^T instead of K^2). Same results to float round-off; the
     defaults were the fastest on an H200 (100k x 32, full solver, 2026-11-22: fused length pass
     0.597 ms with none of them, 0.523 with culling, 0.491 with all three and groups of 32)."""
-    barrier_bits = 0xFFFFFFFF
-    """glMemoryBarrier bits after each pass of a step (all by default); with fewer, ``substep``
-    ends with a full barrier for the renderer and the CPU."""
     keep_corrections = False
     """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
     corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
@@ -640,7 +635,7 @@ class Simulator:
             grid.splat(st.positions, st.velocities, st.num_particles, bounds)
             if gather:
                 grid.gather(st.positions, st.velocities, st.num_particles, s.friction)
-        self.ctx.memory_barrier(self.barrier_bits)
+        self.ctx.memory_barrier()
         if not gather:
             st.defer_gather(s.friction, lambda friction: self._gather_now(st, friction))
             self._deferred = st

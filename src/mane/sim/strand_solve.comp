@@ -411,7 +411,9 @@ void solve(uint s) {
 #endif
     bounds_add(origin);
     cull_prims(origin, base);
-    bool ok = finite3(origin);  // GUARD's verdict on the strand
+#if GUARD
+    bool ok = finite3(origin);  // the verdict on the strand
+#endif
     int count = 1;
 #if SHAPE
     mat3 F0 = H * mat3(root_frames[3u * s].xyz, root_frames[3u * s + 1u].xyz, root_frames[3u * s + 2u].xyz);
