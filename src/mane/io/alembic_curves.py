@@ -185,7 +185,9 @@ def read_in_process(path, time: float | None = None) -> Groom:
             "alembic": {"objects": [f[0] for f in found], "curve_types": [f[4] for f in found],
                         "num_samples": max_samples, "time": time,
                         "dropped_short_curves": dropped},
-            "units": "as stored"}
+            "units": "as stored",
+            # Alembic has no units or up axis; most DCCs write Y-up (the unit is guessed)
+            "file_frame": {"units": None, "units_source": None, "up": "y", "up_source": "convention"}}
     return build_groom(path, per_point["points"], counts, widths=per_point["widths"],
                        strand_attributes=per_strand, metadata=meta)
 

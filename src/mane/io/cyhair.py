@@ -21,13 +21,17 @@ every strand has ``d_segments`` segments and ``hair_count*(d_segments+1)`` must 
 mane reads thickness as ``widths``, transparency and colors as themselves; a missing array
 takes the header default for every point (``metadata['cyhair']['defaults_used']`` lists which).
 The published models are Z-up: ``read(path, up="z")`` rotates the file's ``up`` axis to Y
-(``up="y"`` keeps it as is) and ``write(groom, path, up="z")`` rotates back, so a round trip
-is exact. Units are kept as stored (the models are in arbitrary units: ``mane convert --scale``).
+(``up="y"`` keeps it as is; ``up=None``, what :func:`mane.load` uses, keeps the stored numbers
+and records Z-up as the format's convention for :mod:`mane.io.units`) and
+``write(groom, path, up="z")`` rotates back, so a round trip is exact. The format has no unit
+(the models are in centimetre-like units): :mod:`mane.io.units` guesses it. mane writes
+``mane units=m up=z`` at the start of the info text and reads it back as a declaration.
 Strands of 0 segments (a single point) cannot be a mane strand: they are dropped and counted
 in ``metadata['cyhair']['dropped_single_point_strands']``.
 """
 from __future__ import annotations
 
+import re
 import struct
 from pathlib import Path
 
@@ -55,9 +59,13 @@ def _check_up(up) -> str:
     return up.lower()
 
 
-def read(path, up: str = "z") -> Groom:
-    """Read a ``.hair`` file; ``up`` is the file's up axis, rotated to Y."""
-    up = _check_up(up)
+MARKER = re.compile(r"mane units=(m|cm|mm) up=([xyz])")
+
+
+def read(path, up: str | None = "z") -> Groom:
+    """Read a ``.hair`` file; ``up`` is the file's up axis, rotated to Y (None: kept as stored)."""
+    raw = up is None
+    up = "z" if raw else _check_up(up)
     path = Path(path)
     data = read_file_bytes(path)
     cur = Cursor(data, path)
@@ -134,6 +142,13 @@ def read(path, up: str = "z") -> Groom:
             a[keep_points] for a in (points, widths, transparency, colors))
 
     info = info_raw.split(b"\0", 1)[0].decode("utf-8", "replace")
+    mark = MARKER.match(info)
+    if mark:
+        frame = {"units": mark.group(1), "units_source": "declared", "up": mark.group(2),
+                 "up_source": "declared"}
+        info = info[mark.end():].lstrip(" ;")
+    else:
+        frame = {"units": None, "units_source": None, "up": "z", "up_source": "convention"}
     meta = {
         "format": "cyHair",
         "cyhair": {
@@ -144,21 +159,24 @@ def read(path, up: str = "z") -> Groom:
             "defaults": {"segments": int(d_segments), "thickness": float(d_thickness),
                          "transparency": float(d_transparency), "color": [float(c) for c in d_color]},
             "defaults_used": defaults_used,
-            "up_axis": up,
+            "up_axis": frame["up"] if raw else up,
             "dropped_single_point_strands": dropped,
         },
-        "up_axis": "y",
+        "up_axis": frame["up"] if raw else "y",
         "units": "as stored in the file (cyHair models use arbitrary units)",
     }
+    if raw:
+        meta["file_frame"] = frame
     try:
         groom = Groom(points, counts, widths=widths, colors=colors, transparency=transparency,
                       metadata=meta)
     except GroomError as exc:
         raise FormatError(str(exc), path, pts_off) from None
-    return groom.with_up_axis(up, "y") if up != "y" else groom
+    return groom.with_up_axis(up, "y") if (up != "y" and not raw) else groom
 
 
-def write(groom: Groom, path, up: str = "z", info: str | None = None, compact: bool = True) -> None:
+def write(groom: Groom, path, up: str = "z", info: str | None = None, compact: bool = True,
+          declare: bool = True) -> None:
     """Write ``groom`` as cyHair; ``up`` is the file's up axis (Y is rotated to it).
 
     With ``compact`` an array whose value is the same at every point goes in the header's
@@ -174,6 +192,8 @@ def write(groom: Groom, path, up: str = "z", info: str | None = None, compact: b
     if info is None:
         info = str(groom.metadata.get("cyhair", {}).get("info", "")) if isinstance(
             groom.metadata.get("cyhair"), dict) else ""
+    if declare:  # the groom is in metres (mane's unit); say so, and which axis is up in the file
+        info = f"mane units=m up={up}" + (f"; {info}" if info else "")
     info_bytes = info.encode("utf-8")[:87]
 
     arrays = BIT_POINTS

@@ -3,8 +3,10 @@
 ``read_mesh(path) -> Mesh``. trimesh loads with ``process=False`` so vertices are neither
 merged nor reordered (counts match what the file says); a GLB/glTF scene is flattened with
 every node's transform applied. Vertex colours are kept (as RGBA in [0, 1]); texture-mapped
-colour is not sampled. Polygons are triangulated by trimesh. Units and axes are kept as
-stored (glTF is Y-up metres by definition; OBJ/PLY/STL have no units).
+colour is not sampled. Polygons are triangulated by trimesh. The numbers are kept as stored;
+``metadata['file_frame']`` says what the format says (glTF: Y-up by definition, metres by
+convention; ``.tfxmesh``: TressFX's centimetres, Y-up; OBJ/PLY/STL: nothing) and
+:func:`mane.io.load_mesh` turns the mesh to metres, Y up (:mod:`mane.io.units`).
 
 Before trimesh sees a binary file its framing is checked here: a binary STL's triangle count
 against the file size, a GLB's header and chunk lengths, a PLY's header with the strict parser
@@ -186,6 +188,8 @@ def _read_trimesh(path: Path, suffix: str) -> Mesh:
             colors = vc.astype(np.float32) / (255.0 if vc.dtype.kind in "iu" else 1.0)
     normals = None  # computed by Mesh from the faces: OBJ normals are per corner, not per vertex
     meta = {"format": suffix.lstrip(".").upper(), "source": str(path)}
+    if suffix in (".glb", ".gltf"):  # glTF 2: Y-up (the spec), metres (often not kept: checked)
+        meta["file_frame"] = {"units": "m", "units_source": "convention", "up": "y", "up_source": "declared"}
     return Mesh(vertices.astype(np.float32), faces.astype(np.int32), normals, colors, metadata=meta)
 
 
@@ -277,4 +281,6 @@ def read_tfxmesh(path) -> Mesh:
                 normals=table[:, 4:7].astype(np.float32),
                 vertex_attributes={"joints": joints.astype(np.int32),
                                    "weights": table[:, 11:15].astype(np.float32)},
-                metadata={"format": "tfxmesh", "bones": bones, "source": str(path)})
+                metadata={"format": "tfxmesh", "bones": bones, "source": str(path),
+                          "file_frame": {"units": "cm", "units_source": "convention", "up": "y",
+                                         "up_source": "convention"}})

@@ -14,7 +14,8 @@ Members (each an ``.npy`` inside the zip):
 ``metadata``                0-d unicode string: the metadata dict as JSON
 ==========================  ==========================================================
 
-Reading never unpickles: object and structured dtypes are refused, and the arrays are built
+The metadata declares ``units: "m"`` and ``up_axis: "y"`` (a Groom's frame); reading a file
+that says so guesses nothing (:mod:`mane.io.units`). Reading never unpickles: object and structured dtypes are refused, and the arrays are built
 with ``np.frombuffer`` from each member's bytes after its ``.npy`` header has been checked
 against the member's size (so a header cannot make the reader allocate more than is there).
 """
@@ -155,6 +156,8 @@ def _groom_from_arrays(arrays: dict[str, np.ndarray], path) -> Groom:
             raise FormatError(f"metadata is not valid JSON ({str(exc)[:100]})", path) from None
         if not isinstance(metadata, dict):
             raise FormatError("metadata must be a JSON object", path)
+    if metadata.get("units") == "m" and metadata.get("up_axis") == "y":  # written by mane: declared
+        metadata["file_frame"] = {"units": "m", "units_source": "declared", "up": "y", "up_source": "declared"}
     point_attributes, strand_attributes = {}, {}
     for key, a in arrays.items():
         kind, name = key.split(":", 1)
@@ -184,8 +187,8 @@ def write(groom: Groom, path, compress: bool = True) -> None:
             if value.dtype.kind not in "biuf":
                 raise GroomError(f"{prefix} attribute {name!r}: dtype {value.dtype} cannot be saved")
             arrays[f"{prefix}:{name}"] = value
-    try:
-        meta = json.dumps(groom.metadata, allow_nan=False)
+    try:  # a Groom is in metres, Y up: declared so that reading it back guesses nothing
+        meta = json.dumps({**groom.metadata, "units": "m", "up_axis": "y"}, allow_nan=False)
     except (TypeError, ValueError) as exc:
         raise GroomError(f"metadata is not JSON-serialisable: {exc}") from None
     arrays["metadata"] = np.array(meta)

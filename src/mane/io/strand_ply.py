@@ -23,6 +23,8 @@ scalar properties of ``vertex`` and ``strand`` become point and strand attribute
 elements (``edge``, ...) are skipped. The header parser here is strict (PLY 1.0 keywords
 only, known types, every count checked against the file size before allocating) and is also
 used by the mesh loader to check ``.ply`` meshes. ``binary_big_endian`` is refused.
+PLY has no units: mane writes ``comment mane units m`` and ``comment mane up y`` and reads
+them back as declarations (:mod:`mane.io.units`); other files' units and axes are guessed.
 """
 from __future__ import annotations
 
@@ -383,8 +385,9 @@ def read(path) -> Groom:
     meta = {"format": "strand PLY",
             "ply": {"encoding": header.format, "count_property": cp.name,
                     "elements": {e.name: e.count for e in header.elements},
-                    "comments": [c for c in header.comments if not c.startswith("mane bool ")][:50]},
-            "up_axis": "y", "units": "as stored"}
+                    "comments": [c for c in header.comments
+                                 if not c.startswith(("mane bool ", "mane units ", "mane up "))][:50]},
+            "up_axis": "y", "units": "as stored", "file_frame": _frame(header.comments)}
     try:
         return Groom(points.astype(np.float32), counts,
                      widths=None if widths is None else widths.astype(np.float32),
@@ -393,6 +396,18 @@ def read(path) -> Groom:
                      point_attributes=point_attrs, strand_attributes=strand_attrs, metadata=meta)
     except GroomError as exc:
         raise FormatError(str(exc), path) from None
+
+
+def _frame(comments: list[str]) -> dict:
+    """``comment mane units U`` / ``comment mane up A`` (mane's writer) as declarations."""
+    out = {"units": None, "units_source": None, "up": None, "up_source": None}
+    for c in comments:
+        t = c.split()
+        if len(t) == 3 and t[:2] == ["mane", "units"] and t[2] in ("m", "cm", "mm"):
+            out.update(units=t[2], units_source="declared")
+        if len(t) == 3 and t[:2] == ["mane", "up"] and t[2] in ("x", "y", "z"):
+            out.update(up=t[2], up_source="declared")
+    return out
 
 
 _PLY_TYPE = {"i1": "char", "u1": "uchar", "i2": "short", "u2": "ushort", "i4": "int", "u4": "uint",
@@ -440,7 +455,7 @@ def write(groom: Groom, path, binary: bool = True) -> None:
         if col:
             scols.append(col)
     lines = ["ply", f"format {'binary_little_endian' if binary else 'ascii'} 1.0",
-             "comment written by mane"]
+             "comment written by mane", "comment mane units m", "comment mane up y"]
     lines += [f"comment mane bool {b}" for b in bools]
     lines.append(f"element vertex {groom.num_points}")
     lines += [f"property {_PLY_TYPE[a.dtype.str[1:]]} {n}" for n, a in vcols]

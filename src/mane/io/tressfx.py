@@ -31,7 +31,11 @@ by a fibre radius, so they are not ``widths``); vertex colours as ``colors`` and
 guide-hair and per-vertex texcoord arrays are not read (their layout is not pinned down by any
 real file) and are listed in ``metadata['tressfx']['ignored_arrays']``.
 
-The samples are Y-up in centimetre-like units; units are kept as stored.
+Units and axes: TressFX grooms are centimetres, Y-up by convention (AMD's samples); the
+numbers are returned as stored with that convention in ``metadata['file_frame']`` for
+:mod:`mane.io.units`. mane's writer puts ``b"mane"``, the unit (``b"m"``) and the up axis
+(``b"y"``) in the first three words of the v4 header's ``reserved`` block (readers ignore
+them) and reads them back as a declaration.
 
 ``.tfxproj`` (TressFX 3 samples) is a text project: ``#`` comments, ``Version``,
 ``project_name``, one line per hair part ``FILE.tfx followHairs radius tipSeparation
@@ -40,8 +44,8 @@ SIM.tfxsim [section name]`` (paths relative to the project), a mesh file name, a
 the concatenated parts (strand attribute ``part``) and the settings in
 ``metadata['tressfx_project']``.
 
-:func:`write` writes version 4 (strands must all have the same number of points). Without an
-``immovable`` attribute the root of every strand is written immovable.
+:func:`write` writes version 4, resampling the strands to a power of two (4..64) vertices.
+Without an ``immovable`` attribute the root of every strand is written immovable.
 """
 from __future__ import annotations
 
@@ -51,7 +55,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, GroomError
+from ..errors import FormatError, GroomError, UsageError
 from ..groom import Groom
 from .atomic import atomic_write_path
 from .binary import Cursor, read_file_bytes
@@ -142,9 +146,24 @@ def _read_v4(cur: Cursor) -> Groom:
                     "arrays": present, "immovable_vertices": int(point_attrs["immovable"].sum())},
         "up_axis": "y",
         "units": "as stored",
+        "file_frame": _frame(cur.data),
     }
     return _groom(path, pos[:, :3], strands, verts, colors, transparency, point_attrs,
                   strand_attrs, meta)
+
+
+CONVENTION = {"units": "cm", "units_source": "convention", "up": "y", "up_source": "convention"}
+MARK = b"mane"
+
+
+def _frame(data: bytes) -> dict:
+    """The v4 header's mane marker (reserved words 0-2) as a declaration, else the convention."""
+    if data[32:36] == MARK:
+        units = data[36:40].rstrip(b"\0").decode("ascii", "replace")
+        up = data[40:44].rstrip(b"\0").decode("ascii", "replace")
+        if units in ("m", "cm", "mm") and up in ("x", "y", "z"):
+            return {"units": units, "units_source": "declared", "up": up, "up_source": "declared"}
+    return dict(CONVENTION)
 
 
 def _read_v3(cur: Cursor) -> Groom:
@@ -182,6 +201,7 @@ def _read_v3(cur: Cursor) -> Groom:
                     "immovable_vertices": int(immovable.sum())},
         "up_axis": "y",
         "units": "as stored",
+        "file_frame": dict(CONVENTION),
     }
     return _groom(path, pos, strands, verts, None, None, {"immovable": immovable}, strand_attrs, meta)
 
@@ -284,17 +304,35 @@ def read_project(path) -> Groom:
         part["num_strands"] = g.num_strands
         part["vertices_per_strand"] = g.uniform_count
     groom.metadata = {"format": "TressFX project", "tressfx_project": project,
-                      "up_axis": "y", "units": "as stored"}
+                      "up_axis": "y", "units": "as stored", "file_frame": dict(CONVENTION)}
     return groom
 
 
 # ---------------------------------------------------------------------------- writing
-def write(groom: Groom, path) -> None:
-    """Write a TressFX 4 ``.tfx`` (every strand must have the same number of points)."""
-    n = groom.uniform_count
-    if n is None:
-        raise GroomError("TressFX needs the same number of points in every strand; "
-                         "resample the groom first (Groom.resampled)")
+TFX_POINTS = (4, 8, 16, 32, 64)
+
+
+def nearest_tfx_points(count: float) -> int:
+    """The TressFX vertex count (4, 8, 16, 32 or 64) nearest to ``count`` (ties go up)."""
+    return min(TFX_POINTS, key=lambda n: (abs(n - count), -n))
+
+
+def write(groom: Groom, path, points: int | None = None, declare: bool = True) -> None:
+    """Write a TressFX 4 ``.tfx``.
+
+    TressFX takes 4, 8, 16, 32 or 64 vertices per strand: strands are resampled (equal arc
+    length) to ``points``, by default the count nearest the groom's median (a groom already at
+    one of them is written as is). The groom's units (metres) and Y-up are declared in the
+    header's reserved words (``declare=False`` leaves them zero)."""
+    if points is None:
+        n0 = groom.uniform_count
+        points = n0 if n0 in TFX_POINTS else nearest_tfx_points(float(np.median(groom.counts)))
+    if int(points) not in TFX_POINTS:
+        raise UsageError(f"TressFX takes 4, 8, 16, 32 or 64 points per strand, not {points}")
+    points = int(points)
+    if groom.uniform_count != points:
+        groom = groom.resampled(points)
+    n = points
     S, P = groom.num_strands, groom.num_points
     immovable = groom.point_attributes.get("immovable")
     if immovable is None:
@@ -333,7 +371,9 @@ def write(groom: Groom, path) -> None:
         if groom.transparency is not None:
             rgba[:, 3] = 1.0 - groom.transparency
         o_col = add(rgba)
-    header = struct.pack("<f7I32I", 4.0, S, n, o_pos, o_suv, o_vuv, o_thick, o_col, *([0] * 32))
+    marker = [int.from_bytes(w.ljust(4, b"\0"), "little") for w in (MARK, b"m", b"y")] if declare else []
+    header = struct.pack("<f7I32I", 4.0, S, n, o_pos, o_suv, o_vuv, o_thick, o_col,
+                         *(marker + [0] * (32 - len(marker))))
     assert len(header) == V4_HEADER_SIZE
     with atomic_write_path(path) as tmp:
         with open(tmp, "wb") as fh:

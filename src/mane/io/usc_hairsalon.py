@@ -16,7 +16,8 @@ of the groom but not forgotten. Every strand gets the strand attribute ``root_in
 ``points`` of the 1-vertex ones. :func:`write` puts the empty slots back where they were
 when that information is present and consistent with the groom, so read -> write gives
 back the same bytes. (The CT2Hair ``.bin`` variant frames strands the same way with
-7 float32 per point: ``read(path, floats_per_point=7)`` keeps the first three.)
+7 float32 per point: ``read(path, floats_per_point=7)`` keeps the first three; ``mane.load``
+reads ``.bin`` files that way. CT2Hair's data are X-up by convention.)
 """
 from __future__ import annotations
 
@@ -94,6 +95,9 @@ def read(path, floats_per_point: int = 3) -> Groom:
             },
             "floats_per_point": floats_per_point,
         },
+        # USC-HairSalon is Y-up (its unit is about 0.82 m: guessed as metres); CT2Hair is X-up
+        "file_frame": {"units": None, "units_source": None, "up": "y" if floats_per_point == 3 else "x",
+                       "up_source": "convention"},
         "up_axis": "y",
         "units": "as stored (USC-HairSalon unit is about 0.82 m)",
     }

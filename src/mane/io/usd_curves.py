@@ -232,7 +232,11 @@ def read_in_process(path, time: float | None = None) -> Groom:
                     "end_time_code": float(stage.GetEndTimeCode()),
                     "time_codes_per_second": float(stage.GetTimeCodesPerSecond()),
                     "dropped_short_curves": dropped},
-            "up_axis": "y", "units": "metres" if mpu_authored else "as stored"}
+            "up_axis": "y", "units": "metres" if mpu_authored else "as stored",
+            # converted above from what the stage declares: metres (when authored) and Y-up
+            "file_frame": {"units": "m" if mpu_authored else None,
+                           "units_source": "declared" if mpu_authored else None,
+                           "up": "y", "up_source": "declared"}}
     return build_groom(path, per_point.pop("points"), counts, **per_point, strand_attributes=strand_attrs,
                        metadata=meta)
 
