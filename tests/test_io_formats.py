@@ -21,6 +21,11 @@ from test_io_helpers import cyhair_bytes, sample_groom, tfx3_bytes, tfx4_bytes, 
 Z_TO_Y = up_axis_matrix("z", "y")[:3, :3]
 
 
+def load_raw(path, **kw):
+    """The file's numbers as stored (metres, Y up asserted): these tests read formats, not units."""
+    return mane.load(path, units="m", up="y", **kw)
+
+
 def z_up_to_y(p):
     return (np.asarray(p, np.float64) @ Z_TO_Y.T).astype(np.float32)
 
@@ -120,7 +125,8 @@ def test_cyhair_writer_layout(tmp_path):
     assert raw[:4] == b"HAIR"
     hc, pc, arrays, dseg = struct.unpack_from("<4I", raw, 4)
     assert (hc, pc, arrays) == (3, 9, 0b11111)
-    assert raw[40:49] == b"mane test"
+    assert raw[40:67] == b"mane units=m up=y; mane test"[:27]   # the declaration, then the text
+    assert cyhair.read(f, up="y").metadata["cyhair"]["info"] == "mane test"
     seg = np.frombuffer(raw, "<u2", 3, 128)
     assert seg.tolist() == [2, 1, 3]
     np.testing.assert_array_equal(np.frombuffer(raw, "<f4", 27, 134).reshape(9, 3), g.points)
@@ -148,7 +154,7 @@ def test_usc_empty_slots_kept(tmp_path):
     f = tmp_path / "h.data"
     raw = usc_bytes([a, single, np.zeros((0, 3)), b])
     f.write_bytes(raw)
-    g = mane.load(f)
+    g = load_raw(f)
     assert g.counts.tolist() == [3, 2]
     np.testing.assert_array_equal(g.points, np.concatenate([a, b]))
     assert g.strand_attributes["root_index"].tolist() == [0, 3]
@@ -212,7 +218,7 @@ def test_tfx_v4_all_arrays(tmp_path):
     th, col = rng.random(S), rng.random((S * N, 4))
     f = tmp_path / "a.tfx"
     f.write_bytes(tfx4_bytes(pos, S, N, suv, vuv, th, col))
-    g = mane.load(f)
+    g = load_raw(f)
     assert g.counts.tolist() == [N] * S
     np.testing.assert_array_equal(g.points, pos[:, :3])
     np.testing.assert_array_equal(g.point_attributes["immovable"], pos[:, 3] == 0)
@@ -230,7 +236,7 @@ def test_tfx_v3_immovable_convention(tmp_path):
     pos = np.arange(S * N * 3, dtype=np.float32).reshape(-1, 3)
     f = tmp_path / "v3.tfx"
     f.write_bytes(tfx3_bytes(pos, S, N, both_ends=0, thickness=[0.5, 0.7], strand_uv=[[0, 1], [1, 0]]))
-    g = mane.load(f)
+    g = load_raw(f)
     np.testing.assert_array_equal(g.points, pos)
     want = np.tile([True, True, False, False, False, False], S)  # the first two of every strand
     np.testing.assert_array_equal(g.point_attributes["immovable"], want)
@@ -238,8 +244,8 @@ def test_tfx_v3_immovable_convention(tmp_path):
     np.testing.assert_array_equal(g.strand_attributes["uv"], np.float32([[0, 1], [1, 0]]))
     f.write_bytes(tfx3_bytes(pos, S, N, both_ends=1))
     want = np.tile([True, True, False, False, True, True], S)  # and the last two
-    np.testing.assert_array_equal(mane.load(f).point_attributes["immovable"], want)
-    assert mane.load(f).metadata["tressfx"]["both_ends_immovable"] is True
+    np.testing.assert_array_equal(load_raw(f).point_attributes["immovable"], want)
+    assert load_raw(f).metadata["tressfx"]["both_ends_immovable"] is True
 
 
 @pytest.mark.parametrize("mutate,msg", [
@@ -277,8 +283,8 @@ def test_tfx_writer_layout(tmp_path):
     rgba = np.frombuffer(raw, "<f4", 48, o_col).reshape(12, 4)
     np.testing.assert_array_equal(rgba[:, :3], g.colors)
     assert np.all(rgba[:, 3] == 1)
-    with pytest.raises(GroomError, match="resample"):
-        mane.save(sample_groom([3, 4]), tmp_path / "u.tfx")
+    mane.save(sample_groom([3, 4]), tmp_path / "u.tfx")   # ragged: resampled to 4 points
+    assert load_raw(tmp_path / "u.tfx").uniform_count == 4
 
 
 def test_tfxproj(tmp_path):
@@ -294,7 +300,7 @@ def test_tfxproj(tmp_path):
         "b.tfx 2 0.5 3.0 b.tfxsim\n"
         "head.sdkmesh\nlengthConstraintIterations 3\n"
         "collision_sphere 1 2 3 4.5\ncollision_sphere 0 0 0 1\nhairColor 0.5 0.25 0.125\n")
-    g = mane.load(proj)
+    g = load_raw(proj)
     np.testing.assert_array_equal(g.points, np.concatenate([a, b]))
     assert g.strand_attributes["part"].tolist() == [0, 0, 1, 1, 1]
     p = g.metadata["tressfx_project"]
@@ -308,16 +314,16 @@ def test_tfxproj(tmp_path):
     json.dumps(g.metadata)
     proj.write_text("missing.tfx 4 0.4 5.0 x.tfxsim\n")
     with pytest.raises(FormatError, match="not found"):
-        mane.load(proj)
+        load_raw(proj)
     proj.write_text("/etc/a.tfx 4 0.4 5.0 x.tfxsim\n")
     with pytest.raises(FormatError, match="relative"):
-        mane.load(proj)
+        load_raw(proj)
     proj.write_text("collision_sphere 1 2\n")
     with pytest.raises(FormatError, match="line 1"):
-        mane.load(proj)
+        load_raw(proj)
     proj.write_text("# nothing\n")
     with pytest.raises(FormatError, match="no .tfx"):
-        mane.load(proj)
+        load_raw(proj)
 
 
 # ----------------------------------------------------------------------------- strand PLY
@@ -362,7 +368,7 @@ def test_ply_binary_with_vertex_count_and_edges(tmp_path):
     pts = np.arange(12, dtype="<f8")
     f = tmp_path / "b.ply"
     f.write_bytes(head + pts.tobytes() + np.int32([2, 2]).tobytes() + np.int32([0, 1, 2, 3]).tobytes())
-    g = mane.load(f)
+    g = load_raw(f)
     assert g.counts.tolist() == [2, 2]
     np.testing.assert_array_equal(g.points, pts.reshape(4, 3).astype(np.float32))
 

@@ -23,7 +23,7 @@ TFX = [
 @pytest.mark.parametrize("name,strands,verts,pinned", TFX)
 def test_tfx_counts(shared_data, name, strands, verts, pinned):
     path = shared_data / name
-    g = mane.load(path)
+    g = mane.load(path, units="m", up="y")   # the numbers as stored
     assert g.num_strands == strands and g.num_points == strands * verts
     assert g.uniform_count == verts
     imm = g.point_attributes["immovable"].reshape(strands, verts)
@@ -98,14 +98,61 @@ def test_ratboy_body_skinning(shared_data):
 
 
 def test_emitter_collider_pairs_fit(shared_data):
-    """The README's fit: hair roots lie close to their mesh (median root-to-vertex distance)."""
+    """The README's fit: hair roots lie close to their mesh (median root-to-vertex distance,
+    centimetres in the README, metres once loaded)."""
     from scipy.spatial import cKDTree
 
     for hair, mesh, median in (("tressfx/Ratboy_mohawk.tfx", "tressfx/Ratboy_body.tfxmesh", 0.59),
                                ("tressfx/sintel_hair.tfx", "heads/sintel.obj", 0.81)):
-        g, m = mane.load(shared_data / hair), mane.load_mesh(shared_data / mesh)
+        g = mane.load(shared_data / hair)
+        m = mane.load_mesh(shared_data / mesh, like=g)
         d, _ = cKDTree(m.vertices).query(g.roots)
-        assert np.median(d) == pytest.approx(median, abs=0.02)
+        assert np.median(d) == pytest.approx(median * 0.01, abs=0.0002)
+
+
+# what each file is, in metres with Y up (the README: Sintel's hair ~27 cm tall, Ratboy's body
+# ~113 cm across its diagonal, the Lee Perry-Smith scan a head in its own units)
+UPRIGHT = {"tressfx/Ratboy_mohawk.tfx": "hair", "tressfx/sintel_hair.tfx": "hair",
+           "tressfx/bear_v3.tfx": "fur", "tressfx/v3_ponytail/ponytail.tfxproj": "hair",
+           "heads/sintel.obj": "head", "tressfx/Ratboy_body.tfxmesh": "body", "heads/LeePerrySmith.glb": "head"}
+
+
+@pytest.mark.parametrize("name", sorted(UPRIGHT))
+def test_real_files_load_upright_in_metres(shared_data, name):
+    """No flags: every file comes out in metres, Y up, at a human (or bear) scale."""
+    import warnings
+
+    kind = UPRIGHT[name]
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        obj = mane.load(shared_data / name) if kind in ("hair", "fur") else mane.load_mesh(shared_data / name)
+    assert obj.metadata["units"] == "m" and obj.metadata["up_axis"] == "y"
+    lo, hi = obj.bbox()
+    ext = hi - lo
+    if kind == "head":   # a head: 0.15..0.45 m tall, taller than deep
+        assert 0.15 < ext[1] < 0.45 and ext[1] > ext[2], ext
+    elif kind == "body":
+        assert 0.5 < ext[1] < 2.0 and ext[1] == ext.max(), ext
+    elif kind == "hair":
+        med = float(np.median(obj.strand_lengths()))
+        assert 0.03 < med < 1.0 and 0.15 < np.linalg.norm(ext) < 2.0, (med, ext)
+    else:
+        assert 0.01 < float(np.median(obj.strand_lengths())) < 0.2 and np.linalg.norm(ext) < 4.0
+
+
+@pytest.mark.parametrize("hair,head", [("tressfx/Ratboy_mohawk.tfx", "tressfx/Ratboy_body.tfxmesh"),
+                                       ("tressfx/sintel_hair.tfx", "heads/sintel.obj")])
+def test_real_heads_fit_their_grooms(shared_data, hair, head):
+    """The groom's roots sit on its head, both loaded with no flags, and upright: roots above
+    the head mesh's middle."""
+    from mane.io.units import check_fit
+
+    g = mane.load(shared_data / hair)
+    m = mane.load_mesh(shared_data / head, like=g)
+    fit = check_fit(g, m)
+    assert fit["inside_fraction"] < 0.05 and fit["far_fraction"] == 0.0, fit
+    lo, hi = m.bbox()
+    assert np.median(g.roots[:, 1]) > (lo[1] + hi[1]) / 2
 
 
 ALL_FILES = [t[0] for t in TFX] + ["tressfx/v3_ponytail/ponytail.tfxproj"] + [m[0] for m in MESHES]

@@ -238,6 +238,9 @@ def _resolve(kind: str, hint: dict, units: str, up: str, scale: float | None,
             if math.isfinite(scores[best]):
                 file_units, u_src = best, "guessed"
                 notes.append(f"sizes do not fit the format's {h_units}; guessed {best}")
+            elif allow_arbitrary is not None:
+                file_units, u_src = "arbitrary", "guessed"
+                notes.append(f"sizes fit none of m, cm, mm; scaled to a {TYPICAL_HEAD} m diagonal")
             else:
                 file_units, u_src = h_units, "convention"
                 notes.append(f"sizes look implausible for {kind} in any unit; kept the format's {h_units}")
@@ -247,6 +250,7 @@ def _resolve(kind: str, hint: dict, units: str, up: str, scale: float | None,
             file_units, u_src = best, "guessed"
         elif allow_arbitrary is not None:
             file_units, u_src = "arbitrary", "guessed"
+            notes.append(f"sizes fit none of m, cm, mm; scaled to a {TYPICAL_HEAD} m diagonal")
         else:
             file_units, u_src = "m", "default"
             notes.append(f"sizes look implausible for {kind} in m, cm or mm; kept as metres")
