@@ -16,7 +16,7 @@ from ..errors import ManeError
 # command -> (module, one-line help). Kept here so that --help needs no imports.
 COMMANDS: dict[str, tuple[str, str]] = {
     "info": ("mane.app.info", "print a hair file's strands, points, bounding box and attributes"),
-    "convert": ("mane.app.convert", "convert a hair file to another format (with --up and --scale)"),
+    "convert": ("mane.app.convert", "convert a hair or mesh file to another format (units, up axis, --points)"),
     "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
     "render": ("mane.app.render", "render a groom (or the default head and hair) to a PNG or an MP4"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
@@ -51,8 +51,11 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
+    from .options import one_line_warnings
+
     try:
-        return int(importlib.import_module(args._module).run(args) or 0)
+        with one_line_warnings(args.command):
+            return int(importlib.import_module(args._module).run(args) or 0)
     except ManeError as exc:
         print(f"mane {args.command}: error: {exc}", file=sys.stderr)
         return 2

@@ -1,8 +1,10 @@
-"""``mane info FILE [--json]``: what a hair or mesh file holds.
+"""``mane info FILE [--head MESH] [--units/--up/--scale ...] [--json]``: what a hair or mesh file holds.
 
 Hair files: strands, points, points per strand (min / mean / max), bounding box, strand and
 segment lengths, attributes and the format's own details (``Groom.stats()`` plus the loader's
-metadata). Mesh files (``.obj .glb .gltf .stl .tfxmesh``, and ``.ply`` with faces but no
+metadata); the unit and up axis read or guessed (``frame``: each with its source, declared,
+convention, guessed or option) and the checks: units plausible for hair, and with ``--head``
+how the roots sit on the head (inside, far). Sizes are in metres, Y up, after the frame. Mesh files (``.obj .glb .gltf .stl .tfxmesh``, and ``.ply`` with faces but no
 strands): vertices, faces, area, bounding box. ``--json`` prints exactly one JSON object.
 """
 from __future__ import annotations
@@ -18,7 +20,11 @@ from ..io import HAIR_FORMATS, MESH_FORMATS, load, load_mesh
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("file", help="a hair file (" + " ".join(sorted(HAIR_FORMATS)) + ") or a mesh ("
                         + " ".join(MESH_FORMATS) + ")")
+    parser.add_argument("--head", metavar="MESH", help="a head mesh: report how the roots sit on it")
     parser.add_argument("--json", action="store_true", help="print one JSON object instead of a table")
+    from .options import add_frame_arguments
+
+    add_frame_arguments(parser)
 
 
 def is_mesh_file(path: Path) -> bool:
@@ -32,13 +38,17 @@ def is_mesh_file(path: Path) -> bool:
     return suffix in MESH_FORMATS and suffix not in HAIR_FORMATS
 
 
-def describe(path) -> dict:
-    """The ``--json`` object for ``path``."""
+def describe(path, args=None) -> dict:
+    """The ``--json`` object for ``path`` (``args``: the frame options and --head)."""
+    from .options import fit_warnings, load_groom, load_head
+
     path = Path(path)
     if not path.exists():
         raise FormatError("no such file", path)
     if is_mesh_file(path):
-        mesh = load_mesh(path)
+        # a mesh on its own takes the head options when given, else the groom ones
+        mesh = load_mesh(path, units=_opt(args, "head_units", "units"), up=_opt(args, "head_up", "up"),
+                         scale=getattr(args, "head_scale", None) or getattr(args, "scale", None))
         out = {"file": str(path), "kind": "mesh"}
         out.update(mesh.stats())
         meta = dict(mesh.metadata)
@@ -46,20 +56,39 @@ def describe(path) -> dict:
             meta["num_bones"] = len(meta.pop("bones"))
         out["format"] = meta.pop("format", path.suffix.lstrip(".").upper())
         meta.pop("source", None)
+        out["frame"] = meta.pop("frame", None)
         out["format_details"] = meta
         return out
     if path.suffix.lower() not in HAIR_FORMATS:
         raise UnsupportedFormatError(
             f"{path}: not a hair or mesh file mane knows; hair: {', '.join(sorted(HAIR_FORMATS))}; "
             f"meshes: {', '.join(MESH_FORMATS)}")
-    groom = load(path)
+    groom = load_groom(args, path) if args is not None else load(path)
     out = {"file": str(path), "kind": "hair"}
     out.update(groom.stats())
     meta = dict(groom.metadata)
     meta.pop("source", None)
     out["format"] = meta.pop("format", path.suffix.lstrip("."))
+    out["frame"] = meta.pop("frame", None)
+    head = None
+    if args is not None and getattr(args, "head", None):
+        from ..io.units import check_fit
+
+        head = load_head(args, args.head, groom)
+        out["head"] = {"file": str(args.head), "frame": head.metadata.get("frame"), **head.stats()}
+    checks = {"warnings": fit_warnings(groom, head)}
+    if head is not None:
+        fit = check_fit(groom, head)
+        fit.pop("warnings")
+        checks["fit"] = fit
+    out["checks"] = checks
     out["format_details"] = _trim(meta)
     return out
+
+
+def _opt(args, first, second):
+    a = getattr(args, first, "auto") if args is not None else "auto"
+    return a if a != "auto" else (getattr(args, second, "auto") if args is not None else "auto")
 
 
 def _trim(value, depth=0):
@@ -100,6 +129,23 @@ def table(info: dict) -> str:
                  ("area", f"{info['area']:.6g}")]
     rows += [("bbox min", _fmt(info["bbox"]["min"])), ("bbox max", _fmt(info["bbox"]["max"])),
              ("attributes", ", ".join(info["attributes"]) or "-")]
+    from ..io.units import frame_summary
+
+    frame = info.get("frame")
+    rows.append(("units, up", frame_summary(frame)))
+    if frame and frame.get("guessed"):
+        rows.append(("guessed", ", ".join(frame["guessed"]) + (f" ({'; '.join(frame['notes'])})"
+                                                              if frame.get("notes") else "")))
+    if "head" in info:
+        rows.append(("head", info["head"]["file"]))
+        rows.append(("head units, up", frame_summary(info["head"]["frame"])))
+    checks = info.get("checks", {})
+    if "fit" in checks:
+        f = checks["fit"]
+        rows.append(("roots on head", f"inside {100 * f['inside_fraction']:.1f}%  far {100 * f['far_fraction']:.1f}%"
+                                      f"  median distance {100 * f['median_distance_m']:.2f} cm"))
+    for w in checks.get("warnings", []):
+        rows.append(("check", w))
     for key, value in info.get("format_details", {}).items():
         if isinstance(value, dict):
             for k, v in value.items():
@@ -115,7 +161,7 @@ def _mmm(d: dict) -> str:
 
 
 def run(args) -> int:
-    info = describe(args.file)
+    info = describe(args.file, args)
     if args.json:
         print(json.dumps(info))
     else:
