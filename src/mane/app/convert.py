@@ -65,15 +65,26 @@ def run(args) -> int:
     src, dst = Path(args.input), Path(args.output)
     if src.exists() and is_mesh_file(src):
         return _convert_mesh(args, src, dst)
+    from ..progress import stage
+
     t0 = time.perf_counter()
-    groom = load_groom(args, src)
-    options = {}
-    if args.points is not None:
-        if dst.suffix.lower() == ".tfx":
-            options["points"] = args.points   # the writer checks 4..64 and resamples
-        else:
-            groom = groom.resampled(args.points)
-    save(groom, dst, **options)
+    bar = stage("convert", 3, quiet=args.quiet)   # read, resample, write (shown after 2 s)
+    try:
+        bar.set_postfix_str("read", refresh=False)
+        groom = load_groom(args, src)
+        bar.update(1)
+        options = {}
+        if args.points is not None:
+            if dst.suffix.lower() == ".tfx":
+                options["points"] = args.points   # the writer checks 4..64 and resamples
+            else:
+                groom = groom.resampled(args.points)
+        bar.update(1)
+        bar.set_postfix_str("write", refresh=False)
+        save(groom, dst, **options)
+        bar.update(1)
+    finally:
+        bar.close()
     fmt = groom.metadata.get("format", src.suffix.lstrip("."))
     frame = groom.metadata.get("frame", {})
     extra = [f"from {frame.get('file_units')} ({frame.get('units_source')}), "

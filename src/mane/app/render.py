@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -51,7 +52,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--aa", default="msaa4", help="none, coverage, msaa2, msaa4, msaa8, ssaa2, msaa4+ssaa2")
     parser.add_argument("--interpolation", default="catmull_rom", choices=INTERPOLATIONS)
     parser.add_argument("--geometry", default="ribbons", choices=GEOMETRIES)
-    parser.add_argument("--strands-per-guide", type=int, default=None, help="rendered strands per guide (default 16)")
+    parser.add_argument("--strands-per-guide", type=int, default=None,
+                        help="rendered strands per guide (default 16; a file: up to ~100,000 hairs in all)")
     parser.add_argument("--segments", type=int, default=None, help="rendered segments per strand (default 32)")
     parser.add_argument("--guides", type=int, default=1000, help="guides of the default groom (default 1000)")
     parser.add_argument("--color", default=None, help="hair colour, linear R,G,B in [0,1]")
@@ -68,25 +70,37 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--oit-k", type=int, default=None, help="OIT fragments sorted per pixel (default 8; 0: all)")
     parser.add_argument("--oit-opacity", type=float, default=None,
                         help="strand opacity in the camera view for --oit (times coverage; default 1)")
+    parser.add_argument("--file-colors", dest="file_colors", action=argparse.BooleanOptionalAction, default=True,
+                        help="render a groom with the colours, widths and transparency its file carries "
+                             "(default; --no-file-colors: the scene's hair model; --color implies it)")
+    from .options import add_frame_arguments, add_quiet_argument
+
+    add_frame_arguments(parser)
+    add_quiet_argument(parser)
+
+
+HAIRS_ON_A_HEAD = 100_000
+
+
+def file_strands_per_guide(num_strands: int, most: int = 16) -> int:
+    """Rendered strands per file strand: enough for ~100,000 hairs, 1..``most``."""
+    return int(min(most, max(1, round(HAIRS_ON_A_HEAD / max(1, num_strands)))))
 
 
 def _load_scene(args):
     from ..render.scene import default_groom, default_head
+    from .options import load_groom, load_head
 
     head = None
     if args.groom:
-        from ..io import load
-
-        groom = load(args.groom)
+        groom = load_groom(args, args.groom)
         if args.head and args.head.lower() == "default":
             head = default_head()
     else:
         head = default_head() if (args.head or "default").lower() == "default" else None
         groom = default_groom(head if head is not None else default_head(), num_guides=max(1, args.guides))
     if args.head and args.head.lower() not in ("default", "none"):
-        from ..io import load_mesh
-
-        head = load_mesh(args.head)
+        head = load_head(args, args.head, groom if args.groom else None)
     return groom, head
 
 
@@ -139,10 +153,22 @@ def run(args) -> int:
         kw["oit_k"] = args.oit_k
     if getattr(args, "oit_opacity", None) is not None:
         kw["oit_opacity"] = args.oit_opacity
+    kw["use_file_colors"] = bool(getattr(args, "file_colors", True)) and not args.color
     settings = RenderSettings(**kw)
 
     t0 = time.perf_counter()
     groom, head = _load_scene(args)
+    if args.groom:
+        from .options import fit_warnings
+
+        for w in fit_warnings(groom, head):
+            print(f"mane render: warning: {w}", file=sys.stderr)
+        if args.strands_per_guide is None:
+            # a file's strands are hairs, not guides: multiply them up to a head's ~100,000 hairs
+            # only (16 per strand made a 10,000-strand file 160,000 strands: 498 s on llvmpipe)
+            from dataclasses import replace
+
+            settings = replace(settings, strands_per_guide=file_strands_per_guide(groom.num_strands))
     renderer = Renderer(settings)
     sim = None
     if args.simulate:
@@ -153,6 +179,10 @@ def run(args) -> int:
             lo, hi = head.bbox()
             # the cranium: a sphere around the head's top part (the mesh collider needs an SDF bake)
             colliders.append(Sphere(center=(0.0, 0.0, -0.01), radius=0.085))
+            from ..io.units import check_spheres
+
+            for w in check_spheres(groom, [((0.0, 0.0, -0.01), 0.085)])["warnings"]:
+                print(f"mane render: warning: {w}", file=sys.stderr)
         sim = Simulator(groom, colliders=colliders)
         renderer.set_strands(sim)
     else:
@@ -170,13 +200,14 @@ def run(args) -> int:
         if w % 2 or h % 2:
             raise UsageError("video sizes must be even (H.264 4:2:0)")
         writer = mp4_writer(out, args.fps)
-    frames = range(args.frames)
-    try:
-        from tqdm import tqdm
+    from ..progress import progress
 
-        frames = tqdm(frames, desc="render", unit="frame", disable=args.frames <= 1)
-    except ImportError:  # pragma: no cover
-        pass
+    quiet = getattr(args, "quiet", False)
+    frames = progress(range(args.frames), desc="render", unit="frame", quiet=quiet or args.frames <= 1)
+    # one frame: a bar over the renderer's passes (a 10,000-strand file on a CPU takes minutes)
+    pass_bar = progress(total=len(renderer.passes), desc="render passes", unit="pass",
+                        quiet=quiet or args.frames > 1)
+    renderer.on_pass = lambda name: (pass_bar.set_postfix_str(name, refresh=False), pass_bar.update(1))
     image = None
     try:
         for i in frames:
@@ -189,6 +220,8 @@ def run(args) -> int:
             if writer is not None:
                 writer.append_data(image)
     finally:
+        pass_bar.close()
+        renderer.on_pass = None
         if writer is not None:
             writer.close()
     if writer is None:

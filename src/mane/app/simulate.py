@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import sys
 import time
 from pathlib import Path
 
@@ -41,6 +42,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--wind", default="0,0,0", help="mean wind velocity 'x,y,z' in m/s")
     parser.add_argument("--gust", type=float, default=0.5, help="gust strength (fraction of the wind speed)")
     parser.add_argument("--drag", type=float, default=0.5, help="air drag rate, 1/s")
+    from .options import add_frame_arguments, add_quiet_argument
+
+    add_frame_arguments(parser)
+    add_quiet_argument(parser)
 
 
 def _vector(text: str) -> tuple[float, float, float]:
@@ -55,9 +60,12 @@ def _vector(text: str) -> tuple[float, float, float]:
 
 def _load_scene(args):
     """(groom, head mesh or None)."""
-    from ..io import load, load_mesh
+    from .options import load_groom, load_head
 
-    head = load_mesh(args.head) if args.head else None
+    if args.groom != "default":
+        groom = load_groom(args, args.groom)
+        return groom, (load_head(args, args.head, groom) if args.head else None)
+    head = load_head(args, args.head) if args.head else None
     if args.groom == "default":
         try:
             from .. import grooming
@@ -74,7 +82,6 @@ def _load_scene(args):
                 default_head = grooming.default_head()
             head = default_head
         return groom, head
-    return load(args.groom), head
 
 
 def _pick_strands(groom, max_strands: int):
@@ -95,6 +102,11 @@ def run(args) -> int:
     if args.out and Path(args.out).suffix.lower() not in (".usd", ".usda", ".usdc", ".npz"):
         raise UsageError(f"--out must end in .usd, .usda, .usdc or .npz, got {args.out}")
     groom, head = _load_scene(args)
+    if args.groom != "default":
+        from .options import fit_warnings
+
+        for w in fit_warnings(groom, head):   # roots inside the collider start penetrating it
+            print(f"mane simulate: warning: {w}", file=sys.stderr)
     groom = _pick_strands(groom, args.max_strands)
     wind = WindSettings(velocity=_vector(args.wind), gust=args.gust)
     settings = SimSettings(dt=args.dt, length_method=args.method, friction=args.friction,
@@ -115,7 +127,9 @@ def run(args) -> int:
     frames, worst = [], {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}
     n_frames = max(1, int(round(args.seconds * args.fps)))
     start = time.perf_counter()
-    for f in range(n_frames):
+    from ..progress import progress
+
+    for f in progress(range(n_frames), desc="simulate", unit="frame", quiet=args.quiet):
         sim.set_head_transform(motion((f + 1) / args.fps))
         sim.advance(1.0 / args.fps)
         p = sim.positions()

@@ -26,14 +26,20 @@ def add_arguments(parser) -> None:
     parser.add_argument("--out", default="out/viewer", help="folder for screenshots and recordings")
     parser.add_argument("--frames", type=int, default=None, help="quit after this many frames (scripts, tests)")
     parser.add_argument("--screenshot", default=None, help="save a screenshot to this PNG when quitting")
+    from .options import add_frame_arguments
+
+    add_frame_arguments(parser)
 
 
 def run(args) -> int:
-    from .. import load, load_mesh
     from ..viewer import Viewer
+    from .options import fit_warnings, load_groom, load_head
 
-    groom = load(args.groom) if args.groom else None
-    head = load_mesh(args.head) if args.head else None
+    groom = load_groom(args, args.groom) if args.groom else None
+    head = load_head(args, args.head, groom) if args.head else None
+    if groom is not None:
+        for w in fit_warnings(groom, head):
+            print(f"mane view: warning: {w}")
     viewer = Viewer(groom, head, size=_size(args.size), quality=args.quality, demo=args.demo,
                     motion=args.motion if not args.demo or args.motion != "none" else None, out_dir=args.out)
     try:

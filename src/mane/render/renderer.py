@@ -132,6 +132,8 @@ class Renderer:
         self._strand_table = None
         self.collider_sdf = None      # p (M, 3) -> (M,) signed distance; None: from settings / head
         self.lod_eye = None           # the camera's eye of the frame being drawn (LOD distances)
+        self.file_appearance: dict = {}   # what the groom's own colours / widths set (set_strands)
+        self.on_pass = None           # called with each pass's name after it ran (progress bars)
 
     @property
     def compute_raster(self) -> bool:
@@ -230,9 +232,27 @@ class Renderer:
             self.strands = StrandBuffers.from_simulator(strands)
         else:
             self.strands = StrandBuffers.from_groom(self.ctx, strands, points_per_strand)
+        groom = getattr(strands, "groom", strands) if not isinstance(strands, StrandBuffers) else None
+        self._apply_file_appearance(groom)
         self._frames_dirty = True
         self._release_table()
         return self.strands
+
+    def _apply_file_appearance(self, groom) -> None:
+        """The groom's own colour, width and opacity (settings.use_file_colors; file_appearance.py)."""
+        from dataclasses import replace
+
+        from ..groom import Groom
+        from .file_appearance import file_appearance
+
+        self.file_appearance = {}
+        if not self.settings.use_file_colors or not isinstance(groom, Groom):
+            return
+        self.file_appearance = file_appearance(groom)
+        if self.file_appearance:
+            self.settings = replace(self.settings, **self.file_appearance)
+            self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
+                                          self.settings.shading_options)
 
     def strands_changed(self) -> None:
         """Positions were written (a simulation step): rebuild the frames on the next render."""
@@ -444,6 +464,8 @@ class Renderer:
             if p.enabled(frame):
                 with self.profiler.section(p.name):
                     p.run(frame)
+            if self.on_pass is not None:
+                self.on_pass(p.name)
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame

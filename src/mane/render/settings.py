@@ -133,6 +133,11 @@ class RenderSettings:
     """Other ShadingSettings fields (e.g. {"specular": 0.4, "roughness": 0.12})."""
     hair_color: tuple[float, float, float] | None = (0.1, 0.05, 0.025)
     """Linear RGB hair colour (medium brown); None keeps the shading settings' default."""
+    use_file_colors: bool = True
+    """A groom that carries its own colours, widths or transparency (cyHair arrays, USD
+    displayColor/widths, PLY properties...) renders with them (their mean colour, median root
+    width and taper, mean opacity: mane.render.file_appearance) in place of hair_color, width,
+    width_tip and oit_opacity; False: the scene's hair model decides."""
     ambient: float = 0.12
     """Ambient light (linear radiance, white) added to the hair and the head."""
     skin_color: tuple[float, float, float] = (0.5, 0.32, 0.24)
