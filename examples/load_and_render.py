@@ -6,19 +6,19 @@ the procedural default) and render it to a PNG.
 import argparse
 from pathlib import Path
 
-import numpy as np
-
 import mane
 
 DATA = Path(__file__).resolve().parents[1].parent / "shared" / "data"
 
 
 def load_scene():
-    """(groom, head) in metres: Sintel (centimetres in the files) or the procedural default."""
+    """(groom, head) in metres: Sintel (centimetres in the files: mane.load turns them into
+    metres, and the bust, stored in the groom's frame, gets the same transform) or the
+    procedural default."""
     hair, bust = DATA / "tressfx" / "sintel_hair.tfx", DATA / "heads" / "sintel.obj"
     if hair.is_file() and bust.is_file():
-        groom = mane.load(hair).scaled(0.01)
-        head = mane.load_mesh(bust).transformed(np.diag([0.01, 0.01, 0.01, 1.0]))
+        groom = mane.load(hair)
+        head = mane.load_mesh(bust, like=groom)
         return groom, head, "Sintel (c) Blender Foundation, CC BY 3.0"
     from mane.render.scene import default_scene
 

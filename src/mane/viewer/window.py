@@ -419,7 +419,8 @@ class Viewer:
                         f" ({self.groom.num_strands} simulated)" if self.groom.num_strands != n else "")
                     return True
             if suffix in MESH_FORMATS:
-                mesh = self._mesh_to_metres(load_mesh(path))
+                # a head stored in the groom's frame gets the groom's transform (mane.io.units)
+                mesh = self._mesh_to_metres(load_mesh(path, like=self.groom))
                 self._head_is_users = True
                 self.load_scene(self.groom, mesh)
                 self.error = None
