@@ -297,3 +297,21 @@ def test_info_reports_the_guesses(tmp_path, capsys):
     assert cli.main(["info", str(f), "--units", "cm", "--up", "z"]) == 0
     text = capsys.readouterr().out
     assert "cm (option)" in text and "z-up (option)" in text
+
+
+def test_cyhair_groom_on_its_head_simulates_without_penetration(tmp_path, capsys):
+    """The issue's case end to end: a Z-up centimetre .hair on its own PLY head, no flags:
+    `mane simulate` sees the roots on the head (no fit warning) and no deep penetration."""
+    from mane.app.cli import main
+
+    pts, counts, *_ = reference_scene(n=60)
+    f = tmp_path / "hair.hair"
+    f.write_bytes(cyhair_bytes(store(pts, 0.01, "z"), counts))
+    head = head_file(tmp_path, "head.ply", 0.01, "z")
+    stats = tmp_path / "s.json"
+    assert main(["simulate", str(f), "--head", str(head), "--seconds", "0.1", "--fps", "10",
+                 "--points", "8", "--motion", "none", "--stats", str(stats), "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert "inside the head" not in err and "from the head" not in err and "implausible" not in err
+    s = json.loads(stats.read_text())
+    assert s["max_penetration"] < 0.005 and s["max_root_error"] < 1e-4
