@@ -233,9 +233,9 @@ def test_options_are_checked(tmp_path):
 
 # ------------------------------------------------------------------------------ round trips
 WRITABLE = [".hair", ".data", ".tfx", ".ply", ".npz", ".usda", ".abc"]
-CARRIES = {".hair": {"colors", "widths"}, ".data": set(), ".tfx": {"colors"},
+CARRIES = {".hair": {"colors", "widths"}, ".data": set(), ".tfx": {"colors"},  # what each holds
            ".ply": {"colors", "widths"}, ".npz": {"colors", "widths"},
-           ".usda": {"colors", "widths"}, ".abc": {"widths"}}
+           ".usda": {"colors", "widths"}, ".abc": {"colors", "widths"}}
 
 
 @pytest.mark.parametrize("suffix", WRITABLE)
@@ -250,14 +250,16 @@ def test_conversion_round_trip(tmp_path, suffix):
     out = tmp_path / f"out{suffix}"
     mane.save(g, out)
     with warnings.catch_warnings():
-        if suffix != ".abc":   # Alembic declares nothing: its unit is guessed (metres)
-            warnings.simplefilter("error")
+        warnings.simplefilter("error")   # mane's writers declare metres: nothing is guessed
         back = mane.load(out)
     np.testing.assert_array_equal(back.counts, counts)
     np.testing.assert_allclose(back.points, g.points, atol=1e-6)
     for name in CARRIES[suffix]:
         np.testing.assert_allclose(getattr(back, name), getattr(g, name), rtol=1e-6, err_msg=name)
-    assert back.metadata["frame"]["scale"] == 1.0 and back.metadata["frame"]["file_up"] in "yz"
+    frame = back.metadata["frame"]
+    assert frame["scale"] == 1.0 and frame["file_up"] in "yz" and frame["guessed"] == []
+    if suffix not in (".data",):   # USC-HairSalon has no room for a declaration (Y-up by convention)
+        assert frame["units_source"] == "declared"
 
 
 @pytest.mark.parametrize("counts", [[21, 7, 13], [5, 5, 5], [40, 50, 60]])

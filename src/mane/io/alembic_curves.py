@@ -20,7 +20,11 @@ first); the number of samples is in the metadata. Units and axes are kept as sto
 has none; most DCCs write Y-up).
 
 :func:`write` writes one linear, non-periodic ``OCurves`` object ``/hair`` with widths (vertex
-scope) when the groom has them.
+scope), colours (the arbitrary geometry parameter ``Cs``, colour3f per vertex) and transparency
+(``mane_transparency``, float per vertex) when the groom has them, and the user properties
+``mane_units = "m"`` and ``mane_up = "y"``, which :func:`read` takes as a declaration (other
+archives: Y-up by convention, the unit guessed). :func:`read` reads ``Cs`` and
+``mane_transparency`` of any scope.
 """
 from __future__ import annotations
 
@@ -127,8 +131,9 @@ def read_in_process(path, time: float | None = None) -> Groom:
         raise FormatError(f"alembic3d cannot open the archive ({str(exc)[:200]})", path) from None
     selector = Abc.ISampleSelector(0) if time is None else Abc.ISampleSelector(float(time))
     wrap = Abc.WrapExistingFlag.kWrapExisting
-    found = []  # (object path, points, counts, widths or None, curve type, num samples)
+    found = []  # (object path, points, counts, widths, curve type, colours, transparency)
     max_samples = 0
+    declared: dict = {}
 
     def visit(obj, world, depth):
         nonlocal max_samples
@@ -162,9 +167,14 @@ def read_in_process(path, time: float | None = None) -> Groom:
                 elif len(w):
                     raise FormatError(f"{obj.getFullName()}: {len(w)} widths for {len(pts)} points "
                                       f"and {len(counts)} curves", path)
+            colors = _arb(schema, selector, "Cs", AbcGeom.IC3fGeomParam, len(pts), counts, 3, obj, path)
+            transparency = _arb(schema, selector, "mane_transparency", AbcGeom.IFloatGeomParam, len(pts),
+                                counts, 1, obj, path)
+            declared.update(_user_strings(schema, ("mane_units", "mane_up")))
             if len(pts):
                 p, widths = to_world(pts, widths, world)
-                found.append((obj.getFullName(), p, counts, widths, str(sample.getType())))
+                found.append((obj.getFullName(), p, counts, widths, str(sample.getType()), colors,
+                              transparency))
         for child in obj.children:
             visit(child, world, depth + 1)
 
@@ -175,21 +185,81 @@ def read_in_process(path, time: float | None = None) -> Groom:
     counts = np.concatenate([f[2] for f in found])
     obj_index = object_index([f[2] for f in found])
     widths = concat([f[3] for f in found])
+    colors = concat([f[5] for f in found])
+    transparency = concat([f[6] for f in found])
     if not np.all(np.isfinite(points)) or np.abs(points).max() > np.finfo(np.float32).max:
         raise FormatError("curve points are not finite", path)
     if widths is not None and (not np.all(np.isfinite(widths))):
         raise FormatError("curve widths are not finite", path)
     counts, per_point, per_strand, dropped = drop_short_curves(
-        counts, path, {"points": points, "widths": widths}, {"object": obj_index})
+        counts, path, {"points": points, "widths": widths, "colors": colors, "transparency": transparency},
+        {"object": obj_index})
     meta = {"format": "Alembic",
             "alembic": {"objects": [f[0] for f in found], "curve_types": [f[4] for f in found],
                         "num_samples": max_samples, "time": time,
                         "dropped_short_curves": dropped},
             "units": "as stored",
-            # Alembic has no units or up axis; most DCCs write Y-up (the unit is guessed)
-            "file_frame": {"units": None, "units_source": None, "up": "y", "up_source": "convention"}}
+            # Alembic has no units or up axis; most DCCs write Y-up (the unit is guessed) unless
+            # mane's user properties on the curves say
+            "file_frame": _frame(declared)}
     return build_groom(path, per_point["points"], counts, widths=per_point["widths"],
+                       colors=per_point["colors"], transparency=per_point["transparency"],
                        strand_attributes=per_strand, metadata=meta)
+
+
+def _frame(declared: dict) -> dict:
+    units, up = declared.get("mane_units"), declared.get("mane_up")
+    out = {"units": None, "units_source": None, "up": "y", "up_source": "convention"}
+    if units in ("m", "cm", "mm"):
+        out.update(units=units, units_source="declared")
+    if up in ("x", "y", "z"):
+        out.update(up=up, up_source="declared")
+    return out
+
+
+def _user_strings(schema, names) -> dict:
+    from alembic3d import Abc
+
+    props = schema.getUserProperties()
+    out = {}
+    if props is None or not props.valid():
+        return out
+    have = {props.getPropertyHeader(i).getName() for i in range(props.getNumProperties())}
+    for n in names:
+        if n in have:
+            try:
+                out[n] = str(Abc.IStringProperty(props, n).getValue())
+            except Exception:  # noqa: BLE001 - not a string property: not mane's declaration
+                pass
+    return out
+
+
+def _arb(schema, selector, name, cls, n_points, counts, width, obj, path):
+    """A vertex/uniform/constant arbitrary geometry parameter as (P, width) floats, or None."""
+    arb = schema.getArbGeomParams()
+    if arb is None or not arb.valid():
+        return None
+    if name not in {arb.getPropertyHeader(i).getName() for i in range(arb.getNumProperties())}:
+        return None
+    try:
+        vals = cls(arb, name).getExpandedValue(selector).getVals()
+        v = np.array([tuple(vals[i]) if width > 1 else vals[i] for i in range(len(vals))], dtype=np.float64)
+    except Exception:  # noqa: BLE001 - another type under a known name: ignored
+        return None
+    v = v.reshape(len(v), width) if width > 1 else v.reshape(-1)
+    if len(v) == n_points:
+        out = v
+    elif len(v) == len(counts):
+        out = np.repeat(v, counts, axis=0)
+    elif len(v) == 1:
+        out = np.repeat(v, n_points, axis=0)
+    elif len(v) == 0:
+        return None
+    else:
+        raise FormatError(f"{obj.getFullName()}: {len(v)} {name} values for {n_points} points", path)
+    if not np.all(np.isfinite(out)):
+        raise FormatError(f"{obj.getFullName()}: {name} values are not finite", path)
+    return out
 
 
 def write(groom: Groom, path) -> None:
@@ -210,6 +280,27 @@ def write(groom: Groom, path) -> None:
         else:
             sample = AbcGeom.OCurvesSchemaSample(pts, nverts, AbcGeom.CurveType.kLinear,
                                                  AbcGeom.CurvePeriodicity.kNonPeriodic)
-        curves.getSchema().set(sample)
+        schema = curves.getSchema()
+        schema.set(sample)
+        params = []
+        if groom.colors is not None:   # "Cs", the DCCs' colour primvar, per vertex
+            cs = AbcGeom.OC3fGeomParam(schema.getArbGeomParams(), "Cs", False,
+                                       AbcGeom.GeometryScope.kVertexScope, 1)
+            arr = imath.C3fArray(groom.num_points)
+            for i, c in enumerate(groom.colors.tolist()):
+                arr[i] = imath.Color3f(*c)
+            cs.set(AbcGeom.OC3fGeomParamSample(arr, AbcGeom.GeometryScope.kVertexScope))
+            params.append(cs)
+        if groom.transparency is not None:
+            tp = AbcGeom.OFloatGeomParam(schema.getArbGeomParams(), "mane_transparency", False,
+                                         AbcGeom.GeometryScope.kVertexScope, 1)
+            tp.set(AbcGeom.OFloatGeomParamSample(
+                imath.FloatArrayFromBuffer(np.ascontiguousarray(groom.transparency, dtype=np.float32)),
+                AbcGeom.GeometryScope.kVertexScope))
+            params.append(tp)
+        for name, value in (("mane_units", "m"), ("mane_up", "y")):   # mane's declaration
+            prop = Abc.OStringProperty(schema.getUserProperties(), name)
+            prop.setValue(value)
+            params.append(prop)
         # Alembic writes the archive when its objects are destroyed: do it before the rename.
-        del sample, curves, archive
+        del params, schema, sample, curves, archive
