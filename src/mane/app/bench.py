@@ -91,10 +91,26 @@ def run(args) -> int:
     module = importlib.import_module(TARGETS[args.target][0])
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         return int(module.run_cli(args) or 0)
-    progress = None if args.quiet else (
-        lambda msg: print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True))
+    from ..progress import enabled, progress as bar_of
+
+    bar = None
+    if args.quiet:
+        progress = None
+    elif enabled():   # a terminal: one bar (steps done, elapsed, rate) with the latest step's note
+        bar = bar_of(total=None, desc=f"bench {args.target}", unit="step")
+
+        def progress(msg):
+            bar.set_postfix_str(msg[-60:], refresh=False)
+            bar.update(1)
+    else:             # a log: one line per step
+        def progress(msg):
+            print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True)
     ctx = get_context()
-    result = _sanitise(module.run(ctx, mode, progress=progress))
+    try:
+        result = _sanitise(module.run(ctx, mode, progress=progress))
+    finally:
+        if bar is not None:
+            bar.close()
     text = to_json(result)
     if args.out:
         from ..io.atomic import atomic_write_path
