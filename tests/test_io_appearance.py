@@ -124,10 +124,15 @@ def test_renderer_takes_the_file_colour(gl):
     use_file_colors is off."""
     from mane.render import Renderer, RenderSettings
 
+    from mane.io.units import normalize_groom
+
     pts, counts, colors, widths, _ = reference_scene(n=20)
-    g = mane.Groom(pts, counts, colors=colors, widths=widths)
+    grown = mane.Groom(pts, counts, colors=colors, widths=widths)   # not from a file: scene look
+    g = normalize_groom(grown, units="m", up="y")                    # as mane.load gives it
     r = Renderer(RenderSettings(size=(32, 32)), ctx=gl)
     try:
+        r.set_strands(grown)
+        assert r.settings.hair_color == RenderSettings().hair_color and r.file_appearance == {}
         r.set_strands(g)
         np.testing.assert_allclose(r.settings.hair_color, colors.mean(axis=0), rtol=1e-6)
         np.testing.assert_allclose(r.hair_color(), colors.mean(axis=0), rtol=1e-6)

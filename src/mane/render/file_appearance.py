@@ -3,7 +3,9 @@
 mane renders guide strands multiplied into clumps with one hair material, so a file's per-point
 colours, widths and transparency drive the render through their typical values: the mean
 colour becomes ``hair_color``, the median root width ``width`` (and the median tip/root ratio
-``width_tip``), the mean opacity ``oit_opacity`` (used by the OIT methods). Only values that
+``width_tip``), the mean opacity ``oit_opacity`` (used by the OIT methods). The renderer does
+this for grooms read from a file (``mane.load`` records ``metadata['frame']``): procedural
+grooms carry their style's widths and colours but render with the scene's look. Only values that
 came from the file count: a cyHair header default left at the format's reference value
 (colour (1, 1, 1), thickness 1) is not a colour or a width, and a width outside 5 um..2 mm
 (after the groom's units were turned into metres) is not a hair's. ``RenderSettings.

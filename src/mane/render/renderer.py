@@ -246,8 +246,8 @@ class Renderer:
         from .file_appearance import file_appearance
 
         self.file_appearance = {}
-        if not self.settings.use_file_colors or not isinstance(groom, Groom):
-            return
+        if not self.settings.use_file_colors or not isinstance(groom, Groom) or "frame" not in groom.metadata:
+            return   # only a groom read from a file (mane.load records its frame); grown ones keep the scene's look
         self.file_appearance = file_appearance(groom)
         if self.file_appearance:
             self.settings = replace(self.settings, **self.file_appearance)
