@@ -317,3 +317,16 @@ def test_cyhair_groom_on_its_head_simulates_without_penetration(tmp_path, capsys
     assert "inside the head" not in err and "from the head" not in err and "implausible" not in err
     s = json.loads(stats.read_text())
     assert s["max_penetration"] < 0.005 and s["max_root_error"] < 1e-4
+
+
+@pytest.mark.parametrize("command", ["info", "convert", "render", "simulate", "view"])
+def test_every_command_takes_the_frame_options(command):
+    from mane.app.cli import build_parser
+
+    args = ["g.hair"] + (["out.npz"] if command == "convert" else [])
+    ns = build_parser(command).parse_args([command, *args, "--units", "cm", "--up", "z", "--scale", "0.5"])
+    assert (ns.units, ns.up, ns.scale) == ("cm", "z", 0.5)
+    if command != "convert":
+        ns = build_parser(command).parse_args([command, *args, "--head-units", "mm", "--head-up", "x",
+                                               "--head-scale", "0.1"])
+        assert (ns.head_units, ns.head_up, ns.head_scale) == ("mm", "x", 0.1)
