@@ -56,7 +56,7 @@ class UnitsWarning(UserWarning):
 
 
 def _warn(message: str) -> None:
-    warnings.warn(message, UnitsWarning, stacklevel=4)
+    warnings.warn(message, UnitsWarning, stacklevel=6)   # the caller of mane.load / load_mesh
 
 
 def check_units(units) -> str:
@@ -280,7 +280,7 @@ def _resolve(kind: str, hint: dict, units: str, up: str, scale: float | None,
         what = " and ".join(f"{k} {file_units if k == 'units' else file_up + '-up'}" for k in guessed)
         _warn(f"{label}: guessed {what}"
               + (f" ({'; '.join(notes)})" if notes else "")
-              + "; say --units/--up (--head-units/--head-up for a head) to be sure")
+              + "; say units=/up= (--units/--up, --head-units/--head-up) to be sure")
     elif notes:
         _warn(f"{label}: {'; '.join(notes)}")
     return frame
