@@ -154,7 +154,9 @@ def test_x_up_ply_is_guessed_and_flags_agree(tmp_path):
     pts, counts, *_ = reference_scene()
     g0 = mane.Groom(store(pts, 1.0, "x"), counts)
     f = tmp_path / "x.ply"
-    mane.io.strand_ply.write(g0, f)   # mane's own comments would declare Y: write a plain file
+    from mane.io import strand_ply
+
+    strand_ply.write(g0, f)   # mane's own comments would declare Y: write a plain file
     text = f.read_bytes().replace(b"comment mane units m\n", b"").replace(b"comment mane up y\n", b"")
     f.write_bytes(text)
     with pytest.warns(units.UnitsWarning, match="up x-up"):
@@ -271,14 +273,16 @@ def test_tfx_export_resamples_to_a_power_of_two(tmp_path, counts):
     mane.save(g, f)
     back = mane.load(f, units="m", up="y")
     n = back.uniform_count
-    want = mane.io.tressfx.nearest_tfx_points(float(np.median(counts)))
+    from mane.io import tressfx
+
+    want = tressfx.nearest_tfx_points(float(np.median(counts)))
     assert n == want and n in (4, 8, 16, 32, 64)
     np.testing.assert_allclose(back.roots, g.roots, atol=1e-7)      # roots and tips kept exactly
     np.testing.assert_allclose(back.tips, g.tips, atol=1e-7)
-    mane.io.tressfx.write(g, f, points=4)
+    tressfx.write(g, f, points=4)
     assert mane.load(f).uniform_count == 4
     with pytest.raises(mane.UsageError):
-        mane.io.tressfx.write(g, f, points=12)
+        tressfx.write(g, f, points=12)
 
 
 def test_info_reports_the_guesses(tmp_path, capsys):
