@@ -1,0 +1,79 @@
+"""The CPU side of a sample: raw arrays -> the files of one WebDataset sample, as bytes.
+
+Every encoding is deterministic (no time stamps: the .npz is written with a fixed date), so
+the same sample gives the same bytes on every worker and run.
+"""
+from __future__ import annotations
+
+import io
+import json
+import zipfile
+
+import numpy as np
+
+from .spec import DEPTH16_SCALE
+
+FILES = {   # output -> the files (extensions after the key) it writes
+    "rgb": ("rgb.png",), "hdr": ("hdr.npy",), "mask": ("mask.png",), "depth": ("depth.npy",),
+    "depth16": ("depth16.png",), "orientation": ("orientation.npy", "orientation_conf.npy"),
+    "ids": ("strand_id.npy", "guide_id.npy"), "camera": ("camera.json",), "strands": ("strands.npz",),
+}
+FIXED_DATE = (1980, 1, 1, 0, 0, 0)
+
+
+def expected_files(outputs) -> list[str]:
+    return [f for o in outputs for f in FILES[o]]
+
+
+def png(a: np.ndarray) -> bytes:
+    from PIL import Image
+
+    buf = io.BytesIO()
+    img = Image.fromarray(a)   # uint16 (H, W): a 16-bit greyscale PNG
+    img.save(buf, format="PNG", compress_level=1)
+    return buf.getvalue()
+
+
+def npy(a: np.ndarray) -> bytes:
+    buf = io.BytesIO()
+    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
+    return buf.getvalue()
+
+
+def npz(arrays: dict) -> bytes:
+    """An uncompressed .npz (np.load reads it) with fixed time stamps."""
+    buf = io.BytesIO()
+    with zipfile.ZipFile(buf, "w", zipfile.ZIP_STORED) as z:
+        for name, a in arrays.items():
+            z.writestr(zipfile.ZipInfo(f"{name}.npy", date_time=FIXED_DATE), npy(a))
+    return buf.getvalue()
+
+
+def encode_sample(raw: dict, outputs) -> dict:
+    """{"__key__": key, "rgb.png": bytes, ...} for the chosen outputs."""
+    out: dict = {"__key__": raw["key"]}
+    for o in outputs:
+        if o == "rgb":
+            out["rgb.png"] = png(raw["rgb"])
+        elif o == "hdr":
+            out["hdr.npy"] = npy(raw["hdr"])
+        elif o == "mask":
+            out["mask.png"] = png(np.round(np.clip(raw["alpha"], 0.0, 1.0) * 255.0).astype(np.uint8))
+        elif o == "depth":
+            out["depth.npy"] = npy(raw["depth"].astype(np.float32))
+        elif o == "depth16":
+            out["depth16.png"] = png(np.round(np.clip(raw["depth"] * DEPTH16_SCALE, 0, 65535)).astype(np.uint16))
+        elif o == "orientation":
+            out["orientation.npy"] = npy(raw["angle"].astype(np.float32))
+            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float32))
+        elif o == "ids":
+            out["strand_id.npy"] = npy(raw["strand"].astype(np.uint32))
+            out["guide_id.npy"] = npy(raw["guide"].astype(np.uint32))
+        elif o == "camera":
+            cam = dict(raw["camera"])
+            if "depth16" in outputs:
+                cam["depth16_units_per_metre"] = DEPTH16_SCALE
+            out["camera.json"] = json.dumps(cam, sort_keys=True, indent=1).encode()
+        elif o == "strands":
+            out["strands.npz"] = npz(raw["strands"])
+    return out

@@ -1,0 +1,139 @@
+"""The embedded runner: no server. One GPU worker process per visible GPU (EGL device index
+through glcontext's GLCONTEXT_DEVICE_INDEX), each with a pool of CPU processes that encode its
+samples while it renders the next ones; shards handed out from a queue; the coordinator (this
+process) records each finished shard in the manifest and draws the progress bar.
+"""
+from __future__ import annotations
+
+import multiprocessing as mp
+import os
+import queue
+import shutil
+import subprocess
+import traceback
+from concurrent.futures import ProcessPoolExecutor
+
+from .job import Done, encode_timed, render_shard
+from .report import RunReport
+from .shards import plan_resume, shard_name, write_manifest
+from .spec import DatasetSpec
+
+
+def visible_gpus() -> int:
+    """NVIDIA GPUs that nvidia-smi lists (CUDA_VISIBLE_DEVICES respected); 0 when none."""
+    cuda = os.environ.get("CUDA_VISIBLE_DEVICES")
+    if cuda is not None:
+        return len([d for d in cuda.split(",") if d.strip() and d.strip() != "-1"])
+    if shutil.which("nvidia-smi") is None:
+        return 0
+    try:
+        out = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True, timeout=20).stdout
+    except (OSError, subprocess.SubprocessError):
+        return 0
+    return sum(1 for line in out.splitlines() if line.startswith("GPU "))
+
+
+def default_encoders(workers: int) -> int:
+    return max(1, (os.cpu_count() or 2) // max(workers, 1) - 1)
+
+
+def _gpu_main(wid: int, device: int | None, spec: DatasetSpec, out_dir: str, encoders: int, tasks, results) -> None:
+    if device is not None:
+        os.environ["GLCONTEXT_DEVICE_INDEX"] = str(device)
+    try:
+        from .worker import SampleRenderer
+
+        sr = SampleRenderer(spec)
+        results.put(("ready", wid, sr.renderer_string))
+    except Exception as exc:
+        results.put(("fatal", wid, f"{type(exc).__name__}: {exc}"))
+        return
+    pool = ProcessPoolExecutor(encoders, mp_context=mp.get_context("spawn")) if encoders > 0 else None
+
+    def submit(raw):
+        if pool is None:
+            return Done(encode_timed(raw, spec.outputs))
+        return pool.submit(encode_timed, raw, spec.outputs)
+
+    try:
+        while True:
+            k = tasks.get()
+            if k is None:
+                break
+            results.put(("start", wid, k))
+            try:
+                info = render_shard(sr, k, out_dir, submit, in_flight=max(2, 2 * encoders),
+                                    on_sample=lambda: results.put(("sample", wid, 1)))
+            except Exception as exc:
+                results.put(("error", wid, k, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"))
+                continue
+            results.put(("done", wid, k, info))
+    finally:
+        if pool is not None:
+            pool.shutdown()
+        sr.release()
+
+
+def run_local(spec: DatasetSpec, out_dir, *, workers: int | None = None, encoders: int | None = None,
+              progress: bool = True) -> RunReport:
+    manifest, todo, redo = plan_resume(spec, out_dir)
+    write_manifest(out_dir, manifest)
+    gpus = visible_gpus()
+    n = int(workers) if workers else max(1, gpus)
+    n = max(1, min(n, len(todo) or 1))
+    enc = default_encoders(n) if encoders is None else int(encoders)
+    report = RunReport(spec, out_dir, "local", n, todo, redo)
+    if not todo:
+        return report.finish(manifest)
+    ctx = mp.get_context("spawn")
+    tasks, results = ctx.Queue(), ctx.Queue()
+    for k in todo:
+        tasks.put(k)
+    for _ in range(n):
+        tasks.put(None)
+    devices = [w if gpus > 1 else None for w in range(n)]
+    procs = [ctx.Process(target=_gpu_main, args=(w, devices[w], spec, str(out_dir), enc, tasks, results), daemon=False)
+             for w in range(n)]
+    for p in procs:
+        p.start()
+    current: dict = {}
+    bar = report.progress_bar(progress)
+    try:
+        while True:
+            try:
+                msg = results.get(timeout=0.5)
+            except queue.Empty:
+                for w, p in enumerate(procs):
+                    if not p.is_alive() and p.exitcode not in (0, None) and w in current:
+                        report.failed[current.pop(w)] = f"worker {w} died (exit code {p.exitcode})"
+                if all(not p.is_alive() for p in procs) and results.empty():
+                    break
+                continue
+            kind, w = msg[0], msg[1]
+            if kind == "ready":
+                report.add_renderer(msg[2])
+            elif kind == "fatal":
+                report.fatal.append(f"worker {w}: {msg[2]}")
+            elif kind == "start":
+                current[w] = msg[2]
+            elif kind == "sample":
+                bar.update(1)
+            elif kind == "error":
+                current.pop(w, None)
+                report.failed[msg[2]] = msg[3].splitlines()[0]
+            elif kind == "done":
+                info = msg[3]
+                current.pop(w, None)
+                report.shard_done(manifest, info)
+                write_manifest(out_dir, manifest)
+    finally:
+        bar.close()
+        for p in procs:
+            p.join(timeout=5)
+            if p.is_alive():
+                p.terminate()
+    # a shard a dead worker was on, or one no worker got to because every worker died
+    for k in todo:
+        if shard_name(k) not in manifest["shards"] and k not in report.failed:
+            report.failed[k] = "not rendered (every worker stopped)"
+    return report.finish(manifest)
