@@ -105,7 +105,7 @@ class Colors:
 
 @dataclass(frozen=True)
 class Views:
-    """The camera orbits the scene's centre (hair and head): ``azimuth`` about +Y (0 faces the
+    """The camera orbits the hair's centroid: ``azimuth`` about +Y (0 faces the
     face), ``elevation`` above the horizon, ``distance`` (m) from the centre, ``focal_length``
     (mm on a ``sensor_height`` mm tall sensor), the look-at target moved by up to ``jitter`` m
     along each axis."""
@@ -251,9 +251,9 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
     if "heads" in data:
         h = data["heads"]
         if not isinstance(h, list) or not h or not all(isinstance(x, str) for x in h):
-            raise UsageError(f"heads must be a list of 'default' or mesh files, got {h!r}")
+            raise UsageError(f"heads must be a list of 'default', 'none' (hair alone) or mesh files, got {h!r}")
         for x in h:
-            if x != "default" and not (Path(base_dir) / x).is_file():
+            if x not in ("default", "none") and not (Path(base_dir) / x).is_file():
                 raise UsageError(f"heads: no mesh file {x!r} (relative to {base_dir})")
         kw["heads"] = tuple(h)
     if "grooms" in data:

@@ -41,7 +41,9 @@ class SampleRenderer:
     # ------------------------------------------------------------------ scene pieces
     def head(self, name: str):
         if name not in self._heads:
-            if name == "default":
+            if name == "none":
+                self._heads[name] = None
+            elif name == "default":
                 from ..render.scene import default_head
 
                 self._heads[name] = default_head()
@@ -60,7 +62,7 @@ class SampleRenderer:
         if src.style is not None:
             from ..grooming import grow
 
-            g = grow(self.head(p.head), src.strands, src.style, src.points, p.groom_seed, **src.style_options)
+            g = grow(self.head(p.head) if p.head != "none" else self.head("default"), src.strands, src.style, src.points, p.groom_seed, **src.style_options)
         else:
             from .. import load
 
@@ -77,9 +79,9 @@ class SampleRenderer:
         from ..sim import MeshCollider, SimSettings, Simulator, WindSettings, head_motion
 
         s = self.spec.simulation
-        sim = Simulator(groom, [MeshCollider(head, resolution=48, margin=0.002, friction=0.3)],
-                        SimSettings(wind=WindSettings(velocity=tuple(p.wind), gust=0.3)), self.ctx)
-        lo, hi = head.bbox()
+        colliders = [MeshCollider(head, resolution=48, margin=0.002, friction=0.3)] if head is not None else []
+        sim = Simulator(groom, colliders, SimSettings(wind=WindSettings(velocity=tuple(p.wind), gust=0.3)), self.ctx)
+        lo, hi = head.bbox() if head is not None else (groom.roots.min(axis=0), groom.roots.max(axis=0))
         pivot = ((lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2)
         motion = head_motion.preset(p.motion, pivot=pivot)
         frames = max(1, int(round(p.sim_seconds * s.fps)))
@@ -97,7 +99,9 @@ class SampleRenderer:
         from ..render.camera import Camera
 
         lo, hi = groom.bbox()
-        centre = 0.5 * (np.asarray(lo, float) + np.asarray(hi, float)) + np.asarray(p.jitter)
+        # the hair's centroid: near the scalp, where the hair is densest (a bbox centre drops
+        # to the shoulders for long hair)
+        centre = np.asarray(groom.points, np.float64).mean(axis=0) + np.asarray(p.jitter)
         az, el = math.radians(p.azimuth), math.radians(p.elevation)
         d = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
         eye = centre + d * p.distance
