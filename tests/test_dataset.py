@@ -1,0 +1,225 @@
+"""``mane dataset``: the spec and its errors, per-sample parameters, the local and Ray runners
+(identical shards), resume after a killed worker, and verify catching a broken shard."""
+from __future__ import annotations
+
+import hashlib
+import io
+import json
+import shutil
+
+import numpy as np
+import pytest
+
+from mane.errors import UsageError
+
+TINY = {
+    "name": "test", "seed": 3, "samples": 6, "samples_per_shard": 2, "size": [40, 32],
+    "outputs": ["rgb", "hdr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands"],
+    "heads": ["none"], "grooms": [{"file": "g.npz", "weight": 2.0}, {"file": "g2.npz"}],
+    "colors": {"presets": ["black", "blond", "red"]},
+    "views": {"distance": [0.7, 0.9], "azimuth": [-50, 50], "jitter": 0.01},
+    "lights": {"count": [1, 2], "temperature": [3000, 7000]},
+    "render": {"strands_per_guide": 2, "msaa": 4, "shadows": "shadow_map", "shadow_map_size": 64, "segments": 14},
+}
+
+
+@pytest.fixture(scope="module")
+def spec_dir(tmp_path_factory):
+    from mane import save
+    from mane.render.scene import default_scene
+
+    d = tmp_path_factory.mktemp("spec")
+    groom, _ = default_scene(num_guides=24, points=8, subdivisions=3)
+    save(groom, d / "g.npz")
+    save(groom.subset(np.arange(12)), d / "g2.npz")
+    return d
+
+
+@pytest.fixture(scope="module")
+def tiny(spec_dir):
+    from mane.dataset import parse_spec
+
+    return parse_spec(TINY, spec_dir)
+
+
+@pytest.fixture(scope="module")
+def local_set(tiny, tmp_path_factory):
+    from mane.dataset.local import run_local
+
+    out = tmp_path_factory.mktemp("local")
+    report = run_local(tiny, out, workers=1, encoders=0, progress=False)
+    assert report.ok, report.lines()
+    return out
+
+
+def _shards(d):
+    return {p.name: hashlib.sha256(p.read_bytes()).hexdigest() for p in sorted(d.glob("shard-*.tar"))}
+
+
+# ---------------------------------------------------------------------- spec
+@pytest.mark.parametrize("change,words", [
+    ({"samples": 0}, "samples must be"),
+    ({"sampels": 3}, "unknown key 'sampels'"),
+    ({"size": [4, 4]}, "size must be"),
+    ({"outputs": ["rgb", "normals"]}, "outputs must be"),
+    ({"views": {"elevation": [30, 10]}}, "[views] elevation"),
+    ({"views": {"fov": 3}}, "unknown key 'fov' in [views]"),
+    ({"lights": {"count": [0, 9]}}, "[lights] count"),
+    ({"lights": {"temperature": 100}}, "[lights] temperature"),
+    ({"colors": {"presets": ["green"]}}, "[colors] presets"),
+    ({"grooms": [{"style": "wavy", "file": "g.npz"}]}, "exactly one of style, file or folder"),
+    ({"grooms": [{"style": "afro"}]}, "unknown style 'afro'"),
+    ({"grooms": [{"file": "nothing.hair"}]}, "no hair file"),
+    ({"grooms": [{"style": "wavy", "style_options": {"lenght": 0.2}}]}, "unknown style_options"),
+    ({"render": {"rasterizer": "hardware"}}, "cannot be set"),
+    ({"render": {"shadow": "none"}}, "unknown RenderSettings field 'shadow'"),
+    ({"render": {"shadows": "soft"}}, "shadows must be one of"),
+    ({"simulation": {"motions": ["dance"]}}, "[simulation] motions"),
+    ({"heads": ["nohead.obj"]}, "no mesh file"),
+])
+def test_bad_specs_get_one_line_errors(spec_dir, change, words):
+    from mane.dataset import parse_spec
+
+    with pytest.raises(UsageError) as e:
+        parse_spec({**TINY, **change}, spec_dir)
+    assert words in str(e.value) and "\n" not in str(e.value)
+
+
+def test_toml_file_plan_and_hash(spec_dir, tmp_path, capsys):
+    from mane.app.cli import main
+    from mane.dataset import load_spec
+
+    text = (f'samples = 5\nsamples_per_shard = 2\nsize = [64, 48]\nheads = ["none"]\n'
+            f'[[grooms]]\nfile = "{spec_dir / "g.npz"}"\n[views]\nazimuth = [0, 90]\n')
+    (tmp_path / "s.toml").write_text(text)
+    s = load_spec(tmp_path / "s.toml")
+    assert (s.samples, s.num_shards, list(s.shard_range(2))) == (5, 3, [4])
+    assert s.views.azimuth == (0.0, 90.0) and s.views.distance == (0.8, 1.2)   # the rest default
+    assert s.hash() == load_spec(tmp_path / "s.toml").hash()
+    (tmp_path / "t.toml").write_text(text.replace("samples = 5", "samples = 6"))
+    assert load_spec(tmp_path / "t.toml").hash() != s.hash()
+    assert main(["dataset", "plan", str(tmp_path / "s.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "5 samples of 64x48 in 3 shard(s)" in out and "estimated disk" in out
+    (tmp_path / "bad.toml").write_text("samples = [")
+    assert main(["dataset", "plan", str(tmp_path / "bad.toml")]) == 2
+
+
+def test_sample_parameters_depend_on_seed_and_index_only(tiny):
+    from mane.dataset.sampling import sample_params
+
+    a = [sample_params(tiny, i) for i in (4, 0, 4)]
+    assert a[0] == a[2] and a[0] != a[1]
+    more = tiny.__class__(**{**tiny.__dict__, "samples": 1000, "samples_per_shard": 7})
+    assert sample_params(more, 4) == a[0]      # nor on the set's size or sharding
+    other = tiny.__class__(**{**tiny.__dict__, "seed": 4})
+    assert sample_params(other, 4) != a[0]
+    p = [sample_params(tiny, i) for i in range(200)]
+    assert {x.color_preset for x in p} == {"black", "blond", "red"}
+    assert all(-50 <= x.azimuth <= 50 and 0.7 <= x.distance <= 0.9 and 1 <= len(x.lights) <= 2 for x in p)
+    picks = np.bincount([x.groom for x in p], minlength=2) / len(p)
+    assert abs(picks[0] - 2 / 3) < 0.1          # weights 2 : 1
+    f = p[0].focal_length   # fov from focal length on a 24 mm sensor
+    assert abs(p[0].fov_y - np.degrees(2 * np.arctan(12.0 / f))) < 1e-9
+
+
+@pytest.mark.parametrize("kelvin,xy", [(3000, (0.4369, 0.4041)), (4000, (0.3805, 0.3768)),
+                                       (5000, (0.3451, 0.3516)), (6500, (0.3135, 0.3236)),
+                                       (10000, (0.2807, 0.2884))])
+def test_blackbody_on_the_planckian_locus(kelvin, xy):
+    # chromaticities of the Planckian locus (CIE 1931 2 deg; Wyszecki & Stiles' tables)
+    from mane.dataset.blackbody import blackbody_rgb, blackbody_xyz
+
+    X = blackbody_xyz(kelvin)
+    assert np.allclose(X[:2] / X.sum(), xy, atol=0.002)
+    rgb = np.array(blackbody_rgb(kelvin))
+    assert abs(rgb @ [0.2126, 0.7152, 0.0722] - 1.0) < 1e-9 and rgb.min() >= 0
+    assert (rgb[0] > rgb[2]) == (kelvin < 7000)   # the locus crosses sRGB white near 6600 K
+
+
+# ---------------------------------------------------------------------- runs
+@pytest.mark.gpu
+def test_local_run_verifies_and_decodes(tiny, local_set):
+    import webdataset as wds
+
+    from mane.dataset.shards import verify
+
+    rep = verify(local_set)
+    assert rep["ok"] and rep["samples"] == 6 and rep["shards"] == 3, rep
+    m = json.loads((local_set / "manifest.json").read_text())
+    assert m["spec_hash"] == tiny.hash() and m["renderers"] and m["mane_version"]
+    for name, entry in m["shards"].items():
+        assert hashlib.sha256((local_set / name).read_bytes()).hexdigest() == entry["sha256"]
+    urls = [str(p) for p in sorted(local_set.glob("shard-*.tar"))]
+    def png(key, data):   # PNGs as stored (8-bit RGB, 8-bit grey, 16-bit grey)
+        if key.endswith(".png"):
+            from PIL import Image
+
+            return np.asarray(Image.open(io.BytesIO(data)))
+        return None
+
+    samples = list(wds.WebDataset(urls, shardshuffle=False).decode(png))
+    assert [s["__key__"] for s in samples] == [f"{i:09d}" for i in range(6)]
+    s = samples[3]
+    assert s["rgb.png"].shape == (32, 40, 3) and s["mask.png"].shape == (32, 40)
+    assert s["depth.npy"].dtype == np.float32 and s["strand_id.npy"].dtype == np.uint32
+    assert s["hdr.npy"].dtype == np.float16 and s["hdr.npy"].shape == (32, 40, 3)
+    hit = s["strand_id.npy"] != 0xFFFFFFFF
+    assert hit.any() and np.all(s["depth.npy"][hit] > 0) and np.all(s["depth.npy"][~hit] == 0)
+    d16 = s["depth16.png"]
+    assert np.allclose(d16[hit] / s["camera.json"]["depth16_units_per_metre"], s["depth.npy"][hit], atol=1e-4)
+    assert np.all(s["mask.png"][hit] > 0)
+    cam = s["camera.json"]
+    assert cam["params"]["index"] == 3 and np.array(cam["K"]).shape == (3, 3)
+    assert len(cam["lights"]) == len(cam["params"]["lights"])
+    assert set(s["strands.npz"]) == {"points", "counts"}
+
+
+@pytest.mark.gpu
+def test_verify_catches_a_truncated_shard(local_set, tmp_path):
+    from mane.app.cli import main
+    from mane.dataset.shards import verify
+
+    bad = tmp_path / "bad"
+    shutil.copytree(local_set, bad)
+    p = bad / "shard-000001.tar"
+    p.write_bytes(p.read_bytes()[:5000])
+    rep = verify(bad)
+    assert not rep["ok"] and any("shard-000001.tar" in x and "checksum" in x for x in rep["problems"])
+    assert main(["dataset", "verify", str(bad)]) == 1
+    assert main(["dataset", "verify", str(local_set)]) == 0
+
+
+@pytest.mark.gpu
+def test_resume_after_a_killed_worker_gives_the_same_set(tiny, local_set, tmp_path, monkeypatch):
+    from mane.dataset.local import run_local
+    from mane.dataset.shards import verify
+
+    out = tmp_path / "killed"
+    monkeypatch.setenv("MANE_DATASET_EXIT_AFTER", "3")   # the worker dies rendering shard 1's 2nd sample
+    r1 = run_local(tiny, out, workers=1, encoders=0, progress=False)
+    assert not r1.ok and r1.done == [0] and 1 in r1.failed and "died" in r1.failed[1]
+    assert list(out.glob(".shard-000001.tar.tmp-*"))                  # its partial shard, never renamed
+    assert not (out / "shard-000001.tar").exists()
+    assert not verify(out)["ok"]
+    monkeypatch.delenv("MANE_DATASET_EXIT_AFTER")
+    r2 = run_local(tiny, out, workers=1, encoders=0, progress=False)
+    assert r2.ok and sorted(r2.done) == [1, 2] and "unfinished" in r2.redo[1]
+    assert not list(out.glob(".shard-*"))
+    assert _shards(out) == _shards(local_set)
+    r3 = run_local(tiny, out, workers=1, encoders=0, progress=False)   # nothing left to do
+    assert r3.ok and r3.done == [] and r3.as_dict()["kept"] == 3
+    other = tiny.__class__(**{**tiny.__dict__, "seed": 99})
+    with pytest.raises(UsageError, match="another spec"):
+        run_local(other, out, progress=False)
+
+
+@pytest.mark.gpu
+@pytest.mark.ray
+def test_ray_with_two_workers_gives_the_same_shards(tiny, local_set, tmp_path):
+    pytest.importorskip("ray")
+    from mane.dataset.ray_runner import run_ray
+
+    report = run_ray(tiny, tmp_path / "ray", workers=2, progress=False)
+    assert report.ok and report.workers == 2, report.lines()
+    assert _shards(tmp_path / "ray") == _shards(local_set)
