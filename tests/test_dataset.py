@@ -223,3 +223,14 @@ def test_ray_with_two_workers_gives_the_same_shards(tiny, local_set, tmp_path):
     report = run_ray(tiny, tmp_path / "ray", workers=2, progress=False)
     assert report.ok and report.workers == 2, report.lines()
     assert _shards(tmp_path / "ray") == _shards(local_set)
+
+
+def test_views_per_groom_share_the_hairstyle_only(tiny):
+    from mane.dataset.sampling import sample_params
+
+    spec = tiny.__class__(**{**tiny.__dict__, "views_per_groom": 3})
+    p = [sample_params(spec, i) for i in range(6)]
+    style = lambda x: (x.groom, x.groom_seed, x.head, x.melanin)  # noqa: E731
+    assert style(p[0]) == style(p[1]) == style(p[2]) and style(p[3]) == style(p[4]) == style(p[5])
+    assert len({x.azimuth for x in p}) == 6     # the views differ
+    assert len({style(sample_params(spec, 3 * i)) for i in range(30)}) > 5

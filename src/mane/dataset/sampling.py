@@ -1,6 +1,7 @@
 """What each sample is: its groom, head, colour, camera, lights and simulation, drawn from the
-spec with a generator seeded by (spec seed, sample index) through numpy's SeedSequence, so a
-sample is the same whichever worker renders it and in whatever order.
+spec with a generator seeded by (spec seed, sample index) through numpy's SeedSequence (the
+hairstyle: groom, head and colour, by (spec seed, index // views_per_groom, 1)), so a sample
+is the same whichever worker renders it and in whatever order.
 
     p = sample_params(spec, 12)      # a SampleParams (plain numbers: JSON-able with asdict)
 """
@@ -62,16 +63,18 @@ def sample_params(spec: DatasetSpec, index: int) -> SampleParams:
     from pathlib import Path
 
     rng = sample_rng(spec.seed, index)
+    # the hairstyle (groom, head, colour) is shared by views_per_groom consecutive samples
+    style_rng = np.random.default_rng(np.random.SeedSequence([int(spec.seed), int(index) // spec.views_per_groom, 1]))
     w = np.array([g.weight for g in spec.grooms], float)
-    gi = int(rng.choice(len(spec.grooms), p=w / w.sum()))
+    gi = int(style_rng.choice(len(spec.grooms), p=w / w.sum()))
     src = spec.grooms[gi]
-    seed = int(rng.integers(src.seeds[0], src.seeds[1] + 1))
+    seed = int(style_rng.integers(src.seeds[0], src.seeds[1] + 1))
     files = src.files(Path(spec.base_dir))
     gfile = str(files[seed % len(files)].relative_to(spec.base_dir)) if files else None
-    head = spec.heads[int(rng.integers(len(spec.heads)))]
+    head = spec.heads[int(style_rng.integers(len(spec.heads)))]
     c = spec.colors
-    pick = int(rng.integers(max(len(c.presets), 1)))
-    eu, pheo = _u(rng, c.eumelanin), _u(rng, c.pheomelanin)
+    pick = int(style_rng.integers(max(len(c.presets), 1)))
+    eu, pheo = _u(style_rng, c.eumelanin), _u(style_rng, c.pheomelanin)
     preset = c.presets[pick] if c.presets else None
     melanin = MELANIN_PRESETS[preset] if preset else (eu, pheo)
     v = spec.views

@@ -155,6 +155,9 @@ class DatasetSpec:
     seed: int = 0
     samples: int = 16
     samples_per_shard: int = 1000
+    views_per_groom: int = 1
+    """Consecutive samples sharing a groom, head and hair colour (index // views_per_groom):
+    several views and lights of each hairstyle, and the worker grows or loads it once."""
     size: tuple = (512, 512)
     outputs: tuple = DEFAULT_OUTPUTS
     heads: tuple = ("default",)
@@ -231,7 +234,7 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
     kw: dict = {"base_dir": str(Path(base_dir).resolve())}
     if "name" in data:
         kw["name"] = str(data["name"])
-    for k, lo in (("seed", 0), ("samples", 1), ("samples_per_shard", 1)):
+    for k, lo in (("seed", 0), ("samples", 1), ("samples_per_shard", 1), ("views_per_groom", 1)):
         if k in data:
             v = data[k]
             if not isinstance(v, int) or isinstance(v, bool) or v < lo or v >= 2**63:
