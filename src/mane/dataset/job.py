@@ -47,12 +47,14 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
     before = dict(sr.timings)
     shard = ShardFile(out_dir, k)
     pending: deque = deque()
-    encode_s = write_s = 0.0
+    encode_s = write_s = submit_s = wait_s = 0.0
 
     def drain(block: bool) -> None:
-        nonlocal encode_s, write_s
+        nonlocal encode_s, write_s, wait_s
         while pending and (block or len(pending) > in_flight or pending[0].done()):
+            t = time.perf_counter()
             files, enc = pending.popleft().result()
+            wait_s += time.perf_counter() - t
             t = time.perf_counter()
             shard.write(files)
             write_s += time.perf_counter() - t
@@ -64,7 +66,10 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
         for i in spec.shard_range(k):
             if exit_after and _rendered >= exit_after:
                 os._exit(17)   # the fault hook: as abrupt as a kill
-            pending.append(submit(sr.render(sample_params(spec, i))))
+            raw = sr.render(sample_params(spec, i))
+            t = time.perf_counter()
+            pending.append(submit(raw))
+            submit_s += time.perf_counter() - t
             _rendered += 1
             drain(False)
         drain(True)
@@ -74,4 +79,5 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
         raise
     timings = {name: sr.timings[name] - before.get(name, 0.0) for name in sr.timings}
     return {"shard": k, "samples": shard.samples, "sha256": sha, "bytes": size,
-            "timings": {**timings, "encode": encode_s, "write": write_s, "wall": time.perf_counter() - t0}}
+            "timings": {**timings, "submit": submit_s, "wait_encoders": wait_s, "encode": encode_s, "write": write_s,
+                        "wall": time.perf_counter() - t0}}
