@@ -7,11 +7,12 @@ strands for CPUs):
 
 - ``stages``: samples rendered one after the other without encoding, per sample: ``prepare``
   (the sample's scene on the CPU), ``gpu`` (render to the end of the frame, ctx.finish),
-  ``readback`` (image and maps to NumPy); and the encoding of one sample on one core
-  (``encode``) with its bytes;
+  ``readback`` (image and maps to NumPy); the .npy/.json/.npz files (``encode_arrays``, in the
+  GPU process) and the PNGs of one sample on one core (``encode_png_one_core``), its bytes;
 - ``pipeline``: a whole shard through render_shard with the encoder pool, as a run does:
   samples per second (the figure), and the GPU process's time split into prepare, gpu,
-  readback, submit (pickling to the encoders), waiting on encoders and shard writing;
+  readback, encode_arrays, submit (pickling the PNG job to the encoders), waiting on encoders
+  and shard writing;
 - the bounds: 1 / (the GPU process's time per sample) and encoders / encode time.
 """
 from __future__ import annotations
@@ -49,6 +50,7 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
     from concurrent.futures import ProcessPoolExecutor
     import multiprocessing as mp
 
+    from ..dataset.encode import encode_arrays, png_job
     from ..dataset.job import encode_timed, render_shard
     from ..dataset.sampling import sample_params
     from ..dataset.worker import SampleRenderer
@@ -73,21 +75,25 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
                 raws[i % 2] = sr.render(sample_params(spec, 2 + i))
             alone = time.perf_counter() - t
             stage = {k: 1000.0 * v / n for k, v in sr.timings.items()}
-            enc_ms, nbytes = [], 0
+            arr_ms, enc_ms, nbytes = [], [], 0
             for raw in raws:
-                files, s = encode_timed(raw, spec.outputs)
+                t = time.perf_counter()
+                files = encode_arrays(raw, spec.outputs)
+                arr_ms.append(1000.0 * (time.perf_counter() - t))
+                pngs, s = encode_timed(png_job(raw, spec.outputs))
                 enc_ms.append(1000.0 * s)
-                nbytes = sum(len(v) for k, v in files.items() if k != "__key__")
+                nbytes = sum(len(v) for k, v in {**files, **pngs}.items() if k != "__key__")
             t = time.perf_counter()
-            pickled = len(pickle.dumps(raws[0], protocol=pickle.HIGHEST_PROTOCOL))
+            pickled = len(pickle.dumps(png_job(raws[0], spec.outputs), protocol=pickle.HIGHEST_PROTOCOL))
             pickle_ms = 1000.0 * (time.perf_counter() - t)
-            stage.update({"encode_one_core": sum(enc_ms) / len(enc_ms), "pickle": pickle_ms})
+            stage.update({"encode_arrays": sum(arr_ms) / len(arr_ms), "encode_png_one_core": sum(enc_ms) / len(enc_ms),
+                          "pickle": pickle_ms})
             log(f"pipeline: {spec.samples} samples, {encoders} encoder processes")
             with ProcessPoolExecutor(encoders, mp_context=mp.get_context("spawn")) as pool:
                 list(pool.map(abs, range(encoders)))   # start the encoders before timing
 
-                def submit(raw):
-                    return pool.submit(encode_timed, raw, spec.outputs)
+                def submit(job):
+                    return pool.submit(encode_timed, job)
 
                 t = time.perf_counter()
                 info = render_shard(sr, 0, tmp, submit, in_flight=2 * encoders)
@@ -95,17 +101,17 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
         finally:
             sr.release()
     per = {k: 1000.0 * v / info["samples"] for k, v in info["timings"].items() if k != "wall"}
-    gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "submit", "write"))
+    gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "encode_arrays", "submit", "write"))
     row = {
         "bench": "dataset", "name": f"{cfg['size'][0]}x{cfg['size'][1]}", "status": "ok",
         "samples": info["samples"], "samples_per_s": info["samples"] / wall, "wall_s": wall,
         "size": list(cfg["size"]), "rendered_strands": cfg["guides"] * cfg["strands_per_guide"],
-        "outputs": OUTPUTS, "encoders": encoders, "bytes_per_sample": nbytes, "raw_pickle_bytes": pickled,
+        "outputs": OUTPUTS, "encoders": encoders, "bytes_per_sample": nbytes, "png_job_pickle_bytes": pickled,
         "shard_bytes": info["bytes"],
         "stage_ms_per_sample": stage, "render_alone_samples_per_s": n / alone,
         "pipeline_ms_per_sample": per,
         "bound_gpu_process_samples_per_s": 1000.0 / max(gpu_process_ms, 1e-9),
-        "bound_encoders_samples_per_s": 1000.0 * encoders / max(stage["encode_one_core"], 1e-9),
+        "bound_encoders_samples_per_s": 1000.0 * encoders / max(stage["encode_png_one_core"], 1e-9),
     }
     meta = envelope(ctx, target="dataset", mode=mode, settings={**cfg, "size": list(cfg["size"]), "encoders": encoders},
                     timing={"source": "cpu wall clock (ctx.finish after each frame)",
@@ -123,10 +129,11 @@ def format_text(result: dict) -> str:
         f"{r['samples_per_s']:.2f} samples/s with 1 GPU worker and {r['encoders']} encoders "
         f"({r['bytes_per_sample'] / 1e6:.2f} MB a sample)",
         f"  stages alone, ms a sample: prepare {ms(st, 'prepare')}, gpu {ms(st, 'gpu')}, readback "
-        f"{ms(st, 'readback')}, pickle {ms(st, 'pickle')}, encode {ms(st, 'encode_one_core')} (one core)",
+        f"{ms(st, 'readback')}, .npy/.json/.npz {ms(st, 'encode_arrays')}, pickle of the PNG job {ms(st, 'pickle')}, "
+        f"PNGs {ms(st, 'encode_png_one_core')} (one core)",
         f"  in the pipeline, GPU process ms a sample: prepare {ms(pp, 'prepare')}, gpu {ms(pp, 'gpu')}, readback "
-        f"{ms(pp, 'readback')}, submit {ms(pp, 'submit')}, waiting on encoders {ms(pp, 'wait_encoders')}, "
-        f"shard writing {ms(pp, 'write')}; encoders' CPU {ms(pp, 'encode')}",
+        f"{ms(pp, 'readback')}, .npy/.json/.npz {ms(pp, 'encode_arrays')}, submit {ms(pp, 'submit')}, waiting on "
+        f"encoders {ms(pp, 'wait_encoders')}, shard writing {ms(pp, 'write')}; encoders' CPU {ms(pp, 'encode_png')}",
         f"  bounds: GPU process {r['bound_gpu_process_samples_per_s']:.1f} samples/s, encoders "
         f"{r['bound_encoders_samples_per_s']:.1f} samples/s; rendering alone {r['render_alone_samples_per_s']:.1f} "
         "samples/s",

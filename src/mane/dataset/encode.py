@@ -1,4 +1,6 @@
-"""The CPU side of a sample: raw arrays -> the files of one WebDataset sample, as bytes.
+"""The CPU side of a sample: raw arrays -> the files of one WebDataset sample, as bytes. The
+.npy / .json / .npz files cost a copy and are made by the GPU worker (encode_arrays); the PNGs
+are compressed by encoder processes (encode_pngs), which receive only the arrays they need.
 
 Every encoding is deterministic (no time stamps: the .npz is written with a fixed date), so
 the same sample gives the same bytes on every worker and run.
@@ -49,26 +51,24 @@ def npz(arrays: dict) -> bytes:
     return buf.getvalue()
 
 
-def encode_sample(raw: dict, outputs) -> dict:
-    """{"__key__": key, "rgb.png": bytes, ...} for the chosen outputs."""
+PNG_OUTPUTS = ("rgb", "mask", "depth16")
+
+
+def encode_arrays(raw: dict, outputs) -> dict:
+    """The cheap files (.npy, .json, .npz: a header and a copy), made where the sample was
+    rendered: {"__key__": key, "depth.npy": bytes, ...}."""
     out: dict = {"__key__": raw["key"]}
     for o in outputs:
-        if o == "rgb":
-            out["rgb.png"] = png(raw["rgb"])
-        elif o == "hdr":
+        if o == "hdr":
             out["hdr.npy"] = npy(raw["hdr"])
-        elif o == "mask":
-            out["mask.png"] = png(np.round(np.clip(raw["alpha"], 0.0, 1.0) * 255.0).astype(np.uint8))
         elif o == "depth":
-            out["depth.npy"] = npy(raw["depth"].astype(np.float32))
-        elif o == "depth16":
-            out["depth16.png"] = png(np.round(np.clip(raw["depth"] * DEPTH16_SCALE, 0, 65535)).astype(np.uint16))
+            out["depth.npy"] = npy(raw["depth"].astype(np.float32, copy=False))
         elif o == "orientation":
-            out["orientation.npy"] = npy(raw["angle"].astype(np.float32))
-            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float32))
+            out["orientation.npy"] = npy(raw["angle"].astype(np.float32, copy=False))
+            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float32, copy=False))
         elif o == "ids":
-            out["strand_id.npy"] = npy(raw["strand"].astype(np.uint32))
-            out["guide_id.npy"] = npy(raw["guide"].astype(np.uint32))
+            out["strand_id.npy"] = npy(raw["strand"].astype(np.uint32, copy=False))
+            out["guide_id.npy"] = npy(raw["guide"].astype(np.uint32, copy=False))
         elif o == "camera":
             cam = dict(raw["camera"])
             if "depth16" in outputs:
@@ -77,3 +77,33 @@ def encode_sample(raw: dict, outputs) -> dict:
         elif o == "strands":
             out["strands.npz"] = npz(raw["strands"])
     return out
+
+
+def png_job(raw: dict, outputs) -> dict:
+    """What the PNG encoders need of a sample (the arrays only, to keep the hand-over small)."""
+    job = {"outputs": [o for o in outputs if o in PNG_OUTPUTS]}
+    if "rgb" in outputs:
+        job["rgb"] = raw["rgb"]
+    if "mask" in outputs:
+        job["alpha"] = raw["alpha"]
+    if "depth16" in outputs:
+        job["depth"] = raw["depth"]
+    return job
+
+
+def encode_pngs(job: dict) -> dict:
+    """The PNG files of a sample (the CPU-heavy part, run by encoder processes)."""
+    out = {}
+    for o in job["outputs"]:
+        if o == "rgb":
+            out["rgb.png"] = png(job["rgb"])
+        elif o == "mask":
+            out["mask.png"] = png(np.round(np.clip(job["alpha"], 0.0, 1.0) * 255.0).astype(np.uint8))
+        elif o == "depth16":
+            out["depth16.png"] = png(np.round(np.clip(job["depth"] * DEPTH16_SCALE, 0, 65535)).astype(np.uint16))
+    return out
+
+
+def encode_sample(raw: dict, outputs) -> dict:
+    """Every file of a sample: {"__key__": key, "rgb.png": bytes, ...} for the chosen outputs."""
+    return {**encode_arrays(raw, outputs), **encode_pngs(png_job(raw, outputs))}

@@ -1,6 +1,7 @@
 """One shard's work, the same for the local runner and Ray: render its samples in order on
-this process's GPU, hand each to an encoder (``submit(raw) -> future``), stream the encoded
-samples into the shard's temporary file in order, rename it when complete.
+this process's GPU, make its cheap files here and hand its PNGs to an encoder (``submit(job)
+-> future``), stream the encoded samples into the shard's temporary file in order, rename it
+when complete.
 
 A fault hook for tests: with ``MANE_DATASET_EXIT_AFTER=N`` in its environment a worker process
 exits abruptly (os._exit, like a killed process) once it has rendered N samples.
@@ -11,7 +12,7 @@ import os
 import time
 from collections import deque
 
-from .encode import encode_sample
+from .encode import encode_arrays, encode_pngs, png_job
 from .sampling import sample_params
 from .shards import ShardFile
 
@@ -32,9 +33,10 @@ class Done:
         return self.value
 
 
-def encode_timed(raw: dict, outputs) -> tuple[dict, float]:
+def encode_timed(job: dict) -> tuple[dict, float]:
+    """An encoder's task: a sample's PNGs (encode.png_job) and the seconds they took."""
     t = time.perf_counter()
-    files = encode_sample(raw, outputs)
+    files = encode_pngs(job)
     return files, time.perf_counter() - t
 
 
@@ -47,13 +49,15 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
     before = dict(sr.timings)
     shard = ShardFile(out_dir, k)
     pending: deque = deque()
-    encode_s = write_s = submit_s = wait_s = 0.0
+    encode_s = write_s = submit_s = wait_s = arrays_s = 0.0
 
     def drain(block: bool) -> None:
         nonlocal encode_s, write_s, wait_s
-        while pending and (block or len(pending) > in_flight or pending[0].done()):
+        while pending and (block or len(pending) > in_flight or pending[0][1].done()):
             t = time.perf_counter()
-            files, enc = pending.popleft().result()
+            files, future = pending.popleft()
+            pngs, enc = future.result()
+            files.update(pngs)
             wait_s += time.perf_counter() - t
             t = time.perf_counter()
             shard.write(files)
@@ -68,7 +72,10 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
                 os._exit(17)   # the fault hook: as abrupt as a kill
             raw = sr.render(sample_params(spec, i))
             t = time.perf_counter()
-            pending.append(submit(raw))
+            files = encode_arrays(raw, spec.outputs)
+            arrays_s += time.perf_counter() - t
+            t = time.perf_counter()
+            pending.append((files, submit(png_job(raw, spec.outputs))))
             submit_s += time.perf_counter() - t
             _rendered += 1
             drain(False)
@@ -79,5 +86,6 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
         raise
     timings = {name: sr.timings[name] - before.get(name, 0.0) for name in sr.timings}
     return {"shard": k, "samples": shard.samples, "sha256": sha, "bytes": size,
-            "timings": {**timings, "submit": submit_s, "wait_encoders": wait_s, "encode": encode_s, "write": write_s,
+            "timings": {**timings, "encode_arrays": arrays_s, "submit": submit_s, "wait_encoders": wait_s,
+                        "encode_png": encode_s, "write": write_s,
                         "wall": time.perf_counter() - t0}}

@@ -50,10 +50,10 @@ def _gpu_main(wid: int, device: int | None, spec: DatasetSpec, out_dir: str, enc
         return
     pool = ProcessPoolExecutor(encoders, mp_context=mp.get_context("spawn")) if encoders > 0 else None
 
-    def submit(raw):
+    def submit(job):
         if pool is None:
-            return Done(encode_timed(raw, spec.outputs))
-        return pool.submit(encode_timed, raw, spec.outputs)
+            return Done(encode_timed(job))
+        return pool.submit(encode_timed, job)
 
     try:
         while True:

@@ -56,12 +56,10 @@ class ShardActor:
         return self.sr.renderer_string
 
     def run_shard(self, k: int) -> dict:
-        outputs = self.spec.outputs
-
-        def submit(raw):
+        def submit(job):
             if self.encode is None:
-                return Done(encode_timed(raw, outputs))
-            return _Ref(self.encode.remote(raw, outputs))
+                return Done(encode_timed(job))
+            return _Ref(self.encode.remote(job))
 
         return render_shard(self.sr, k, self.out_dir, submit, in_flight=8)
 

@@ -91,22 +91,22 @@ class AuxMaps:
         if not self._fresh:
             raise UsageError("no ground-truth maps yet: render a frame with hair first")
         w, h = self._size
-        raw = np.frombuffer(self._out.read(), np.uint32).reshape(h, w, 4)[::-1]
-        alpha = np.frombuffer(self._alpha.read(), np.float32).reshape(h, w)[::-1]
-        hit = raw[..., 0] > 0
-        seg = raw[..., 0].astype(np.int64) - 1
-        floats = raw[..., 1:].copy().view(np.float32)
-        points = max(self._points, 1)
-        spg = int(self.renderer.settings.strands_per_guide)
-        strand = np.where(hit, seg // points, 0)
+        raw = np.frombuffer(self._out.read(), np.uint32).reshape(h, w, 4)[::-1].copy()   # rows top first
+        alpha = np.frombuffer(self._alpha.read(), np.float32).reshape(h, w)[::-1].copy()
+        id1 = raw[..., 0]                      # segment + 1; 0: no hair (the floats are 0 there)
+        hit = id1 > 0
+        points = np.uint32(max(self._points, 1))
+        strand = (id1 - np.uint32(1)) // points  # wraps where id1 = 0: replaced below
+        spg = np.uint32(int(self.renderer.settings.strands_per_guide))
+        floats = raw[..., 1:].view(np.float32)
         return {
-            "segment": seg,
-            "strand": np.where(hit, strand, NONE).astype(np.uint32),
-            "guide": np.where(hit, strand // spg, NONE).astype(np.uint32),
-            "depth": np.where(hit, floats[..., 0], 0.0).astype(np.float32),
-            "angle": np.where(hit, floats[..., 1], 0.0).astype(np.float32),
-            "confidence": np.where(hit, floats[..., 2], 0.0).astype(np.float32),
-            "alpha": np.ascontiguousarray(alpha, np.float32),
+            "segment": id1.astype(np.int64) - 1,
+            "strand": np.where(hit, strand, NONE),
+            "guide": np.where(hit, strand // spg, NONE),
+            "depth": floats[..., 0],
+            "angle": floats[..., 1],
+            "confidence": floats[..., 2],
+            "alpha": alpha,
         }
 
     def _release_buffers(self) -> None:
