@@ -234,3 +234,48 @@ def test_views_per_groom_share_the_hairstyle_only(tiny):
     assert style(p[0]) == style(p[1]) == style(p[2]) and style(p[3]) == style(p[4]) == style(p[5])
     assert len({x.azimuth for x in p}) == 6     # the views differ
     assert len({style(sample_params(spec, 3 * i)) for i in range(30)}) > 5
+
+
+@pytest.mark.gpu
+def test_simulated_samples_move_the_hair_before_capture(gl, spec_dir):
+    # 0.1 s of wind and a shaking head (no head mesh: no collider): the strands written differ
+    # from the groom at rest, and their roots follow the head's transform
+    from mane import load
+    from mane.dataset import parse_spec
+    from mane.dataset.sampling import sample_params
+    from mane.dataset.worker import SampleRenderer
+
+    spec = parse_spec({**TINY, "grooms": [{"file": "g2.npz"}],
+                       "simulation": {"seconds": 0.1, "motions": ["shake"], "wind": 3.0, "fps": 20}}, spec_dir)
+    sr = SampleRenderer(spec, ctx=gl)
+    try:
+        raw = sr.render(sample_params(spec, 0))
+    finally:
+        sr.release()
+    rest = load(spec_dir / "g2.npz")
+    E = np.array(raw["camera"]["world_to_camera"])
+    M = np.array(raw["camera"]["head_transform"])
+    pts = raw["strands"]["points"]
+    world = (np.c_[pts, np.ones(len(pts))] @ np.linalg.inv(E).T)[:, :3]
+    assert world.shape == rest.points.shape
+    assert np.abs(world - rest.points).max() > 1e-3                 # the hair moved
+    roots = rest.offsets[:-1]
+    expect = (np.c_[rest.points[roots], np.ones(len(roots))] @ M.T)[:, :3]
+    np.testing.assert_allclose(world[roots], expect, atol=1e-4)      # pinned roots ride the head
+
+
+@pytest.mark.gpu
+def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
+    from mane.bench import dataset_bench
+
+    monkeypatch.setitem(dataset_bench.MODES, "quick", {"size": (32, 32), "guides": 20, "strands_per_guide": 2,
+                                                       "samples": 3, "stage_samples": 2})
+    result = dataset_bench.run(gl, "quick")
+    r = result["results"][0]
+    assert r["samples"] == 3 and r["samples_per_s"] > 0 and r["bytes_per_sample"] > 0
+    for k in ("prepare", "gpu", "readback", "encode_arrays", "encode_png_one_core"):
+        assert r["stage_ms_per_sample"][k] > 0
+    for k in ("prepare", "gpu", "readback", "submit", "write", "encode_png"):
+        assert k in r["pipeline_ms_per_sample"]
+    assert result["meta"]["benchmark"] == "dataset"
+    assert "samples/s" in dataset_bench.format_text(result)
