@@ -279,3 +279,21 @@ def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
         assert k in r["pipeline_ms_per_sample"]
     assert result["meta"]["benchmark"] == "dataset"
     assert "samples/s" in dataset_bench.format_text(result)
+
+
+@pytest.mark.gpu
+def test_contact_sheet_has_a_row_per_sample(local_set, tmp_path):
+    from PIL import Image
+
+    from mane.app.cli import main
+
+    assert main(["dataset", "sheet", str(local_set), "--out", str(tmp_path / "s.png"), "--count", "3"]) == 0
+    sheet = np.asarray(Image.open(tmp_path / "s.png"))
+    assert sheet.shape == (3 * 32 + 2 * 2, 4 * 40 + 3 * 2, 3)
+    import tarfile
+
+    with tarfile.open(local_set / "shard-000000.tar") as tar:
+        d = np.load(io.BytesIO(tar.extractfile("000000000.depth.npy").read()))
+    assert np.array_equal(sheet[:32, 84:124].max(axis=-1) > 0, d > 0)   # depth panel: lit where hair
+    assert np.array_equal(sheet[:32, :40], np.asarray(Image.open(io.BytesIO(
+        tarfile.open(local_set / "shard-000000.tar").extractfile("000000000.rgb.png").read()))))

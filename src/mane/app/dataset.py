@@ -5,6 +5,7 @@
     mane dataset run examples/dataset_tiny.toml --out /tmp/tiny --ray      # a local Ray cluster
     mane dataset run SPEC --out DIR --ray auto                             # an existing cluster
     mane dataset verify /tmp/tiny
+    mane dataset sheet /tmp/tiny --out sheet.png                            # look at it
 """
 from __future__ import annotations
 
@@ -32,6 +33,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         "cores / workers - 1)")
     r.add_argument("--no-progress", action="store_true", help="no progress bar")
     r.add_argument("--report", metavar="FILE", help="write the run's report as JSON")
+    c = sub.add_parser("sheet", help="a contact sheet PNG of a set's first samples: RGB | mask | depth | orientation")
+    c.add_argument("dir", help="the data set folder")
+    c.add_argument("--out", required=True, metavar="PNG", help="the sheet to write")
+    c.add_argument("--count", type=int, default=4, help="samples (rows), default 4")
     v = sub.add_parser("verify", help="check a set: manifest, checksums, counts, files, decoding")
     v.add_argument("dir", help="the data set folder")
     v.add_argument("--no-decode", action="store_true", help="skip decoding every file (checksums and layout only)")
@@ -54,6 +59,11 @@ def run(args) -> int:
             print(f"{spec.name}: {spec.samples} samples of {spec.size[0]}x{spec.size[1]} in {spec.num_shards} "
                   f"shard(s) of up to {spec.samples_per_shard}; outputs {', '.join(spec.outputs)}")
             print(f"estimated disk: {_human(est['total'])} ({_human(est['per_sample'])} a sample)")
+        return 0
+    if args.action == "sheet":
+        from ..dataset.sheet import contact_sheet
+
+        print(f"wrote {contact_sheet(args.dir, args.out, max(1, args.count))}")
         return 0
     if args.action == "verify":
         from ..dataset.shards import verify
