@@ -275,7 +275,7 @@ def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
     assert r["samples"] == 3 and r["samples_per_s"] > 0 and r["bytes_per_sample"] > 0
     for k in ("prepare", "gpu", "readback", "encode_arrays", "encode_png_one_core"):
         assert r["stage_ms_per_sample"][k] > 0
-    for k in ("prepare", "gpu", "readback", "submit", "write", "encode_png"):
+    for k in ("prepare", "gpu", "readback", "submit", "write_overlapped", "encode_png"):
         assert k in r["pipeline_ms_per_sample"]
     assert result["meta"]["benchmark"] == "dataset"
     assert "samples/s" in dataset_bench.format_text(result)

@@ -11,8 +11,8 @@ strands for CPUs):
   GPU process) and the PNGs of one sample on one core (``encode_png_one_core``), its bytes;
 - ``pipeline``: a whole shard through render_shard with the encoder pool, as a run does:
   samples per second (the figure), and the GPU process's time split into prepare, gpu,
-  readback, encode_arrays, submit (pickling the PNG job to the encoders), waiting on encoders
-  and shard writing;
+  readback, encode_arrays, submit (pickling the PNG job to the encoders) and waiting on
+  encoders, and the shard writing done meanwhile by a writer thread;
 - the bounds: 1 / (the GPU process's time per sample) and encoders / encode time.
 """
 from __future__ import annotations
@@ -101,7 +101,7 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
         finally:
             sr.release()
     per = {k: 1000.0 * v / info["samples"] for k, v in info["timings"].items() if k != "wall"}
-    gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "encode_arrays", "submit", "write"))
+    gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "encode_arrays", "submit"))
     row = {
         "bench": "dataset", "name": f"{cfg['size'][0]}x{cfg['size'][1]}", "status": "ok",
         "samples": info["samples"], "samples_per_s": info["samples"] / wall, "wall_s": wall,
@@ -133,7 +133,8 @@ def format_text(result: dict) -> str:
         f"PNGs {ms(st, 'encode_png_one_core')} (one core)",
         f"  in the pipeline, GPU process ms a sample: prepare {ms(pp, 'prepare')}, gpu {ms(pp, 'gpu')}, readback "
         f"{ms(pp, 'readback')}, .npy/.json/.npz {ms(pp, 'encode_arrays')}, submit {ms(pp, 'submit')}, waiting on "
-        f"encoders {ms(pp, 'wait_encoders')}, shard writing {ms(pp, 'write')}; encoders' CPU {ms(pp, 'encode_png')}",
+        f"encoders {ms(pp, 'wait_encoders')}; shard writing {ms(pp, 'write_overlapped')} (a thread, overlapped); "
+        f"encoders' CPU {ms(pp, 'encode_png')}",
         f"  bounds: GPU process {r['bound_gpu_process_samples_per_s']:.1f} samples/s, encoders "
         f"{r['bound_encoders_samples_per_s']:.1f} samples/s; rendering alone {r['render_alone_samples_per_s']:.1f} "
         "samples/s",

@@ -1,7 +1,7 @@
 """One shard's work, the same for the local runner and Ray: render its samples in order on
 this process's GPU, make its cheap files here and hand its PNGs to an encoder (``submit(job)
--> future``), stream the encoded samples into the shard's temporary file in order, rename it
-when complete.
+-> future``), stream the encoded samples into the shard's temporary file in order (a writer
+thread, overlapping the next renders), rename it when complete.
 
 A fault hook for tests: with ``MANE_DATASET_EXIT_AFTER=N`` in its environment a worker process
 exits abruptly (os._exit, like a killed process) once it has rendered N samples.
@@ -11,6 +11,7 @@ from __future__ import annotations
 import os
 import time
 from collections import deque
+from concurrent.futures import ThreadPoolExecutor
 
 from .encode import encode_arrays, encode_pngs, png_job
 from .sampling import sample_params
@@ -48,8 +49,15 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
     t0 = time.perf_counter()
     before = dict(sr.timings)
     shard = ShardFile(out_dir, k)
-    pending: deque = deque()
+    pending: deque = deque()     # (files made here, the encoder's future), in sample order
+    writes: deque = deque()      # the writer thread's futures, in order
+    writer = ThreadPoolExecutor(1, thread_name_prefix="mane-shard-writer")
     encode_s = write_s = submit_s = wait_s = arrays_s = 0.0
+
+    def write(files: dict) -> float:   # in the writer thread: file writes release the GIL
+        t = time.perf_counter()
+        shard.write(files)
+        return time.perf_counter() - t
 
     def drain(block: bool) -> None:
         nonlocal encode_s, write_s, wait_s
@@ -59,10 +67,10 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
             pngs, enc = future.result()
             files.update(pngs)
             wait_s += time.perf_counter() - t
-            t = time.perf_counter()
-            shard.write(files)
-            write_s += time.perf_counter() - t
             encode_s += enc
+            writes.append(writer.submit(write, files))
+            while writes and (block or len(writes) > in_flight or writes[0].done()):
+                write_s += writes.popleft().result()
             if on_sample is not None:
                 on_sample()
 
@@ -80,12 +88,16 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
             _rendered += 1
             drain(False)
         drain(True)
+        while writes:
+            write_s += writes.popleft().result()
+        writer.shutdown()
         sha, size = shard.close()
     except BaseException:
+        writer.shutdown(wait=True, cancel_futures=True)
         shard.abort()
         raise
     timings = {name: sr.timings[name] - before.get(name, 0.0) for name in sr.timings}
     return {"shard": k, "samples": shard.samples, "sha256": sha, "bytes": size,
             "timings": {**timings, "encode_arrays": arrays_s, "submit": submit_s, "wait_encoders": wait_s,
-                        "encode_png": encode_s, "write": write_s,
+                        "encode_png": encode_s, "write_overlapped": write_s,
                         "wall": time.perf_counter() - t0}}

@@ -91,7 +91,7 @@ def run_local(spec: DatasetSpec, out_dir, *, workers: int | None = None, encoder
         tasks.put(k)
     for _ in range(n):
         tasks.put(None)
-    devices = [w if gpus > 1 else None for w in range(n)]
+    devices = [w % gpus if gpus > 1 else None for w in range(n)]   # EGL device index per worker
     procs = [ctx.Process(target=_gpu_main, args=(w, devices[w], spec, str(out_dir), enc, tasks, results), daemon=False)
              for w in range(n)]
     for p in procs:
@@ -103,9 +103,11 @@ def run_local(spec: DatasetSpec, out_dir, *, workers: int | None = None, encoder
             try:
                 msg = results.get(timeout=0.5)
             except queue.Empty:
-                for w, p in enumerate(procs):
-                    if not p.is_alive() and p.exitcode not in (0, None) and w in current:
-                        report.failed[current.pop(w)] = f"worker {w} died (exit code {p.exitcode})"
+                msg = None
+            for w, p in enumerate(procs):   # a worker that died mid-shard: its shard failed
+                if w in current and not p.is_alive() and p.exitcode not in (0, None):
+                    report.failed[current.pop(w)] = f"worker {w} died (exit code {p.exitcode})"
+            if msg is None:
                 if all(not p.is_alive() for p in procs) and results.empty():
                     break
                 continue
