@@ -43,13 +43,21 @@ class ShardActor:
     def __init__(self, spec: DatasetSpec, out_dir: str, inline_encode: bool):
         import ray
 
-        ids = ray.get_gpu_ids()
-        if ids:
-            os.environ["GLCONTEXT_DEVICE_INDEX"] = str(int(ids[0]))
+        from ..errors import GPUError
         from .worker import SampleRenderer
 
+        ids = ray.get_gpu_ids()
         self.spec, self.out_dir = spec, out_dir
-        self.sr = SampleRenderer(spec)
+        if ids:   # Ray's physical GPU id as the EGL device index
+            os.environ["GLCONTEXT_DEVICE_INDEX"] = str(int(ids[0]))
+        try:
+            self.sr = SampleRenderer(spec)
+        except GPUError:
+            if not ids or int(ids[0]) == 0:
+                raise
+            # a driver whose EGL lists only the devices in CUDA_VISIBLE_DEVICES: the first
+            os.environ["GLCONTEXT_DEVICE_INDEX"] = "0"
+            self.sr = SampleRenderer(spec)
         self.encode = None if inline_encode else ray.remote(num_cpus=1)(encode_timed)
 
     def renderer(self) -> str:
