@@ -19,31 +19,43 @@ from .shards import plan_resume, shard_name, write_manifest
 from .spec import DatasetSpec
 
 
-def visible_gpus() -> int:
-    """NVIDIA GPUs that nvidia-smi lists (CUDA_VISIBLE_DEVICES respected); 0 when none."""
+def visible_gpus() -> list[int]:
+    """The NVIDIA GPUs' indices (CUDA_VISIBLE_DEVICES when set and numeric, else nvidia-smi -L);
+    [] when none. The EGL device index of a worker is its GPU's index."""
     cuda = os.environ.get("CUDA_VISIBLE_DEVICES")
     if cuda is not None:
-        return len([d for d in cuda.split(",") if d.strip() and d.strip() != "-1"])
+        ids = [d.strip() for d in cuda.split(",") if d.strip() and d.strip() != "-1"]
+        if all(d.isdigit() for d in ids):
+            return [int(d) for d in ids]
     if shutil.which("nvidia-smi") is None:
-        return 0
+        return []
     try:
         out = subprocess.run(["nvidia-smi", "-L"], capture_output=True, text=True, timeout=20).stdout
     except (OSError, subprocess.SubprocessError):
-        return 0
-    return sum(1 for line in out.splitlines() if line.startswith("GPU "))
+        return []
+    return [i for i, line in enumerate(ln for ln in out.splitlines() if ln.startswith("GPU "))]
 
 
 def default_encoders(workers: int) -> int:
     return max(1, (os.cpu_count() or 2) // max(workers, 1) - 1)
 
 
-def _gpu_main(wid: int, device: int | None, spec: DatasetSpec, out_dir: str, encoders: int, tasks, results) -> None:
+def _gpu_main(wid: int, device: tuple | None, spec: DatasetSpec, out_dir: str, encoders: int, tasks, results) -> None:
+    from ..errors import GPUError
+
     if device is not None:
-        os.environ["GLCONTEXT_DEVICE_INDEX"] = str(device)
+        os.environ["GLCONTEXT_DEVICE_INDEX"] = str(device[0])
     try:
         from .worker import SampleRenderer
 
-        sr = SampleRenderer(spec)
+        try:
+            sr = SampleRenderer(spec)
+        except GPUError:
+            if device is None or device[0] == device[1]:
+                raise
+            # a driver whose EGL lists only the CUDA_VISIBLE_DEVICES: their position
+            os.environ["GLCONTEXT_DEVICE_INDEX"] = str(device[1])
+            sr = SampleRenderer(spec)
         results.put(("ready", wid, sr.renderer_string))
     except Exception as exc:
         results.put(("fatal", wid, f"{type(exc).__name__}: {exc}"))
@@ -79,7 +91,7 @@ def run_local(spec: DatasetSpec, out_dir, *, workers: int | None = None, encoder
     manifest, todo, redo = plan_resume(spec, out_dir)
     write_manifest(out_dir, manifest)
     gpus = visible_gpus()
-    n = int(workers) if workers else max(1, gpus)
+    n = int(workers) if workers else max(1, len(gpus))
     n = max(1, min(n, len(todo) or 1))
     enc = default_encoders(n) if encoders is None else int(encoders)
     report = RunReport(spec, out_dir, "local", n, todo, redo)
@@ -91,7 +103,8 @@ def run_local(spec: DatasetSpec, out_dir, *, workers: int | None = None, encoder
         tasks.put(k)
     for _ in range(n):
         tasks.put(None)
-    devices = [w % gpus if gpus > 1 else None for w in range(n)]   # EGL device index per worker
+    # EGL device per worker: (the GPU's index, its position among the visible ones)
+    devices = [(gpus[w % len(gpus)], w % len(gpus)) if len(gpus) > 1 else None for w in range(n)]
     procs = [ctx.Process(target=_gpu_main, args=(w, devices[w], spec, str(out_dir), enc, tasks, results), daemon=False)
              for w in range(n)]
     for p in procs:
