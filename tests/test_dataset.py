@@ -205,6 +205,7 @@ def test_resume_after_a_killed_worker_gives_the_same_set(tiny, local_set, tmp_pa
     monkeypatch.delenv("MANE_DATASET_EXIT_AFTER")
     r2 = run_local(tiny, out, workers=1, encoders=0, progress=False)
     assert r2.ok and sorted(r2.done) == [1, 2] and "unfinished" in r2.redo[1]
+    assert r2.steady_rate() > 0 and r1.steady_rate() is None   # the rate after each worker's first shard
     assert not list(out.glob(".shard-*"))
     assert _shards(out) == _shards(local_set)
     r3 = run_local(tiny, out, workers=1, encoders=0, progress=False)   # nothing left to do
@@ -269,7 +270,7 @@ def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
     from mane.bench import dataset_bench
 
     monkeypatch.setitem(dataset_bench.MODES, "quick", {"size": (32, 32), "guides": 20, "strands_per_guide": 2,
-                                                       "samples": 3, "stage_samples": 2})
+                                                       "samples": 3, "stage_samples": 2, "workers": ()})
     result = dataset_bench.run(gl, "quick")
     r = result["results"][0]
     assert r["samples"] == 3 and r["samples_per_s"] > 0 and r["bytes_per_sample"] > 0

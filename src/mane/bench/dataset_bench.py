@@ -13,7 +13,10 @@ strands for CPUs):
   samples per second (the figure), and the GPU process's time split into prepare, gpu,
   readback, encode_arrays, submit (pickling the PNG job to the encoders) and waiting on
   encoders, and the shard writing done meanwhile by a writer thread;
-- the bounds: 1 / (the GPU process's time per sample) and encoders / encode time.
+- the bounds: 1 / (the GPU process's time per sample) and encoders / encode time;
+- ``dataset_run`` rows: the local runner itself with 1, 2, 4 (full: 8) GPU worker processes on
+  the GPU (each its own context; their CPU work runs in parallel, their frames interleave):
+  samples per second once warm, and over the whole run.
 """
 from __future__ import annotations
 
@@ -24,18 +27,22 @@ import time
 from .common import envelope, fmt, title_line
 
 MODES = {
-    "quick": {"size": (128, 128), "guides": 250, "strands_per_guide": 8, "samples": 8, "stage_samples": 4},
-    "default": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 300, "stage_samples": 30},
-    "full": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 2000, "stage_samples": 100},
+    "quick": {"size": (128, 128), "guides": 250, "strands_per_guide": 8, "samples": 8, "stage_samples": 4,
+              "workers": (1,), "run_samples": 8},
+    "default": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 300, "stage_samples": 30,
+                "workers": (1, 2, 4), "run_samples": 1200},
+    "full": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 2000, "stage_samples": 100,
+             "workers": (1, 2, 4, 8), "run_samples": 4000},
 }
 OUTPUTS = ["rgb", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands"]
 
 
-def bench_spec(cfg: dict, base_dir: str):
+def bench_spec(cfg: dict, base_dir: str, samples: int | None = None, per_shard: int | None = None):
     from ..dataset.spec import parse_spec
 
+    samples = int(samples or cfg["samples"])
     return parse_spec({
-        "name": "bench", "seed": 0, "samples": cfg["samples"], "samples_per_shard": cfg["samples"],
+        "name": "bench", "seed": 0, "samples": samples, "samples_per_shard": int(per_shard or samples),
         "views_per_groom": 100000, "size": list(cfg["size"]), "outputs": OUTPUTS,
         "grooms": [{"style": "long_wavy", "strands": cfg["guides"], "points": 16, "seeds": [0, 0]}],
         "colors": {"presets": ["black", "brown", "blond", "red"]},
@@ -100,6 +107,9 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
                 wall = time.perf_counter() - t
         finally:
             sr.release()
+    runs = []
+    for w in cfg.get("workers", ()):
+        runs.append(run_workers(cfg, w, log))
     per = {k: 1000.0 * v / info["samples"] for k, v in info["timings"].items() if k != "wall"}
     gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "encode_arrays", "submit"))
     row = {
@@ -116,11 +126,33 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
     meta = envelope(ctx, target="dataset", mode=mode, settings={**cfg, "size": list(cfg["size"]), "encoders": encoders},
                     timing={"source": "cpu wall clock (ctx.finish after each frame)",
                             "total_seconds": time.perf_counter() - started})
-    return {"meta": meta, "results": [row]}
+    return {"meta": meta, "results": [row] + runs}
+
+
+def run_workers(cfg: dict, workers: int, log) -> dict:
+    """`mane dataset run`'s local runner with ``workers`` GPU worker processes on this machine's
+    (first) GPU, each with cores / workers - 1 encoders: samples per second once warm (the
+    shards after each worker's first) and over the whole run (start-up included)."""
+    from ..dataset.local import default_encoders, run_local
+
+    n = int(cfg["run_samples"])
+    per_shard = max(1, n // (4 * workers))
+    with tempfile.TemporaryDirectory(prefix="mane_bench_dataset_run_") as tmp:
+        spec = bench_spec(cfg, tmp, samples=n, per_shard=per_shard)
+        log(f"mane dataset run: {n} samples, {workers} GPU worker process(es), {default_encoders(workers)} "
+            "encoders each")
+        report = run_local(spec, tmp + "/out", workers=workers, progress=False)
+    d = report.as_dict()
+    status = "ok" if report.ok else "failed"
+    return {"bench": "dataset_run", "name": f"{workers} worker(s)", "status": status, "workers": workers,
+            "encoders_per_worker": default_encoders(workers), "samples": d["samples"], "samples_per_shard": per_shard,
+            "steady_samples_per_s": report.steady_rate(), "run_samples_per_s": d["samples_per_s"],
+            "wall_s": d["wall_s"], "timings_s": d["timings_s"], "problems": {**d["failed"], "fatal": d["fatal"]}}
 
 
 def format_text(result: dict) -> str:
     meta, r = result["meta"], result["results"][0]
+    runs = [x for x in result["results"][1:] if x.get("bench") == "dataset_run"]
     st, pp = r["stage_ms_per_sample"], r["pipeline_ms_per_sample"]
     ms = lambda d, k: fmt(d.get(k), "{:.2f}")  # noqa: E731
     return "\n".join([
@@ -138,4 +170,6 @@ def format_text(result: dict) -> str:
         f"  bounds: GPU process {r['bound_gpu_process_samples_per_s']:.1f} samples/s, encoders "
         f"{r['bound_encoders_samples_per_s']:.1f} samples/s; rendering alone {r['render_alone_samples_per_s']:.1f} "
         "samples/s",
-    ])
+    ] + [f"  mane dataset run, {x['workers']} GPU worker(s) x {x['encoders_per_worker']} encoders: "
+         f"{fmt(x['steady_samples_per_s'], '{:.1f}')} samples/s once warm, {fmt(x['run_samples_per_s'], '{:.1f}')} "
+         f"over the run ({x['samples']} samples, {x['wall_s']:.1f} s) [{x['status']}]" for x in runs])

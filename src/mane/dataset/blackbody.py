@@ -29,11 +29,14 @@ def cie_1931(lam) -> np.ndarray:
     return np.stack([x, y, z], axis=-1)
 
 
+_CMF = cie_1931(WAVELENGTHS)
+_LAM = WAVELENGTHS * 1e-9
+
+
 def blackbody_xyz(kelvin: float) -> np.ndarray:
     """CIE XYZ of a black body at ``kelvin``, scaled to Y = 1."""
-    lam = WAVELENGTHS * 1e-9
-    spd = lam ** -5 / np.expm1(C2 / (lam * float(kelvin)))
-    xyz = spd @ cie_1931(WAVELENGTHS)
+    spd = _LAM ** -5 / np.expm1(C2 / (_LAM * float(kelvin)))
+    xyz = spd @ _CMF
     return xyz / xyz[1]
 
 

@@ -36,10 +36,14 @@ def png(a: np.ndarray) -> bytes:
     return buf.getvalue()
 
 
-def npy(a: np.ndarray) -> bytes:
+def npy(a: np.ndarray) -> bytearray:
+    """The .npy file of ``a`` (format 1.0; what np.save writes), with one copy of the data."""
+    a = np.ascontiguousarray(a)
     buf = io.BytesIO()
-    np.lib.format.write_array(buf, np.ascontiguousarray(a), allow_pickle=False)
-    return buf.getvalue()
+    np.lib.format.write_array_header_1_0(buf, np.lib.format.header_data_from_array_1_0(a))
+    out = bytearray(buf.getvalue())
+    out += memoryview(a).cast("B")
+    return out
 
 
 def npz(arrays: dict) -> bytes:

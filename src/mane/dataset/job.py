@@ -46,7 +46,7 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
     global _rendered
     spec = sr.spec
     exit_after = int(os.environ.get(EXIT_AFTER_ENV, "0") or 0)
-    t0 = time.perf_counter()
+    t0, started = time.perf_counter(), time.time()
     before = dict(sr.timings)
     shard = ShardFile(out_dir, k)
     pending: deque = deque()     # (files made here, the encoder's future), in sample order
@@ -97,7 +97,8 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
         shard.abort()
         raise
     timings = {name: sr.timings[name] - before.get(name, 0.0) for name in sr.timings}
-    return {"shard": k, "samples": shard.samples, "sha256": sha, "bytes": size,
+    return {"shard": k, "samples": shard.samples, "sha256": sha, "bytes": size, "pid": os.getpid(),
+            "started": started, "ended": time.time(),
             "timings": {**timings, "encode_arrays": arrays_s, "submit": submit_s, "wait_encoders": wait_s,
                         "encode_png": encode_s, "write_overlapped": write_s,
                         "wall": time.perf_counter() - t0}}

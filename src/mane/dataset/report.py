@@ -14,6 +14,7 @@ class RunReport:
         self.todo = list(todo)
         self.redo = dict(redo)
         self.done: list[int] = []
+        self.infos: list[dict] = []   # render_shard's entries of the shards done
         self.failed: dict = {}
         self.fatal: list[str] = []
         self.renderers: list[str] = []
@@ -41,6 +42,7 @@ class RunReport:
             if r not in manifest["renderers"]:
                 manifest["renderers"].append(r)
         self.done.append(k)
+        self.infos.append(info)
         self.failed.pop(k, None)
         self.samples += info["samples"]
         for name, v in info.get("timings", {}).items():
@@ -65,6 +67,18 @@ class RunReport:
                 "samples_per_s": round(self.samples / self.wall, 3) if self.wall > 0 else None,
                 "timings_s": {k: round(v, 4) for k, v in self.timings.items()}, "renderers": self.renderers,
                 "complete": self.complete}
+
+    def steady_rate(self) -> float | None:
+        """Samples per second once every worker is warm: the shards after each worker's first,
+        from the first of them starting to the last ending (None: too few shards)."""
+        firsts: dict = {}
+        for info in sorted(self.infos, key=lambda i: i["started"]):
+            firsts.setdefault(info["pid"], info["shard"])
+        rest = [i for i in self.infos if firsts[i["pid"]] != i["shard"]]
+        if not rest:
+            return None
+        span = max(i["ended"] for i in rest) - min(i["started"] for i in rest)
+        return sum(i["samples"] for i in rest) / span if span > 0 else None
 
     def lines(self) -> list[str]:
         d = self.as_dict()

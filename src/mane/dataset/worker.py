@@ -36,6 +36,7 @@ class SampleRenderer:
         self._heads: dict = {}
         self._cache = int(cache)
         self._current = None   # (groom key, head) on the renderer now
+        self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
         self.timings = {"prepare": 0.0, "gpu": 0.0, "readback": 0.0}
 
     # ------------------------------------------------------------------ scene pieces
@@ -98,10 +99,14 @@ class SampleRenderer:
     def camera(self, groom, p: SampleParams):
         from ..render.camera import Camera
 
-        lo, hi = groom.bbox()
+        key = id(groom)
+        if self._frame_of[0] != key:   # the hair's centroid and bounds, once per groom
+            pts = np.asarray(groom.points)
+            self._frame_of = (key, pts.mean(axis=0, dtype=np.float64), pts.min(axis=0), pts.max(axis=0), groom)
+        _, mean, lo, hi, _ = self._frame_of
         # the hair's centroid: near the scalp, where the hair is densest (a bbox centre drops
         # to the shoulders for long hair)
-        centre = np.asarray(groom.points, np.float64).mean(axis=0) + np.asarray(p.jitter)
+        centre = mean + np.asarray(p.jitter)
         az, el = math.radians(p.azimuth), math.radians(p.elevation)
         d = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
         eye = centre + d * p.distance

@@ -11,9 +11,13 @@
 #include "hair_vis.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
 layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
-layout(std430, binding = 12) writeonly buffer AuxOut { uvec4 aux_out[]; };   // id + 1, depth, angle, confidence
-layout(std430, binding = 13) writeonly buffer AuxAlpha { float aux_alpha[]; };
+// AUX_PLANES planes of width x height words, rows top first (image order): the segment id + 1
+// (0: none), the strand and guide ids (0xFFFFFFFF: none), depth, angle, confidence and alpha
+// (floats, 0 where no hair).
+#define AUX_PLANES 7
+layout(std430, binding = 12) writeonly buffer AuxOut { uint aux_out[]; };
 uniform int u_points_per_strand;
+uniform int u_strands_per_guide;
 #include "raster_view.glsl"
 
 const float PI = 3.14159265358979;
@@ -54,9 +58,18 @@ void main() {
             covered += 1;
             if (zb < best_z) { best_z = zb; best = id; }
         }
-    uint o = uint(p.y) * uint(size.x) + uint(p.x);
-    aux_alpha[o] = alpha / float(u_grid * u_grid);
-    if (best == VIS_EMPTY) { aux_out[o] = uvec4(0u); return; }
+    uint o = uint(size.y - 1 - p.y) * uint(size.x) + uint(p.x);
+    uint plane = uint(size.x * size.y);
+    aux_out[o + 6u * plane] = floatBitsToUint(alpha / float(u_grid * u_grid));
+    if (best == VIS_EMPTY) {
+        aux_out[o] = 0u;
+        aux_out[o + plane] = VIS_EMPTY;
+        aux_out[o + 2u * plane] = VIS_EMPTY;
+        aux_out[o + 3u * plane] = 0u;
+        aux_out[o + 4u * plane] = 0u;
+        aux_out[o + 5u * plane] = 0u;
+        return;
+    }
     vec4 p0 = expanded[2 * best], p1 = expanded[2 * best + 2];
     RasterPoint a = raster_point(p0.xyz, p0.w);
     RasterPoint b = raster_point(p1.xyz, p1.w);
@@ -65,5 +78,11 @@ void main() {
     vec3 P = mix(p0.xyz, p1.xyz, t);
     float depth = dot(P - u_eye, u_view_dir);
     float conf = length(coh) / float(max(covered, 1));
-    aux_out[o] = uvec4(best + 1u, floatBitsToUint(depth), floatBitsToUint(screen_angle(best)), floatBitsToUint(conf));
+    uint strand = best / uint(u_points_per_strand);
+    aux_out[o] = best + 1u;
+    aux_out[o + plane] = strand;
+    aux_out[o + 2u * plane] = strand / uint(u_strands_per_guide);
+    aux_out[o + 3u * plane] = floatBitsToUint(depth);
+    aux_out[o + 4u * plane] = floatBitsToUint(screen_angle(best));
+    aux_out[o + 5u * plane] = floatBitsToUint(conf);
 }

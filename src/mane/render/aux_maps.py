@@ -13,6 +13,7 @@ guide, its depth, its screen-space direction angle with a confidence, and the ha
                    #   counter-clockwise as seen (toward the top of the image)
     m["confidence"]  # (H, W) float32 in [0, 1]: coherence of the pixel's samples' directions
     m["alpha"]     # (H, W) float32: the hair's coverage (mean over the pixel's samples)
+                   # (read-only views of one read-back, but "segment")
 
 It needs the compute rasteriser (settings.rasterizer="compute" and pipeline="compute"): its
 kernel (aux_maps.comp, beside this file) reads the rasteriser's per-sample visibility between
@@ -32,7 +33,8 @@ from .passes.base import set_uniform, set_view
 from .passes.expand import EXPANDED_BINDING
 
 HERE = Path(__file__).resolve().parent
-OUT_BINDING, ALPHA_BINDING = 12, 13
+OUT_BINDING = 12
+PLANES = 7   # aux_maps.comp's AUX_PLANES
 NONE = np.uint32(0xFFFFFFFF)
 
 
@@ -49,7 +51,6 @@ class AuxMaps:
         self.renderer = renderer
         self.ctx = renderer.ctx
         self._out = None
-        self._alpha = None
         self._size = None
         self._points = 0
         self._fresh = False
@@ -60,8 +61,7 @@ class AuxMaps:
         if self._size == (w, h):
             return
         self._release_buffers()
-        self._out = self.ctx.buffer(reserve=w * h * 16)
-        self._alpha = self.ctx.buffer(reserve=w * h * 4)
+        self._out = self.ctx.buffer(reserve=w * h * 4 * PLANES)
         self._size = (w, h)
 
     def _run(self, frame) -> None:
@@ -77,9 +77,9 @@ class AuxMaps:
         set_uniform(cs, "u_grid", int(grid))
         set_uniform(cs, "u_lines", int(r.settings.geometry == "lines"))
         set_uniform(cs, "u_points_per_strand", int(expand.points))
+        set_uniform(cs, "u_strands_per_guide", int(r.settings.strands_per_guide))
         expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
         self._out.bind_to_storage_buffer(OUT_BINDING)
-        self._alpha.bind_to_storage_buffer(ALPHA_BINDING)
         with r.profiler.section("aux_maps"):
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()
@@ -91,29 +91,22 @@ class AuxMaps:
         if not self._fresh:
             raise UsageError("no ground-truth maps yet: render a frame with hair first")
         w, h = self._size
-        raw = np.frombuffer(self._out.read(), np.uint32).reshape(h, w, 4)[::-1].copy()   # rows top first
-        alpha = np.frombuffer(self._alpha.read(), np.float32).reshape(h, w)[::-1].copy()
-        id1 = raw[..., 0]                      # segment + 1; 0: no hair (the floats are 0 there)
-        hit = id1 > 0
-        points = np.uint32(max(self._points, 1))
-        strand = (id1 - np.uint32(1)) // points  # wraps where id1 = 0: replaced below
-        spg = np.uint32(int(self.renderer.settings.strands_per_guide))
-        floats = raw[..., 1:].view(np.float32)
+        planes = np.frombuffer(self._out.read(), np.uint32).reshape(PLANES, h, w)   # read-only views
+        floats = planes.view(np.float32)
         return {
-            "segment": id1.astype(np.int64) - 1,
-            "strand": np.where(hit, strand, NONE),
-            "guide": np.where(hit, strand // spg, NONE),
-            "depth": floats[..., 0],
-            "angle": floats[..., 1],
-            "confidence": floats[..., 2],
-            "alpha": alpha,
+            "segment": planes[0].astype(np.int64) - 1,
+            "strand": planes[1],
+            "guide": planes[2],
+            "depth": floats[3],
+            "angle": floats[4],
+            "confidence": floats[5],
+            "alpha": floats[6],
         }
 
     def _release_buffers(self) -> None:
-        for b in (self._out, self._alpha):
-            if b is not None:
-                b.release()
-        self._out = self._alpha = None
+        if self._out is not None:
+            self._out.release()
+        self._out = None
         self._size = None
 
     def release(self) -> None:
