@@ -298,3 +298,20 @@ def test_contact_sheet_has_a_row_per_sample(local_set, tmp_path):
     assert np.array_equal(sheet[:32, 84:124].max(axis=-1) > 0, d > 0)   # depth panel: lit where hair
     assert np.array_equal(sheet[:32, :40], np.asarray(Image.open(io.BytesIO(
         tarfile.open(local_set / "shard-000000.tar").extractfile("000000000.rgb.png").read()))))
+
+
+def test_example_specs_are_valid():
+    from pathlib import Path
+
+    from mane.dataset import load_spec
+    from mane.dataset.spec import estimate_bytes
+
+    ex = Path(__file__).resolve().parents[1] / "examples"
+    tiny = load_spec(ex / "dataset_tiny.toml")
+    assert tiny.samples <= 8 and max(tiny.size) <= 128
+    big = load_spec(ex / "dataset_hairstyles.toml")
+    assert big.samples >= 1000 and big.size == (512, 512) and big.views_per_groom > 1
+    assert {g.style for g in big.grooms} >= {"straight", "wavy", "curly"}
+    assert 1e9 < estimate_bytes(big)["total"] < 1e12
+    sheet = load_spec(ex.parent / "docs" / "dataset_contact_sheet.toml")
+    assert {"rgb", "mask", "depth", "orientation"} <= set(sheet.outputs)

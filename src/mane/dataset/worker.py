@@ -142,7 +142,7 @@ class SampleRenderer:
         lights = [Light("directional", tuple(d), tuple(c), float(i)) for d, c, i, _ in p.lights]
         t1 = time.perf_counter()
         r.render(cam, lights)
-        self.ctx.finish()
+        self.aux.finish()
         t2 = time.perf_counter()
         raw = {"key": p.key, "index": p.index, "rgb": r.read_image(), **self.aux.read()}
         if "hdr" in self.spec.outputs:

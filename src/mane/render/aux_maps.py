@@ -86,6 +86,10 @@ class AuxMaps:
         self._points = int(expand.points)
         self._fresh = True
 
+    def finish(self) -> None:
+        """Wait until the GPU has finished the frame (to time rendering apart from read-back)."""
+        self.ctx.finish()
+
     def read(self) -> dict:
         """The last frame's maps (see the module's docstring), rows top first."""
         if not self._fresh:
