@@ -203,7 +203,7 @@ def test_resume_after_a_killed_worker_gives_the_same_set(tiny, local_set, tmp_pa
     assert not (out / "shard-000001.tar").exists()
     assert not verify(out)["ok"]
     monkeypatch.delenv("MANE_DATASET_EXIT_AFTER")
-    r2 = run_local(tiny, out, workers=1, encoders=0, progress=False)
+    r2 = run_local(tiny, out, workers=1, encoders=1, progress=False)   # an encoder process: PNGs, grooms ahead
     assert r2.ok and sorted(r2.done) == [1, 2] and "unfinished" in r2.redo[1]
     assert r2.steady_rate() > 0 and r1.steady_rate() is None   # the rate after each worker's first shard
     assert not list(out.glob(".shard-*"))

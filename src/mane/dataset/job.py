@@ -41,8 +41,9 @@ def encode_timed(job: dict) -> tuple[dict, float]:
     return files, time.perf_counter() - t
 
 
-def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=None) -> dict:
-    """Render shard ``k`` with SampleRenderer ``sr``; returns its manifest entry and timings."""
+def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=None, prefetch=None) -> dict:
+    """Render shard ``k`` with SampleRenderer ``sr``; returns its manifest entry and timings.
+    ``prefetch(fn, *args) -> future``: CPU workers that grow the next grooms meanwhile."""
     global _rendered
     spec = sr.spec
     exit_after = int(os.environ.get(EXIT_AFTER_ENV, "0") or 0)
@@ -75,10 +76,13 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
                 on_sample()
 
     try:
-        for i in spec.shard_range(k):
+        params = [sample_params(spec, i) for i in spec.shard_range(k)]
+        for j, p in enumerate(params):
             if exit_after and _rendered >= exit_after:
                 os._exit(17)   # the fault hook: as abrupt as a kill
-            raw = sr.render(sample_params(spec, i))
+            if prefetch is not None:
+                sr.prefetch(params[j:j + 2 * spec.views_per_groom + 2], prefetch)
+            raw = sr.render(p)
             t = time.perf_counter()
             files = encode_arrays(raw, spec.outputs)
             arrays_s += time.perf_counter() - t

@@ -75,7 +75,8 @@ def _gpu_main(wid: int, device: tuple | None, spec: DatasetSpec, out_dir: str, e
             results.put(("start", wid, k))
             try:
                 info = render_shard(sr, k, out_dir, submit, in_flight=max(2, 2 * encoders),
-                                    on_sample=lambda: results.put(("sample", wid, 1)))
+                                    on_sample=lambda: results.put(("sample", wid, 1)),
+                                    prefetch=pool.submit if pool is not None else None)
             except Exception as exc:
                 results.put(("error", wid, k, f"{type(exc).__name__}: {exc}\n{traceback.format_exc(limit=3)}"))
                 continue

@@ -37,6 +37,11 @@ class _Ref:
         return ray.get(self.ref)
 
 
+def _call(fn, *args):
+    """A Ray CPU task running ``fn(*args)`` (a groom grown ahead: worker.make_groom)."""
+    return fn(*args)
+
+
 class ShardActor:
     """A GPU worker: its own context on its GPU (the EGL device of the GPU Ray gave it)."""
 
@@ -59,6 +64,7 @@ class ShardActor:
             os.environ["GLCONTEXT_DEVICE_INDEX"] = "0"
             self.sr = SampleRenderer(spec)
         self.encode = None if inline_encode else ray.remote(num_cpus=1)(encode_timed)
+        self.tasks = ray.remote(num_cpus=1)(_call)
 
     def renderer(self) -> str:
         return self.sr.renderer_string
@@ -69,7 +75,11 @@ class ShardActor:
                 return Done(encode_timed(job))
             return _Ref(self.encode.remote(job))
 
-        return render_shard(self.sr, k, self.out_dir, submit, in_flight=8)
+        def prefetch(fn, *args):
+            return _Ref(self.tasks.remote(fn, *args))
+
+        return render_shard(self.sr, k, self.out_dir, submit, in_flight=8,
+                            prefetch=None if self.encode is None else prefetch)
 
 
 def run_ray(spec: DatasetSpec, out_dir, *, address: str | None = None, workers: int | None = None,

@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 import time
 from collections import OrderedDict
+from functools import lru_cache
 from dataclasses import asdict
 from pathlib import Path
 
@@ -18,6 +19,39 @@ from .sampling import SampleParams
 from .spec import DatasetSpec
 
 CV_FROM_GL = np.diag([1.0, -1.0, -1.0, 1.0])   # OpenCV camera axes (x right, y down, z forward)
+
+
+def groom_key(p: SampleParams) -> tuple:
+    return (p.groom, p.groom_file, p.groom_seed if p.groom_file is None else 0, p.head)
+
+
+@lru_cache(maxsize=8)
+def load_head(base_dir: str, name: str):
+    """A head by spec name: "none", "default" (the procedural bust) or a mesh file (cached)."""
+    if name == "none":
+        return None
+    if name == "default":
+        from ..render.scene import default_head
+
+        return default_head()
+    from .. import load_mesh
+
+    return load_mesh(Path(base_dir) / name)
+
+
+def make_groom(spec: DatasetSpec, p: SampleParams):
+    """Sample ``p``'s groom: grown (procedural styles grow on its head, on the default bust
+    for "none") or loaded (and scaled). Deterministic: the same in every process."""
+    src = spec.grooms[p.groom]
+    if src.style is not None:
+        from ..grooming import grow
+
+        head = load_head(spec.base_dir, p.head if p.head != "none" else "default")
+        return grow(head, src.strands, src.style, src.points, p.groom_seed, **src.style_options)
+    from .. import load
+
+    g = load(Path(spec.base_dir) / p.groom_file)
+    return g.scaled(src.scale) if src.scale != 1.0 else g
 
 
 class SampleRenderer:
@@ -33,7 +67,7 @@ class SampleRenderer:
         self.aux = AuxMaps(self.renderer)
         self.renderer_string = renderer_name(self.ctx)
         self._grooms: OrderedDict = OrderedDict()
-        self._heads: dict = {}
+        self._pending: dict = {}   # groom key -> a CPU worker's future (prefetch)
         self._cache = int(cache)
         self._current = None   # (groom key, head) on the renderer now
         self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
@@ -41,39 +75,31 @@ class SampleRenderer:
 
     # ------------------------------------------------------------------ scene pieces
     def head(self, name: str):
-        if name not in self._heads:
-            if name == "none":
-                self._heads[name] = None
-            elif name == "default":
-                from ..render.scene import default_head
-
-                self._heads[name] = default_head()
-            else:
-                from .. import load_mesh
-
-                self._heads[name] = load_mesh(Path(self.spec.base_dir) / name)
-        return self._heads[name]
+        return load_head(self.spec.base_dir, name)
 
     def groom(self, p: SampleParams):
-        key = (p.groom, p.groom_file, p.groom_seed if p.groom_file is None else 0, p.head)
+        key = groom_key(p)
         if key in self._grooms:
             self._grooms.move_to_end(key)
             return key, self._grooms[key]
-        src = self.spec.grooms[p.groom]
-        if src.style is not None:
-            from ..grooming import grow
-
-            g = grow(self.head(p.head) if p.head != "none" else self.head("default"), src.strands, src.style, src.points, p.groom_seed, **src.style_options)
-        else:
-            from .. import load
-
-            g = load(Path(self.spec.base_dir) / p.groom_file)
-            if src.scale != 1.0:
-                g = g.scaled(src.scale)
+        pending = self._pending.pop(key, None)
+        g = pending.result() if pending is not None else make_groom(self.spec, p)
         self._grooms[key] = g
         while len(self._grooms) > self._cache:
             self._grooms.popitem(last=False)
         return key, g
+
+    def prefetch(self, upcoming, submit, ahead: int = 2) -> None:
+        """Have ``submit(make_groom, spec, params) -> future`` (CPU workers) grow or load the
+        next ``ahead`` hairstyles of ``upcoming`` (SampleParams in render order) while this
+        process renders: a new groom then costs no GPU time."""
+        for p in upcoming:
+            key = groom_key(p)
+            if key in self._grooms or key in self._pending:
+                continue
+            if len(self._pending) >= ahead:
+                break
+            self._pending[key] = submit(make_groom, self.spec, p)
 
     def simulate(self, groom, head, p: SampleParams):
         """(posed groom, head transform) after p.sim_seconds of motion and wind."""
