@@ -6,6 +6,9 @@ import hashlib
 import io
 import json
 import shutil
+import tarfile
+import tempfile
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -14,7 +17,7 @@ from mane.errors import UsageError
 
 TINY = {
     "name": "test", "seed": 3, "samples": 6, "samples_per_shard": 2, "size": [40, 32],
-    "outputs": ["rgb", "hdr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands"],
+    "outputs": ["rgb", "hdr", "exr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands"],
     "heads": ["none"], "grooms": [{"file": "g.npz", "weight": 2.0}, {"file": "g2.npz"}],
     "colors": {"presets": ["black", "blond", "red"]},
     "views": {"distance": [0.7, 0.9], "azimuth": [-50, 50], "jitter": 0.01},
@@ -164,6 +167,12 @@ def test_local_run_verifies_and_decodes(tiny, local_set):
     assert s["rgb.png"].shape == (32, 40, 3) and s["mask.png"].shape == (32, 40)
     assert s["depth.npy"].dtype == np.float32 and s["strand_id.npy"].dtype == np.uint32
     assert s["hdr.npy"].dtype == np.float16 and s["hdr.npy"].shape == (32, 40, 3)
+    import OpenEXR
+
+    with tarfile.open(local_set / "shard-000001.tar") as tar, tempfile.TemporaryDirectory() as tmp:
+        (Path(tmp) / "x.exr").write_bytes(tar.extractfile("000000003.rgb_linear.exr").read())
+        with OpenEXR.File(str(Path(tmp) / "x.exr")) as e:
+            assert np.array_equal(e.channels()["RGB"].pixels, s["hdr.npy"])   # the same linear values
     hit = s["strand_id.npy"] != 0xFFFFFFFF
     assert hit.any() and np.all(s["depth.npy"][hit] > 0) and np.all(s["depth.npy"][~hit] == 0)
     d16 = s["depth16.png"]
@@ -291,7 +300,6 @@ def test_contact_sheet_has_a_row_per_sample(local_set, tmp_path):
     assert main(["dataset", "sheet", str(local_set), "--out", str(tmp_path / "s.png"), "--count", "3"]) == 0
     sheet = np.asarray(Image.open(tmp_path / "s.png"))
     assert sheet.shape == (3 * 32 + 2 * 2, 4 * 40 + 3 * 2, 3)
-    import tarfile
 
     with tarfile.open(local_set / "shard-000000.tar") as tar:
         d = np.load(io.BytesIO(tar.extractfile("000000000.depth.npy").read()))
@@ -301,7 +309,6 @@ def test_contact_sheet_has_a_row_per_sample(local_set, tmp_path):
 
 
 def test_example_specs_are_valid():
-    from pathlib import Path
 
     from mane.dataset import load_spec
     from mane.dataset.spec import estimate_bytes

@@ -16,7 +16,7 @@ import numpy as np
 from .spec import DEPTH16_SCALE
 
 FILES = {   # output -> the files (extensions after the key) it writes
-    "rgb": ("rgb.png",), "hdr": ("hdr.npy",), "mask": ("mask.png",), "depth": ("depth.npy",),
+    "rgb": ("rgb.png",), "hdr": ("hdr.npy",), "exr": ("rgb_linear.exr",), "mask": ("mask.png",), "depth": ("depth.npy",),
     "depth16": ("depth16.png",), "orientation": ("orientation.npy", "orientation_conf.npy"),
     "ids": ("strand_id.npy", "guide_id.npy"), "camera": ("camera.json",), "strands": ("strands.npz",),
 }
@@ -55,7 +55,7 @@ def npz(arrays: dict) -> bytes:
     return buf.getvalue()
 
 
-PNG_OUTPUTS = ("rgb", "mask", "depth16")
+PNG_OUTPUTS = ("rgb", "mask", "depth16", "exr")   # compressed by the encoder processes
 
 
 def encode_arrays(raw: dict, outputs) -> dict:
@@ -92,11 +92,33 @@ def png_job(raw: dict, outputs) -> dict:
         job["alpha"] = raw["alpha"]
     if "depth16" in outputs:
         job["depth"] = raw["depth"]
+    if "exr" in outputs:
+        job["hdr"] = raw["hdr"]
     return job
 
 
+def exr(rgb: np.ndarray) -> bytes:
+    """A half-float RGB OpenEXR (ZIP compression, no time stamps) of (H, W, 3) linear values."""
+    import os
+    import tempfile
+
+    import OpenEXR
+
+    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
+    fd, path = tempfile.mkstemp(suffix=".exr")
+    os.close(fd)
+    try:
+        with OpenEXR.File(header, {"RGB": np.ascontiguousarray(rgb, np.float16)}) as f:
+            f.write(path)
+        with open(path, "rb") as f:
+            return f.read()
+    finally:
+        os.unlink(path)
+
+
 def encode_pngs(job: dict) -> dict:
-    """The PNG files of a sample (the CPU-heavy part, run by encoder processes)."""
+    """The compressed images of a sample, PNGs and the EXR (the CPU-heavy part, run by encoder
+    processes)."""
     out = {}
     for o in job["outputs"]:
         if o == "rgb":
@@ -105,6 +127,8 @@ def encode_pngs(job: dict) -> dict:
             out["mask.png"] = png(np.round(np.clip(job["alpha"], 0.0, 1.0) * 255.0).astype(np.uint8))
         elif o == "depth16":
             out["depth16.png"] = png(np.round(np.clip(job["depth"] * DEPTH16_SCALE, 0, 65535)).astype(np.uint16))
+        elif o == "exr":
+            out["rgb_linear.exr"] = exr(job["hdr"])
     return out
 
 

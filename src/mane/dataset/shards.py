@@ -221,5 +221,19 @@ def _decode(ext: str, data: bytes, name: str) -> None:
                     z[k]
         elif ext.endswith(".json"):
             json.loads(data)
+        elif ext.endswith(".exr"):
+            if data[:4] != b"\x76\x2f\x31\x01":
+                raise ValueError("not an OpenEXR file")
+            try:
+                import OpenEXR
+            except ImportError:   # the magic number is all we can check
+                return
+            import tempfile
+
+            with tempfile.NamedTemporaryFile(suffix=".exr") as f:
+                f.write(data)
+                f.flush()
+                with OpenEXR.File(f.name) as e:
+                    e.channels()["RGB"].pixels
     except Exception as exc:   # any decoder's failure is a corrupt file
         raise ValueError(f"{name} does not decode ({type(exc).__name__}: {exc})") from None

@@ -19,8 +19,9 @@ from pathlib import Path
 
 from ..errors import UsageError
 
-OUTPUTS = ("rgb", "hdr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands")
-"""rgb: rgb.png (8-bit sRGB); hdr: hdr.npy (float16 linear radiance before tone mapping); mask:
+OUTPUTS = ("rgb", "hdr", "exr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands")
+"""rgb: rgb.png (8-bit sRGB); hdr: hdr.npy (float16 linear radiance before tone mapping); exr:
+rgb_linear.exr (the same as a half-float OpenEXR, ZIP compressed; needs openexr); mask:
 mask.png (8-bit hair coverage); depth: depth.npy (float32 metres, 0 = no hair); depth16:
 depth16.png (uint16, DEPTH16_SCALE units per metre); orientation: orientation.npy (float32
 angle in [0, pi)) and orientation_conf.npy (float32 confidence); ids: strand_id.npy and
@@ -250,6 +251,11 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
         o = data["outputs"]
         if not isinstance(o, list) or not o or any(x not in OUTPUTS for x in o) or len(set(o)) != len(o):
             raise UsageError(f"outputs must be a list of distinct names from {', '.join(OUTPUTS)}, got {o!r}")
+        if "exr" in o:
+            try:
+                import OpenEXR  # noqa: F401
+            except ImportError:
+                raise UsageError("outputs: 'exr' needs OpenEXR: pip install 'mane[dataset]' (openexr==3.5.3)") from None
         kw["outputs"] = tuple(o)
     if "heads" in data:
         h = data["heads"]
@@ -359,7 +365,7 @@ def estimate_bytes(spec: DatasetSpec) -> dict:
     w, h = spec.size
     n = w * h
     strands = max((g.strands * g.points if g.style else 50_000 * 16) for g in spec.grooms)
-    per = {"rgb": n * 3 // 2, "hdr": n * 8, "mask": n // 4, "depth": n * 4, "depth16": n // 2,
+    per = {"rgb": n * 3 // 2, "hdr": n * 6, "exr": n * 4, "mask": n // 4, "depth": n * 4, "depth16": n // 2,
            "orientation": n * 8, "ids": n * 8, "camera": 3000, "strands": strands * 12}
     files = {"orientation": 2, "ids": 2}
     sample = sum(per[o] + 512 * (1 + files.get(o, 1)) for o in spec.outputs)

@@ -171,7 +171,7 @@ class SampleRenderer:
         self.aux.finish()
         t2 = time.perf_counter()
         raw = {"key": p.key, "index": p.index, "rgb": r.read_image(), **self.aux.read()}
-        if "hdr" in self.spec.outputs:
+        if "hdr" in self.spec.outputs or "exr" in self.spec.outputs:
             raw["hdr"] = read_hdr(r)
         t3 = time.perf_counter()
         w, h = self.settings.size
