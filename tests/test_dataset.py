@@ -77,6 +77,8 @@ def _shards(d):
     ({"render": {"rasterizer": "hardware"}}, "cannot be set"),
     ({"render": {"shadow": "none"}}, "unknown RenderSettings field 'shadow'"),
     ({"render": {"shadows": "soft"}}, "shadows must be one of"),
+    ({"render": {"shading": "phong"}}, "bad shading settings"),
+    ({"render": {"shading_options": {"shine": 2}}}, "bad shading settings"),
     ({"simulation": {"motions": ["dance"]}}, "[simulation] motions"),
     ({"heads": ["nohead.obj"]}, "no mesh file"),
 ])

@@ -194,9 +194,14 @@ class DatasetSpec:
         kw = {"shadows": "deep_opacity", **self.render, "size": tuple(self.size), "rasterizer": "compute",
               "pipeline": "compute"}
         try:
-            return RenderSettings(**kw)
+            settings = RenderSettings(**kw)
         except TypeError as exc:
             raise UsageError(f"[render]: {exc}") from None
+        from ..render.renderer import ShadingAdapter
+
+        # the shading model and its options, with a colour from melanin as every sample has
+        ShadingAdapter(settings.shading, None, {**settings.shading_options, "melanin": (1.0, 0.2)})
+        return settings
 
 
 def _groom(i: int, d: dict) -> GroomSource:
