@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 
-HELP = "run benchmarks (sim, render, oit, quality, limits, all) and print or write JSON"
+HELP = "run benchmarks (sim, render, oit, quality, limits, dataset, all) and print or write JSON"
 
 # target -> (module, one-line help)
 TARGETS: dict[str, tuple[str, str]] = {
@@ -31,6 +31,8 @@ TARGETS: dict[str, tuple[str, str]] = {
                                       "OIT vs the exact sort, simulation invariants (--out DIR: quality.json + images)"),
     "limits": ("mane.bench.limits", "the GPU's measured limits: DRAM copy bandwidth, raster units' peak (triangles "
                                     "and samples per second, 1x and 4x MSAA), atomicMin throughput (32/64-bit)"),
+    "dataset": ("mane.bench.dataset_bench", "mane dataset's pipeline: samples per second (default 512x512, every map, "
+                                            "50k strands) and where the time goes (GPU, read-back, encoding, writing)"),
     "all": ("mane.bench.all_bench", "every target in turn (--out DIR: JSON, CSV per table, plots/*.png beside the "
                                     "seeds' published figures, summary.md; --only, --baseline)"),
 }

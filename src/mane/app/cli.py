@@ -21,8 +21,9 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "render": ("mane.app.render", "render a groom (or the default head and hair) to a PNG or an MP4"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
     "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
-    "bench": ("mane.app.bench", "run benchmarks (sim, render, oit, quality, limits, all) and print or write JSON"),
+    "bench": ("mane.app.bench", "run benchmarks (sim, render, oit, quality, limits, dataset, all) and print or write JSON"),
     "demo": ("mane.app.demo", "the main job: the procedural head with long wavy hair, simulated and rendered (viewer or headless clip)"),
+    "dataset": ("mane.app.dataset", "make hair data sets: plan a spec, run it (locally or on Ray) into WebDataset shards, verify a set"),
     "view": ("mane.app.view", "open the interactive viewer: simulate, light and render a groom live (needs a display)"),
 }
 

@@ -48,6 +48,7 @@ import traceback
 from pathlib import Path
 
 ORDER = ("sim", "render", "oit", "quality", "limits")
+NOT_IN_ALL = ("dataset",)   # a pipeline of processes writing shards: run it alone (mane bench dataset)
 STATS_KEYS = ("mean", "median", "p95", "min", "max", "n")
 SKIP_KEYS = {"traceback", "settings", "renderer_stats", "warnings", "oit_bytes_detail", "settings_not_in_renderer",
              "series", "image", "oit_warnings", "gpu_ms_note"}
@@ -58,7 +59,7 @@ def targets(only=None) -> list[str]:
     """The targets ``all`` runs: TARGETS of ``mane bench`` but ``all``, in ORDER, whose module exists."""
     from ..app.bench import TARGETS
 
-    names = [t for t in ORDER if t in TARGETS] + [t for t in TARGETS if t not in ORDER and t != "all"]
+    names = [t for t in ORDER if t in TARGETS] + [t for t in TARGETS if t not in ORDER + NOT_IN_ALL and t != "all"]
     out = []
     for t in names:
         if TARGETS[t][0] == __name__:

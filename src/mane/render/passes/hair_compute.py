@@ -82,6 +82,7 @@ class HairComputePass(Pass):
         self.captured = None
         self.count_stats = False   # True: hair_raster.comp counts its samples (RASTER_STATS); see count_samples
         self.raster_stats = None
+        self.after_raster: list = []   # callables (frame) run on the filled sample buffers (render/aux_maps.py)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -143,6 +144,8 @@ class HairComputePass(Pass):
             self.raster_stats = self._read_stats(stats)
         if self.capture:
             self.captured = self._read_buffers()
+        for hook in self.after_raster:
+            hook(frame)
         with r.profiler.section("hair_shade"):
             cs = compute_shader(ctx, HERE / "hair_shade.comp", {**defines, **r.shading.defines(),
                                                                 **shadow_defines(r.settings)},

@@ -1,0 +1,175 @@
+"""``mane bench dataset``: samples per second of `mane dataset run`'s pipeline on this machine's
+GPU (one GPU worker, cores - 1 encoder processes), and where the time goes.
+
+Three measurements on the same spec (default: 512x512, every map, 50k rendered strands = 3125
+guides x 16, 16 points, deep opacity shadows, 4 samples a pixel; --quick: 128x128 and 2k
+strands for CPUs):
+
+- ``stages``: samples rendered one after the other without encoding, per sample: ``prepare``
+  (the sample's scene on the CPU), ``gpu`` (render to the end of the frame, ctx.finish),
+  ``readback`` (image and maps to NumPy); the .npy/.json/.npz files (``encode_arrays``, in the
+  GPU process) and the PNGs of one sample on one core (``encode_png_one_core``), its bytes;
+- ``pipeline``: a whole shard through render_shard with the encoder pool, as a run does:
+  samples per second (the figure), and the GPU process's time split into prepare, gpu,
+  readback, encode_arrays, submit (pickling the PNG job to the encoders) and waiting on
+  encoders, and the shard writing done meanwhile by a writer thread;
+- the bounds: 1 / (the GPU process's time per sample) and encoders / encode time;
+- ``dataset_run`` rows: the local runner itself with 1, 2, 4 (full: 8) GPU worker processes on
+  the GPU (each its own context; their CPU work runs in parallel, their frames interleave):
+  samples per second once warm, and over the whole run.
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+import time
+
+from .common import envelope, fmt, title_line
+
+MODES = {
+    "quick": {"size": (128, 128), "guides": 250, "strands_per_guide": 8, "samples": 8, "stage_samples": 4,
+              "workers": (1,), "run_samples": 8},
+    "default": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 300, "stage_samples": 30,
+                "workers": (1, 2, 4), "run_samples": 1200},
+    "full": {"size": (512, 512), "guides": 3125, "strands_per_guide": 16, "samples": 2000, "stage_samples": 100,
+             "workers": (1, 2, 4, 8), "run_samples": 4000},
+}
+OUTPUTS = ["rgb", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands"]
+
+
+def bench_spec(cfg: dict, base_dir: str, samples: int | None = None, per_shard: int | None = None):
+    from ..dataset.spec import parse_spec
+
+    samples = int(samples or cfg["samples"])
+    return parse_spec({
+        "name": "bench", "seed": 0, "samples": samples, "samples_per_shard": int(per_shard or samples),
+        "views_per_groom": 100000, "size": list(cfg["size"]), "outputs": OUTPUTS,
+        "grooms": [{"style": "long_wavy", "strands": cfg["guides"], "points": 16, "seeds": [0, 0]}],
+        "colors": {"presets": ["black", "brown", "blond", "red"]},
+        "views": {"azimuth": [-180, 180], "elevation": [-5, 30], "distance": [0.8, 1.1]},
+        "lights": {"count": [1, 3]},
+        "render": {"strands_per_guide": cfg["strands_per_guide"], "msaa": 4, "shadows": "deep_opacity"},
+    }, base_dir)
+
+
+def run(ctx, mode: str = "default", progress=None) -> dict:
+    import pickle
+    from concurrent.futures import ProcessPoolExecutor
+    import multiprocessing as mp
+
+    from ..dataset.encode import encode_arrays, png_job
+    from ..dataset.job import encode_timed, render_shard
+    from ..dataset.sampling import sample_params
+    from ..dataset.worker import SampleRenderer
+
+    cfg = dict(MODES[mode])
+    log = progress or (lambda msg: None)
+    started = time.perf_counter()
+    encoders = max(1, (os.cpu_count() or 2) - 1)
+    with tempfile.TemporaryDirectory(prefix="mane_bench_dataset_") as tmp:
+        spec = bench_spec(cfg, tmp)
+        log(f"{cfg['size'][0]}x{cfg['size'][1]}, {cfg['guides'] * cfg['strands_per_guide']} strands: growing the groom "
+            "and compiling")
+        sr = SampleRenderer(spec, ctx=ctx, cache=2)
+        try:
+            raws = [sr.render(sample_params(spec, i)) for i in range(2)]   # warm: groom, programs
+            for k in sr.timings:
+                sr.timings[k] = 0.0
+            n = int(cfg["stage_samples"])
+            log(f"stages: {n} samples rendered alone")
+            t = time.perf_counter()
+            for i in range(n):
+                raws[i % 2] = sr.render(sample_params(spec, 2 + i))
+            alone = time.perf_counter() - t
+            stage = {k: 1000.0 * v / n for k, v in sr.timings.items()}
+            arr_ms, enc_ms, nbytes = [], [], 0
+            for raw in raws:
+                t = time.perf_counter()
+                files = encode_arrays(raw, spec.outputs)
+                arr_ms.append(1000.0 * (time.perf_counter() - t))
+                pngs, s = encode_timed(png_job(raw, spec.outputs))
+                enc_ms.append(1000.0 * s)
+                nbytes = sum(len(v) for k, v in {**files, **pngs}.items() if k != "__key__")
+            t = time.perf_counter()
+            pickled = len(pickle.dumps(png_job(raws[0], spec.outputs), protocol=pickle.HIGHEST_PROTOCOL))
+            pickle_ms = 1000.0 * (time.perf_counter() - t)
+            stage.update({"encode_arrays": sum(arr_ms) / len(arr_ms), "encode_png_one_core": sum(enc_ms) / len(enc_ms),
+                          "pickle": pickle_ms})
+            log(f"pipeline: {spec.samples} samples, {encoders} encoder processes")
+            with ProcessPoolExecutor(encoders, mp_context=mp.get_context("spawn")) as pool:
+                list(pool.map(abs, range(encoders)))   # start the encoders before timing
+
+                def submit(job):
+                    return pool.submit(encode_timed, job)
+
+                t = time.perf_counter()
+                info = render_shard(sr, 0, tmp, submit, in_flight=2 * encoders)
+                wall = time.perf_counter() - t
+        finally:
+            sr.release()
+    runs = []
+    for w in cfg.get("workers", ()):
+        runs.append(run_workers(cfg, w, log))
+    per = {k: 1000.0 * v / info["samples"] for k, v in info["timings"].items() if k != "wall"}
+    gpu_process_ms = sum(per.get(k, 0.0) for k in ("prepare", "gpu", "readback", "encode_arrays", "submit"))
+    row = {
+        "bench": "dataset", "name": f"{cfg['size'][0]}x{cfg['size'][1]}", "status": "ok",
+        "samples": info["samples"], "samples_per_s": info["samples"] / wall, "wall_s": wall,
+        "size": list(cfg["size"]), "rendered_strands": cfg["guides"] * cfg["strands_per_guide"],
+        "outputs": OUTPUTS, "encoders": encoders, "bytes_per_sample": nbytes, "png_job_pickle_bytes": pickled,
+        "shard_bytes": info["bytes"],
+        "stage_ms_per_sample": stage, "render_alone_samples_per_s": n / alone,
+        "pipeline_ms_per_sample": per,
+        "bound_gpu_process_samples_per_s": 1000.0 / max(gpu_process_ms, 1e-9),
+        "bound_encoders_samples_per_s": 1000.0 * encoders / max(stage["encode_png_one_core"], 1e-9),
+    }
+    meta = envelope(ctx, target="dataset", mode=mode, settings={**cfg, "size": list(cfg["size"]), "encoders": encoders},
+                    timing={"source": "cpu wall clock (ctx.finish after each frame)",
+                            "total_seconds": time.perf_counter() - started})
+    return {"meta": meta, "results": [row] + runs}
+
+
+def run_workers(cfg: dict, workers: int, log) -> dict:
+    """`mane dataset run`'s local runner with ``workers`` GPU worker processes on this machine's
+    (first) GPU, each with cores / workers - 1 encoders: samples per second once warm (the
+    shards after each worker's first) and over the whole run (start-up included)."""
+    from ..dataset.local import default_encoders, run_local
+
+    n = int(cfg["run_samples"])
+    per_shard = max(1, n // (4 * workers))
+    with tempfile.TemporaryDirectory(prefix="mane_bench_dataset_run_") as tmp:
+        spec = bench_spec(cfg, tmp, samples=n, per_shard=per_shard)
+        log(f"mane dataset run: {n} samples, {workers} GPU worker process(es), {default_encoders(workers)} "
+            "encoders each")
+        report = run_local(spec, tmp + "/out", workers=workers, progress=False)
+    d = report.as_dict()
+    status = "ok" if report.ok else "failed"
+    return {"bench": "dataset_run", "name": f"{workers} worker(s)", "status": status, "workers": workers,
+            "encoders_per_worker": default_encoders(workers), "samples": d["samples"], "samples_per_shard": per_shard,
+            "steady_samples_per_s": report.steady_rate(), "run_samples_per_s": d["samples_per_s"],
+            "wall_s": d["wall_s"], "timings_s": d["timings_s"], "problems": {**d["failed"], "fatal": d["fatal"]}}
+
+
+def format_text(result: dict) -> str:
+    meta, r = result["meta"], result["results"][0]
+    runs = [x for x in result["results"][1:] if x.get("bench") == "dataset_run"]
+    st, pp = r["stage_ms_per_sample"], r["pipeline_ms_per_sample"]
+    ms = lambda d, k: fmt(d.get(k), "{:.2f}")  # noqa: E731
+    return "\n".join([
+        title_line(meta),
+        f"{r['samples']} samples of {r['name']}, {r['rendered_strands']} strands, outputs {', '.join(r['outputs'])}: "
+        f"{r['samples_per_s']:.2f} samples/s with 1 GPU worker and {r['encoders']} encoders "
+        f"({r['bytes_per_sample'] / 1e6:.2f} MB a sample)",
+        f"  stages alone, ms a sample: prepare {ms(st, 'prepare')}, gpu {ms(st, 'gpu')}, readback "
+        f"{ms(st, 'readback')}, .npy/.json/.npz {ms(st, 'encode_arrays')}, pickle of the PNG job {ms(st, 'pickle')}, "
+        f"PNGs {ms(st, 'encode_png_one_core')} (one core)",
+        f"  in the pipeline, GPU process ms a sample: prepare {ms(pp, 'prepare')}, gpu {ms(pp, 'gpu')}, readback "
+        f"{ms(pp, 'readback')}, .npy/.json/.npz {ms(pp, 'encode_arrays')}, submit {ms(pp, 'submit')}, waiting on "
+        f"encoders {ms(pp, 'wait_encoders')}; shard writing {ms(pp, 'write_overlapped')} (a thread, overlapped); "
+        f"encoders' CPU {ms(pp, 'encode_png')}",
+        f"  bounds: GPU process {r['bound_gpu_process_samples_per_s']:.1f} samples/s, encoders "
+        f"{r['bound_encoders_samples_per_s']:.1f} samples/s; rendering alone {r['render_alone_samples_per_s']:.1f} "
+        "samples/s",
+    ] + [f"  mane dataset run, {x['workers']} GPU worker(s) x {x['encoders_per_worker']} encoders: "
+         f"{fmt(x['steady_samples_per_s'], '{:.1f}')} samples/s once warm, {fmt(x['run_samples_per_s'], '{:.1f}')} "
+         f"over the run ({x['samples']} samples, {x['wall_s']:.1f} s) [{x['status']}]" for x in runs])

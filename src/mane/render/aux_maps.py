@@ -1,0 +1,127 @@
+"""Ground-truth maps of a frame for data sets: per pixel the nearest hair segment, its strand and
+guide, its depth, its screen-space direction angle with a confidence, and the hair's alpha.
+
+    r = Renderer(RenderSettings(size=(64, 64), rasterizer="compute"))
+    aux = AuxMaps(r)                 # before rendering: runs inside every later frame
+    r.render(camera, lights)
+    m = aux.read()                   # top row first, like Renderer.read_image
+    m["segment"]   # (H, W) int64: the nearest segment's first point index into the expanded
+                   #   strands (ExpandPass.read: strand = segment // points), -1 where no hair
+    m["strand"], m["guide"]          # (H, W) uint32, 0xFFFFFFFF where no hair
+    m["depth"]     # (H, W) float32: metres along the view direction at the pixel centre, 0: none
+    m["angle"]     # (H, W) float32 in [0, pi): the strand's image direction from +x (right),
+                   #   counter-clockwise as seen (toward the top of the image)
+    m["confidence"]  # (H, W) float32 in [0, 1]: coherence of the pixel's samples' directions
+    m["alpha"]     # (H, W) float32: the hair's coverage (mean over the pixel's samples)
+                   # (read-only views of one read-back, but "segment")
+
+It needs the compute rasteriser (settings.rasterizer="compute" and pipeline="compute"): its
+kernel (aux_maps.comp, beside this file) reads the rasteriser's per-sample visibility between
+its raster and shade steps (HairComputePass.after_raster). Guide ids follow single-guide
+interpolation (rendered strand r belongs to guide r // strands_per_guide).
+"""
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from ..errors import UsageError
+from ..gpu.glsl import compute_shader
+from .passes.base import set_uniform, set_view
+from .passes.expand import EXPANDED_BINDING
+
+HERE = Path(__file__).resolve().parent
+OUT_BINDING = 12
+PLANES = 7   # aux_maps.comp's AUX_PLANES
+NONE = np.uint32(0xFFFFFFFF)
+
+
+class AuxMaps:
+    """Attach to a Renderer; every frame it renders fills the maps that ``read`` returns."""
+
+    def __init__(self, renderer):
+        s = renderer.settings
+        if not renderer.compute_raster:
+            raise UsageError("ground-truth maps need the compute rasteriser (rasterizer='compute', "
+                             "pipeline='compute', oit='none')")
+        if s.supersample != 1 or s.interpolation_mode != "single":
+            raise UsageError("ground-truth maps need supersample=1 and interpolation_mode='single'")
+        self.renderer = renderer
+        self.ctx = renderer.ctx
+        self._out = None
+        self._size = None
+        self._points = 0
+        self._fresh = False
+        self.pass_ = renderer.get_pass("hair_compute")
+        self.pass_.after_raster.append(self._run)
+
+    def _buffers(self, w: int, h: int) -> None:
+        if self._size == (w, h):
+            return
+        self._release_buffers()
+        self._out = self.ctx.buffer(reserve=w * h * 4 * PLANES)
+        self._size = (w, h)
+
+    def _run(self, frame) -> None:
+        r, ctx = self.renderer, self.ctx
+        hp = self.pass_
+        expand = r.get_pass("expand")
+        w, h = r.settings.render_size
+        self._buffers(w, h)
+        cs = compute_shader(ctx, HERE / "aux_maps.comp", {"VIS64": int(hp.vis64)}, include_dirs=[HERE / "passes"])
+        grid = r.raster_grid
+        set_view(cs, frame.view)
+        set_uniform(cs, "u_raster_size", (w * grid, h * grid))
+        set_uniform(cs, "u_grid", int(grid))
+        set_uniform(cs, "u_lines", int(r.settings.geometry == "lines"))
+        set_uniform(cs, "u_points_per_strand", int(expand.points))
+        set_uniform(cs, "u_strands_per_guide", int(r.settings.strands_per_guide))
+        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self._out.bind_to_storage_buffer(OUT_BINDING)
+        with r.profiler.section("aux_maps"):
+            cs.run(math.ceil(w / 8), math.ceil(h / 8))
+            ctx.memory_barrier()
+        self._points = int(expand.points)
+        self._fresh = True
+
+    def finish(self) -> None:
+        """Wait until the GPU has finished the frame (to time rendering apart from read-back)."""
+        self.ctx.finish()
+
+    def read(self) -> dict:
+        """The last frame's maps (see the module's docstring), rows top first."""
+        if not self._fresh:
+            raise UsageError("no ground-truth maps yet: render a frame with hair first")
+        w, h = self._size
+        planes = np.frombuffer(self._out.read(), np.uint32).reshape(PLANES, h, w)   # read-only views
+        floats = planes.view(np.float32)
+        return {
+            "segment": planes[0].astype(np.int64) - 1,
+            "strand": planes[1],
+            "guide": planes[2],
+            "depth": floats[3],
+            "angle": floats[4],
+            "confidence": floats[5],
+            "alpha": floats[6],
+        }
+
+    def _release_buffers(self) -> None:
+        if self._out is not None:
+            self._out.release()
+        self._out = None
+        self._size = None
+
+    def release(self) -> None:
+        if self._run in self.pass_.after_raster:
+            self.pass_.after_raster.remove(self._run)
+        self._release_buffers()
+
+
+def read_hdr(renderer) -> np.ndarray:
+    """(H, W, 3) float16 linear radiance of the last frame before tone mapping, top row first."""
+    color, _ = renderer.hdr_textures()
+    w, h = color.size
+    data = np.frombuffer(color.read(), np.float16).reshape(h, w, 4)[::-1, :, :3]
+    return np.ascontiguousarray(data)
