@@ -11,7 +11,7 @@ One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is sk
 
     integrate  forces, prediction, pinned follicles, global shape    (per particle)
     shape      local shape + bending, Gauss-Seidel sweeps            (per strand)
-    length     DFTL (per strand) or odd/even PBD (shared memory)     (per strand group),
+    length     DFTL (per strand) or XPBD, a direct chain solve per iteration (per strand group),
                with the projection colliders and mesh SDFs inside: DFTL projects each
                particle out as its sweep places it and puts it back at its rest length from
                its leader (lengths stay exact); PBD projects between its iterations
@@ -529,6 +529,7 @@ class Simulator:
         _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "iterations", s.pbd_iterations)
         _set(sh, "tether", int(s.long_range_attachment))
+        _set(sh, "alpha_tilde", s.stretch_compliance / (h * h))
         self._bind_sdfs(sh, sdfs)
         self._dispatch("length", sh, (st.num_strands + spg - 1) // spg)
         return True
