@@ -104,9 +104,12 @@ class SimSettings:
     each joint turns the fraction k of the way back to its bind direction every step
     (the strand below it following), so small values (0.01..0.2) already hold a style."""
     bending_stiffness: float = 0.0
-    """unilateral bending, in [0, 1] per step: a joint bent beyond its rest angle is
-    unbent this fraction of the excess (no preferred direction: straight hair stays
-    straight, kinks are limited; curls are held by local shape)."""
+    """a kink limiter, not a physical bending stiffness (no EI: a cantilever's sag does not
+    follow w L^4 / (8 EI)): in [0, 1] per step, a joint bent beyond its rest angle is unbent
+    this fraction of the excess, in its plane (the strand below it turning rigidly); a joint
+    bent less than at rest gets nothing. So straight rest hair is held straight (a cantilever
+    stays up), but curved rest hair moves freely until its joints pass their rest angles (on
+    real grooms it changes little): local_shape_stiffness holds a styled shape."""
     shape_iterations: int = 2
     """Gauss-Seidel sweeps of local shape and bending per step (1..64); stiffness is
     converted per iteration, so the count changes convergence, not stiffness."""
