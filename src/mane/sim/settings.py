@@ -122,7 +122,9 @@ class SimSettings:
     grid_resolution: int = 32
     """voxels per axis of the hair-hair grid (4..256)."""
     volume: bool = False
-    """run FLIP volume preservation (``mane.sim.flip``) when it is available."""
+    """run FLIP volume preservation (``mane.sim.flip``, Chen's method): the velocities made
+    divergence-free on the hair's grid, and cells denser than the groom's rest density (its mean
+    over occupied cells at rest, per m^3) pushed apart, so the hair keeps its rest volume."""
     flip_ratio: float = 0.95
     """FLIP/PIC blend of the volume pass: 1 pure FLIP, 0 pure PIC."""
 

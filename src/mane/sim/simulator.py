@@ -156,6 +156,7 @@ class Simulator:
         self._grid_key = None
         self._flip = None
         self._flip_key = None
+        self._rest_density = None
         self._deferred: SimState | None = None   # the state whose gather waits on self._grid
         self.profile = bool(profile)
         self._timer = _Timer()
@@ -656,8 +657,12 @@ class Simulator:
         if self._flip is None or self._flip_key != s.grid_resolution:
             self._flip = FlipVolume(self.ctx, s.grid_resolution)
             self._flip_key = s.grid_resolution
+            # Chen's volume method with its target from the rest state (the groom's rest pose,
+            # rigid in the head frame): the rest density per m^3, the same on every state
+            self._rest_density = self._flip.measure_rest_density(st.buffers["rest_positions"], st.velocities,
+                                                                 st.num_particles)
         with self._timed("volume"):
-            self._flip.apply(st, h, s.flip_ratio)
+            self._flip.apply(st, h, s.flip_ratio, rest_density=self._rest_density)
         self.ctx.memory_barrier()
         self._bind(st)
         return True
