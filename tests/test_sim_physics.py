@@ -98,14 +98,14 @@ def test_pbd_compliance_stretches_as_the_closed_form(gl):
 
 
 def test_pbd_holds_sintel_lengths_with_a_nodding_head(gl, shared_data):
-    """Sintel's hair (every third strand, 16 points) on her head mesh, nodding, bending and
+    """Sintel's hair (every fourth strand, 16 points) on her head mesh, nodding, bending and
     local shape on: PBD at its default iterations keeps every segment within 1% (the old
     Gauss-Seidel sweeps stretched them by up to 284%, 644% with bending, with NaN resets)."""
     from mane.io import load, load_mesh
     from mane.sim import MeshCollider
 
     groom = load(shared_data / "tressfx/sintel_hair.tfx").scaled(0.01)
-    groom = groom.subset(np.arange(0, groom.num_strands, 3))
+    groom = groom.subset(np.arange(0, groom.num_strands, 4))
     head = load_mesh(shared_data / "heads/sintel.obj").transformed(np.diag([0.01, 0.01, 0.01, 1.0]))
     lo, hi = head.bbox()
     pivot = ((lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2)
@@ -113,7 +113,7 @@ def test_pbd_holds_sintel_lengths_with_a_nodding_head(gl, shared_data):
     sim = Simulator(groom, [MeshCollider(head, resolution=48, margin=0.002, friction=0.3)], settings, ctx=gl,
                     points_per_strand=16)
     worst = 0.0
-    for f in range(24):
+    for f in range(20):
         sim.set_head_transform(head_motion.nod((f + 1) / 30, pivot=pivot))
         sim.advance(1 / 30)
         worst = max(worst, sim.max_length_error())
