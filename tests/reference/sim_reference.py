@@ -314,8 +314,8 @@ def dftl(x, w, seg_len, rest, head, prev=None, colliders=(), sdfs=(), prev_world
 def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=(), sdfs=(), prev_worlds=None,
         head=None, alpha_tilde=0.0):
     """XPBD distance constraints C_j = |p_{j+1} - p_j| - l_j. Each iteration: every free
-    particle projected out of the colliders where the projected point is within its rest arc
-    length of the root; the whole chain's linearised system
+    particle projected out of the colliders unless its root lies deeper inside than the
+    particle's rest arc length; the whole chain's linearised system
     (J W J^T + alpha~ I) dlambda = -(C + alpha~ lambda) solved exactly (dense here),
     dp = W J^T dlambda; with alpha~ = 0 one exact pairwise projection of the segments from even
     k, then odd k; then the tether."""
@@ -341,9 +341,11 @@ def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=
             for s in range(S):
                 for k in range(N):
                     if w[s, k] > 0:
-                        q = project_out(p[s, k], prev[s, k], colliders, head, sdfs, prev_worlds)[0]
-                        if np.linalg.norm(q - p[s, 0]) <= arc[s, k] * 1.001:
-                            p[s, k] = q
+                        q, _, moved = project_out(p[s, k], prev[s, k], colliders, head, sdfs, prev_worlds)
+                        if moved:
+                            r = project_out(p[s, 0], p[s, 0], colliders, head, sdfs, prev_worlds)[0]
+                            if np.linalg.norm(r - p[s, 0]) <= arc[s, k]:
+                                p[s, k] = q
         for s in range(S):
             d = p[s, 1:] - p[s, :-1]
             L = np.linalg.norm(d, axis=1)

@@ -6,8 +6,8 @@
 // positions in shared memory. One iteration:
 //
 // 1. with colliders (PRIMS, NSDF: contact.glsl), every free particle is projected out of
-//    them, with friction, where the projected point is within its rest arc length of the root
-//    (elsewhere no position is both outside and at its lengths: the lengths win, as in DFTL);
+//    them, with friction, unless its root lies deeper inside than the particle's rest arc
+//    length (then no position is both outside and at its lengths: the lengths win, as in DFTL);
 // 2. segment j joins particles j and j+1: C_j = |p_{j+1} - p_j| - l_j, n_j its unit direction,
 //    w inverse masses (0 at the pinned root: infinite mass). Solve
 //      (J W J^T + alpha~ I) dlambda = -(C + alpha~ lambda),    alpha~ = compliance / dt^2,
@@ -74,10 +74,15 @@ void main() {
     for (int it = 0; it < iterations; ++it) {
 #if PRIMS > 0 || NSDF > 0
         if (live && sp[lid].w > 0.0) {
-            // out of the colliders, where the particle can be at its arc length from the root
-            // (a root buried deeper than that: the lengths win, as in DFTL)
+            // out of the colliders, unless the root is buried deeper than this particle's arc
+            // length (nothing outside is within its reach: the lengths win, as in DFTL)
             vec3 p = sp[lid].xyz, n;
-            if (project_out(p, x0, n) && length(p - sp[root].xyz) <= arc * 1.001) sp[lid].xyz = p;
+            if (project_out(p, x0, n)) {
+                vec3 r = sp[root].xyz, rn;
+                vec3 r0 = r;
+                project_out(r, r0, rn);
+                if (distance(r, r0) <= arc) sp[lid].xyz = p;
+            }
         }
         memoryBarrierShared();
         barrier();
