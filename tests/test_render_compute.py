@@ -214,3 +214,29 @@ def test_lod_expansion_matches_the_numpy_lod_twin(gl, distance):
             steps = np.linalg.norm(np.diff(seg0, axis=0), axis=1)
             moving = int(np.sum(steps > 1e-7))
             assert moving == int(np.ceil(level - 1e-6)), (gi, j, level, moving)
+
+
+@pytest.mark.parametrize("distance", [0.0, 1.2, 7.0])
+def test_lod_rendered_segments_count_what_is_drawn(gl, distance):
+    """renderer.stats()['rendered_segments'] with the distance LOD: the segments of the expanded
+    buffer that are drawn (both ends apart, width > 0), counted on the GPU's own output; they
+    fall with distance (the old count never did and read 1.5x high)."""
+    g = wavy_groom()
+    s = RenderSettings(size=(64, 48), msaa=1, pipeline="compute", lod=True, lod_start=0.5, lod_end=2.5,
+                       segments=40, strands_per_guide=8, stray_fraction=0.0)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(g)
+        r.strands.update_frames()
+        roots = g.as_padded()[:, 0].astype(np.float64)
+        r.lod_eye = roots[0] + np.array([0.0, 0.0, distance])
+        e = r.get_pass("expand").read()
+        stat = r.stats()["rendered_segments"]
+        full = r.rendered_strands * (g.as_padded().shape[1] - 1) * (e.shape[1] - 1) // (g.as_padded().shape[1] - 1)
+    finally:
+        r.release()
+    step = np.linalg.norm(np.diff(e[..., :3], axis=1), axis=2)
+    drawn = int(((step > 1e-7) & (e[:, :-1, 3] > 0)).sum())
+    assert stat == drawn, (stat, drawn)
+    if distance >= 2.5:
+        assert stat < 0.5 * full

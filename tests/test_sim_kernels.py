@@ -510,4 +510,7 @@ def test_pbd_collides_between_iterations(gl):
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
     want = ref.pbd(x, inv_mass(sim), seg, 6, False, None, prev, cols[:3], sdf_params(sim), head=HEAD_SMALL)
     assert_close(padded(sim, "positions"), want)
-    assert sim.max_penetration() < 2e-6  # the iterations end with the projection
+    # the iterations end with the lengths: the last solve's correction may leave a particle
+    # slightly inside, far less than the collision setup's depth
+    assert sim.max_length_error() < 1e-3
+    assert sim.max_penetration() < 2e-3

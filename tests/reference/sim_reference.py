@@ -312,11 +312,18 @@ def dftl(x, w, seg_len, rest, head, prev=None, colliders=(), sdfs=(), prev_world
 
 
 def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=(), sdfs=(), prev_worlds=None,
-        head=None):
-    """Distance constraints, segments from even k then from odd k, per iteration; then the
-    tether; then every free particle projected out of the colliders."""
+        head=None, alpha_tilde=0.0):
+    """XPBD distance constraints C_j = |p_{j+1} - p_j| - l_j. Each iteration: every free
+    particle projected out of the colliders unless its root lies deeper inside than the
+    particle's rest arc length; the whole chain's linearised system
+    (J W J^T + alpha~ I) dlambda = -(C + alpha~ lambda) solved exactly (dense here),
+    dp = W J^T dlambda; with alpha~ = 0 one exact pairwise projection of the segments from even
+    k, then odd k; then the tether."""
     S, N, _ = x.shape
     p = x.copy()
+    lam = np.zeros((S, N - 1))
+    if arc is None:
+        arc = np.concatenate([np.zeros((S, 1)), np.cumsum(seg_len, axis=1)], axis=1)
 
     def project(s, a):
         b = a + 1
@@ -330,10 +337,38 @@ def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=
         p[s, b] -= w[s, b] / wsum * C * d / L
 
     for _ in range(iterations):
-        for parity in (0, 1):
+        if colliders or sdfs:
             for s in range(S):
-                for a in range(parity, N - 1, 2):
-                    project(s, a)
+                for k in range(N):
+                    if w[s, k] > 0:
+                        q, _, moved = project_out(p[s, k], prev[s, k], colliders, head, sdfs, prev_worlds)
+                        if moved:
+                            r = project_out(p[s, 0], p[s, 0], colliders, head, sdfs, prev_worlds)[0]
+                            if np.linalg.norm(r - p[s, 0]) <= arc[s, k]:
+                                p[s, k] = q
+        for s in range(S):
+            d = p[s, 1:] - p[s, :-1]
+            L = np.linalg.norm(d, axis=1)
+            n = np.where(L[:, None] > 1e-12, d / np.maximum(L, 1e-300)[:, None], 0.0)
+            C = L - seg_len[s]
+            J = np.zeros((N - 1, N, 3))     # dC_j / dp_i
+            for j in range(N - 1):
+                J[j, j], J[j, j + 1] = -n[j], n[j]
+            Jf = J.reshape(N - 1, 3 * N)
+            W = np.repeat(w[s], 3)
+            A = (Jf * W) @ Jf.T + alpha_tilde * np.eye(N - 1)
+            rhs = -(C + alpha_tilde * lam[s])
+            dead = ~(np.diag(A) > 0)
+            A[dead, :], A[:, dead] = 0.0, 0.0
+            A[dead, dead], rhs[dead] = 1.0, 0.0
+            dl = np.linalg.solve(A, rhs)
+            lam[s] += dl
+            p[s] += (W * (Jf.T @ dl)).reshape(N, 3)
+        if alpha_tilde == 0:
+            for parity in (0, 1):
+                for s in range(S):
+                    for a in range(parity, N - 1, 2):
+                        project(s, a)
         if tether:
             for s in range(S):
                 for k in range(1, N):
@@ -343,11 +378,6 @@ def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=
                     L = np.linalg.norm(d)
                     if L > arc[s, k] and L > 1e-12:
                         p[s, k] = p[s, 0] + d * arc[s, k] / L
-        if colliders or sdfs:
-            for s in range(S):
-                for k in range(N):
-                    if w[s, k] > 0:
-                        p[s, k] = project_out(p[s, k], prev[s, k], colliders, head, sdfs, prev_worlds)[0]
     return p
 
 
@@ -479,7 +509,7 @@ def step(x, prev, v, rest, w, head, dt, settings, colliders=(), time=0.0, sdfs=(
         s_damp = settings.dftl_damping
     else:
         x = pbd(x, w, seg, settings.pbd_iterations, settings.long_range_attachment, arc, prev, prims, sdfs,
-                head=head)
+                head=head, alpha_tilde=settings.stretch_compliance / dt ** 2)
         s_damp = 0.0
     v = velocity(x, prev, d, w, dt, s_damp, settings.max_speed)
     return x, prev, v

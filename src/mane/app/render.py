@@ -104,6 +104,15 @@ def _load_scene(args):
     return groom, head
 
 
+def simulator_for(groom, head):
+    """The simulator of ``render --simulate``: the head mesh it is given collided through its SDF
+    (``mane.sim.colliders.head_collider``, as ``mane simulate --head``)."""
+    from ..sim import Simulator
+    from ..sim.colliders import head_collider
+
+    return Simulator(groom, colliders=[head_collider(head)] if head is not None else [])
+
+
 def run(args) -> int:
     from ..render import Renderer, RenderSettings
     from ..render.camera import parse_camera
@@ -172,21 +181,14 @@ def run(args) -> int:
     renderer = Renderer(settings)
     sim = None
     if args.simulate:
-        from ..sim import Simulator, Sphere
-
-        colliders = []
-        if head is not None:
-            lo, hi = head.bbox()
-            # the cranium: a sphere around the head's top part (the mesh collider needs an SDF bake)
-            colliders.append(Sphere(center=(0.0, 0.0, -0.01), radius=0.085))
-            from ..io.units import check_spheres
-
-            for w in check_spheres(groom, [((0.0, 0.0, -0.01), 0.085)])["warnings"]:
-                print(f"mane render: warning: {w}", file=sys.stderr)
-        sim = Simulator(groom, colliders=colliders)
+        sim = simulator_for(groom, head)
         renderer.set_strands(sim)
     else:
         renderer.set_strands(groom)
+    if settings.interpolation_mode == "hybrid" and head is not None:
+        from ..sim.colliders import mesh_distance
+
+        renderer.set_colliders(sdf=mesh_distance(head))
     renderer.set_head(head)
     w, h = settings.size
     lo, hi = renderer.framing_bbox()

@@ -93,7 +93,8 @@ def _pick_strands(groom, max_strands: int):
 
 def run(args) -> int:
     from ..gpu import get_context, renderer_name
-    from ..sim import MeshCollider, SimSettings, Simulator, WindSettings, head_motion
+    from ..sim import SimSettings, Simulator, WindSettings, head_motion
+    from ..sim.colliders import head_collider
 
     if not (args.seconds > 0 and math.isfinite(args.seconds)):
         raise UsageError("--seconds must be > 0")
@@ -113,7 +114,7 @@ def run(args) -> int:
                            local_shape_stiffness=args.local_shape, drag=args.drag, wind=wind)
     colliders = []
     if head is not None:
-        colliders.append(MeshCollider(head, resolution=48, margin=0.002, friction=0.3))
+        colliders.append(head_collider(head))
     ctx = get_context()
     sim = Simulator(groom, colliders, settings, ctx, points_per_strand=args.points, profile=bool(args.stats))
     # the head turns about its neck: below the roots' bounding box, at its centre

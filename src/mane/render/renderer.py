@@ -493,14 +493,19 @@ class Renderer:
 
     @property
     def rendered_segments(self) -> int:
+        """Segments drawn a frame (with the distance LOD: at the last frame's camera; multi /
+        hybrid interpolation with LOD counts every strand at full level)."""
         if self.strands is None:
             return 0
         st = self.strands
         per = subdivisions(self.settings, st.points_per_strand)
-        if self.settings.lod:   # the most: fractional_odd_spacing of the nearest level
-            from .strand_math import lod_level, odd_spacing_count
+        if self.settings.lod and self.lod_eye is not None and self.settings.interpolation_mode == "single":
+            # what the last frame drew: each guide's level and strands at its distance
+            from .passes.expand import pulls
+            from .strand_math import lod_segments_drawn
 
-            per = int(odd_spacing_count(lod_level(0.0, self.settings.replace(lod=False), st.points_per_strand)))
+            return lod_segments_drawn(st.read_positions()[:, 0], self.lod_eye, self.settings, st.points_per_strand,
+                                      per, tessellation=not pulls(self))
         return self.rendered_strands * (st.points_per_strand - 1) * per
 
     def stats(self) -> dict:

@@ -36,7 +36,9 @@ class RenderSettings:
     interpolation: str = "catmull_rom"
     """Curve through the guide points: "catmull_rom" (interpolates them, phantom end points),
     "bspline" (uniform cubic B-spline, approximating; passes through root and tip thanks to
-    the phantom points) or "bezier" (cubic Bezier per segment with C1 control points)."""
+    the phantom points) or "bezier" (the Vulkan hair work's cubic Bezier per segment, inner
+    control points P_i + (P_{i+1} - P_{i-1})/6 and P_{i+1} - (P_{i+2} - P_i)/6: the Catmull-Rom
+    curve itself in Bernstein form, evaluated by de Casteljau, so the same image)."""
     segments: int = 32
     """Rendered segments per strand (rounded up to a multiple of the guide's segments)."""
     # --- distance LOD (Chen: segments; TressFX 4.1: density and width)

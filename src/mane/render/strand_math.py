@@ -151,6 +151,29 @@ def lod_strands(density, strands_per_guide: int, keep_guide: bool = True) -> tup
     return lines, alpha
 
 
+def lod_segments_drawn(roots, eye, settings, points_per_strand: int, subdivisions: int,
+                       tessellation: bool = False) -> int:
+    """Segments the single-strand LOD draws: every guide (root (G, 3), camera at ``eye``) has its
+    level clamp(wanted / (N - 1), 1, subdivisions) per guide segment; the compute expansion
+    (strand_expand.comp) draws ceil(level) of its ``subdivisions`` segments (the rest collapse
+    to the tip), the tessellator (fractional_odd_spacing) the next odd integer; strand j of a
+    guide is drawn while its LOD alpha clamp(c - j, 0, 1) > 0, c = density * strands per guide
+    (the guide's own strand 0 always with keep_guide)."""
+    roots = np.asarray(roots, dtype=np.float64).reshape(-1, 3)
+    d = np.linalg.norm(roots - np.asarray(eye, dtype=np.float64), axis=1)
+    f = lod_factors(d, settings)
+    n = max(1, points_per_strand - 1)
+    level = np.clip(f["segments"] / n, 1.0, float(subdivisions))
+    per = odd_spacing_count(level) if tessellation else np.ceil(level - 1e-9).astype(int)
+    spg = int(settings.strands_per_guide)
+    c = f["density"] * spg
+    j = np.arange(spg)
+    drawn = c[:, None] - j[None, :] > 0
+    if settings.keep_guide:
+        drawn[:, 0] = True
+    return int((drawn.sum(axis=1) * per * n).sum())
+
+
 # ---------------------------------------------------------------- multi-strand (Woodhouse)
 def blend_guides(curves, weights, offset=None) -> np.ndarray:
     """Sum_i w_i curve_i (+ offset): curves (3, M, 3), weights (3,), offset (3,)."""

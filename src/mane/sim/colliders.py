@@ -262,6 +262,26 @@ class MeshCollider:
         return t
 
 
+HEAD_SDF_RESOLUTION = 48
+"""SDF voxels along the longest axis of a head mesh given on the command line."""
+
+
+def head_collider(mesh) -> MeshCollider:
+    """The collider of a head (or body) mesh a user gives (``mane simulate --head``, ``mane
+    render --simulate --head``): the mesh itself through its SDF, riding the head's motion."""
+    return MeshCollider(mesh, resolution=HEAD_SDF_RESOLUTION, margin=0.002, friction=0.3)
+
+
+def mesh_distance(mesh, resolution: int = HEAD_SDF_RESOLUTION, padding: float = 0.02):
+    """p (M, 3) in the mesh's frame -> (M,) signed distance, metres (negative inside): the
+    mesh's SDF baked on the CPU (``mane.sim.sdf.bake_sdf``) and sampled trilinearly, as the
+    simulator's shaders do (hybrid interpolation's collider, CPU-side decisions)."""
+    from .sdf import bake_sdf, sample_grid
+
+    values, lo, h = bake_sdf(mesh.vertices, mesh.faces, resolution=resolution, padding=padding)
+    return lambda p: sample_grid(values, lo, h, np.asarray(p, dtype=np.float64).reshape(-1, 3))
+
+
 def pack_colliders(colliders, head: np.ndarray, prev_worlds: list | None) -> tuple[np.ndarray, list]:
     """(C*44,) float32 for the primitives, and their world transforms (next ``prev_worlds``)."""
     prims = [c for c in colliders if isinstance(c, Collider)]

@@ -233,7 +233,7 @@ def flip_numpy(positions, velocities, dt: float, resolution: int = 32, flip_rati
                bounds=None, *, inverse_masses=None, mass_unit: float = 1.0, pinned_mass: float = 1.0,
                density_stiffness: float = 1.0, solid=None, solid_transform=None, solid_level: float = 0.0,
                preconditioner: str = "jacobi", bounds_relative_margin: float = 0.05,
-               return_state: bool = False):
+               return_state: bool = False, rest_density: float | None = None):
     """One FLIP volume step on the CPU. Returns (new velocities (N, 3) float64, info).
 
     positions: (N, 4) with w = inverse mass (0 = pinned) or (N, 3) plus ``inverse_masses``.
@@ -297,6 +297,8 @@ def flip_numpy(positions, velocities, dt: float, resolution: int = 32, flip_rati
     D = sum(np.diff(u[a], axis=a) for a in range(3))
     A, diag_f, index, diag = _laplacian(markers)
     S = np.zeros((R, R, R))
+    if rest_density is not None:   # mass units per m^3: the target per cell of this grid
+        density_target = rest_density * h ** 3
     if density_target is not None:
         S = h * (density_stiffness / dt) * np.maximum(density - density_target, 0.0) / density_target
     b = np.where(diag > 0, S - D, 0.0)[fluid]

@@ -1,6 +1,7 @@
 #version 430 core
 // FLIP divergence and PCG start: on fluid cells b = S - D, D = sum of face differences (m/s),
-// S = h * k * max(rho - rho0, 0) / (rho0 dt) the volume-preservation source; r = b, p = 0,
+// S = h * k * max(rho - rho0, 0) / (rho0 dt) the volume-preservation source (rho0 per cell, or
+// a rest density per m^3 times h^3: the box, hence h, changes from step to step); r = b, p = 0,
 // z = b / diag (Jacobi), d = z. Partials: (r . z, max |r|).
 layout(local_size_x = 256) in;
 
@@ -10,6 +11,7 @@ layout(std430, binding = 4) buffer Cells { Cell cells[]; };
 #include "pcg_reduce.glsl"
 
 uniform float density_target;    // mass units per cell; <= 0: off
+uniform float rest_density;      // mass units per m^3 (> 0: the target is rest_density h^3)
 uniform float density_gain;      // k / dt (1/s)
 
 uint marker_at(ivec3 c) { return in_domain(c) ? cells[cell_index(c)].marker : AIR; }
@@ -29,8 +31,10 @@ void main() {
                 diag += (marker_at(cc + e) != SOLID ? 1.0 : 0.0) + (marker_at(cc - e) != SOLID ? 1.0 : 0.0);
             }
             float S = 0.0;
-            if (density_target > 0.0)
-                S = grid_h() * density_gain * max(c.density - density_target, 0.0) / density_target;
+            float h = grid_h();
+            float target = rest_density > 0.0 ? rest_density * h * h * h : density_target;
+            if (target > 0.0)
+                S = h * density_gain * max(c.density - target, 0.0) / target;
             float b = diag > 0.0 ? S - D : 0.0;
             c.diag = diag;
             c.p = 0.0;

@@ -11,7 +11,8 @@ so that n iterations remove ``1 - (1 - k_it) ** n = k`` of a constraint's error.
 isolated constraint that is exact; for a chain it holds because both constraints act on
 joint angles and each correction moves the strand below the joint rigidly, leaving the
 other joints' errors alone (tested: 2 and 8 iterations agree within a few % of the
-constraint's effect). Length constraints are hard (k = 1) in both methods.
+constraint's effect). Length constraints are hard in both methods (PBD: unless
+``stretch_compliance`` > 0, an XPBD compliance, which is iteration-independent too).
 """
 from __future__ import annotations
 
@@ -68,10 +69,17 @@ class SimSettings:
     # ---- length
     length_method: str = "dftl"
     """'dftl': Dynamic Follow-The-Leader (Müller et al. 2012), exact lengths in one
-    root-to-tip pass; 'pbd': PBD distance constraints solved in parallel, odd then even
-    segments (Gauss-Seidel by colour) in shared memory, ``pbd_iterations`` times."""
-    pbd_iterations: int = 8
-    """odd/even passes of the PBD distance constraints per step (1..256)."""
+    root-to-tip pass; 'pbd': XPBD distance constraints (Macklin et al. 2016), each iteration
+    a direct solve of the whole strand's constraint chain (a tridiagonal system, Goldenthal
+    et al. 2007 / Deul et al. 2018), ``pbd_iterations`` times, in shared memory."""
+    pbd_iterations: int = 16
+    """PBD iterations per step (1..256): Newton steps on the strand's length constraints,
+    so the length error falls quadratically with them (Sintel nodding, bending on: within 1% at 16, as Chen ran 20);
+    the stiffness is ``stretch_compliance``'s alone, not the count's."""
+    stretch_compliance: float = 0.0
+    """PBD only: XPBD compliance of every segment, s^2 (per unit particle mass): a segment
+    carrying the weight of n particles under gravity g stretches by compliance * n * g metres
+    once converged, whatever ``pbd_iterations``; 0: inextensible."""
     dftl_damping: float = 0.9
     """s_damping of DFTL's velocity correction v_i += s * (-d_{i+1}) / dt, in [0, 1].
     (A strand hanging at rest keeps a velocity along itself of about s g dt / (1 - s);
@@ -96,9 +104,12 @@ class SimSettings:
     each joint turns the fraction k of the way back to its bind direction every step
     (the strand below it following), so small values (0.01..0.2) already hold a style."""
     bending_stiffness: float = 0.0
-    """unilateral bending, in [0, 1] per step: a joint bent beyond its rest angle is
-    unbent this fraction of the excess (no preferred direction: straight hair stays
-    straight, kinks are limited; curls are held by local shape)."""
+    """a kink limiter, not a physical bending stiffness (no EI: a cantilever's sag does not
+    follow w L^4 / (8 EI)): in [0, 1] per step, a joint bent beyond its rest angle is unbent
+    this fraction of the excess, in its plane (the strand below it turning rigidly); a joint
+    bent less than at rest gets nothing. So straight rest hair is held straight (a cantilever
+    stays up), but curved rest hair moves freely until its joints pass their rest angles (on
+    real grooms it changes little): local_shape_stiffness holds a styled shape."""
     shape_iterations: int = 2
     """Gauss-Seidel sweeps of local shape and bending per step (1..64); stiffness is
     converted per iteration, so the count changes convergence, not stiffness."""
@@ -111,7 +122,9 @@ class SimSettings:
     grid_resolution: int = 32
     """voxels per axis of the hair-hair grid (4..256)."""
     volume: bool = False
-    """run FLIP volume preservation (``mane.sim.flip``) when it is available."""
+    """run FLIP volume preservation (``mane.sim.flip``, Chen's method): the velocities made
+    divergence-free on the hair's grid, and cells denser than the groom's rest density (its mean
+    over occupied cells at rest, per m^3) pushed apart, so the hair keeps its rest volume."""
     flip_ratio: float = 0.95
     """FLIP/PIC blend of the volume pass: 1 pure FLIP, 0 pure PIC."""
 
@@ -137,6 +150,7 @@ class SimSettings:
         _int_range(self, "grid_resolution", 4, 256)
         for name in ("damping", "drag"):
             _float_range(self, name, 0.0, 1e4)
+        _float_range(self, "stretch_compliance", 0.0, 1e3)
         _float_range(self, "max_speed", 1e-3, 1e5)
         _float_range(self, "max_stretch", 1.0, 1e6)
         for name in ("dftl_damping", "global_shape_stiffness", "global_shape_range",

@@ -11,7 +11,7 @@ One (sub-)step, each a compute pass (``PASSES``; a pass with nothing to do is sk
 
     integrate  forces, prediction, pinned follicles, global shape    (per particle)
     shape      local shape + bending, Gauss-Seidel sweeps            (per strand)
-    length     DFTL (per strand) or odd/even PBD (shared memory)     (per strand group),
+    length     DFTL (per strand) or XPBD, a direct chain solve per iteration (per strand group),
                with the projection colliders and mesh SDFs inside: DFTL projects each
                particle out as its sweep places it and puts it back at its rest length from
                its leader (lengths stay exact); PBD projects between its iterations
@@ -156,6 +156,7 @@ class Simulator:
         self._grid_key = None
         self._flip = None
         self._flip_key = None
+        self._rest_density = None
         self._deferred: SimState | None = None   # the state whose gather waits on self._grid
         self.profile = bool(profile)
         self._timer = _Timer()
@@ -529,6 +530,7 @@ class Simulator:
         _set(sh, "num_colliders", st.num_colliders)
         _set(sh, "iterations", s.pbd_iterations)
         _set(sh, "tether", int(s.long_range_attachment))
+        _set(sh, "alpha_tilde", s.stretch_compliance / (h * h))
         self._bind_sdfs(sh, sdfs)
         self._dispatch("length", sh, (st.num_strands + spg - 1) // spg)
         return True
@@ -655,8 +657,12 @@ class Simulator:
         if self._flip is None or self._flip_key != s.grid_resolution:
             self._flip = FlipVolume(self.ctx, s.grid_resolution)
             self._flip_key = s.grid_resolution
+            # Chen's volume method with its target from the rest state (the groom's rest pose,
+            # rigid in the head frame): the rest density per m^3, the same on every state
+            self._rest_density = self._flip.measure_rest_density(st.buffers["rest_positions"], st.velocities,
+                                                                 st.num_particles)
         with self._timed("volume"):
-            self._flip.apply(st, h, s.flip_ratio)
+            self._flip.apply(st, h, s.flip_ratio, rest_density=self._rest_density)
         self.ctx.memory_barrier()
         self._bind(st)
         return True

@@ -51,6 +51,7 @@ HINTS: dict[str, dict] = {
     "max_substeps": {"range": (1, 64)},
     "shape_iterations": {"range": (1, 16)},
     "pbd_iterations": {"range": (1, 64)},
+    "stretch_compliance": {"range": (0.0, 1e-3), "format": "%.2e"},
     "octaves": {"range": (1, 8)},
     "lut_size": {"choices": (64, 128, 256, 512)},
     "dual_size": {"choices": (16, 32, 64, 128)},
