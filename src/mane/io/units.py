@@ -403,19 +403,6 @@ def check_fit(groom, mesh, far: float | None = None) -> dict:
     return out
 
 
-def check_spheres(groom, spheres) -> dict:
-    """Roots inside collision spheres ((centre, radius) pairs, metres)."""
-    roots = groom.roots.astype(np.float64)
-    inside = np.zeros(len(roots), bool)
-    for c, r in spheres:
-        inside |= np.linalg.norm(roots - np.asarray(c, np.float64), axis=1) < float(r) - 1e-3
-    out = {"inside_fraction": float(inside.mean())}
-    out["warnings"] = ([f"{100 * out['inside_fraction']:.0f}% of the strands start inside a collision "
-                        "sphere (they are pushed out on the first step)"] if out["inside_fraction"] > 0.05
-                       else [])
-    return out
-
-
 def plausibility(groom) -> list[str]:
     """Warnings when a groom in metres does not look like hair."""
     w = []
