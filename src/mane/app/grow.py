@@ -45,10 +45,20 @@ def run(args) -> int:
         writable = sorted(s for s, e in HAIR_FORMATS.items() if e[2])
         raise UsageError(f"--out {args.out}: cannot write {suffix or 'files without a suffix'} "
                          f"hair files; use one of {', '.join(writable)}")
+    from ..io.atomic import check_output_path
+    from .checks import GROW_BYTES_PER_POINT, host_memory, number
+
     if args.strands <= 0:
         raise UsageError(f"--strands must be positive, got {args.strands}")
     if not 2 <= args.points <= 4096:
         raise UsageError(f"--points must be in 2..4096, got {args.points}")
+    number("--seed", args.seed, lo=0, hi=2**63 - 1, integer=True)
+    for flag in ("length", "curl_radius", "curl_pitch"):
+        if getattr(args, flag) is not None:
+            number("--" + flag.replace("_", "-"), getattr(args, flag), lo=0, hi=100, lo_open=True)
+    host_memory(args.strands * args.points * GROW_BYTES_PER_POINT,
+                f"growing {args.strands:,} strands x {args.points} points", "ask for fewer strands or points")
+    check_output_path(args.out, "--out")
     t0 = time.perf_counter()
     mesh = load_mesh(args.mesh) if args.mesh else default_head()
     groom = grow(mesh, args.strands, args.style, args.points, args.seed,

@@ -80,20 +80,21 @@ def check_output_path(path, what: str = "output") -> Path:
     removed at once: permissions, read-only mounts)."""
     path = Path(path)
     folder = _folder(path)
-    if path.is_dir():
-        raise OutputError(f"{what} {path}: is a folder; give a file name")
-    for parent in [folder, *folder.parents]:
-        if parent.exists() and not parent.is_dir():
-            raise OutputError(f"{what} {path}: {parent} is a file, not a folder")
-    if not folder.is_dir():
-        raise OutputError(f"{what} {path}: the folder {folder} does not exist")
     try:
-        limit = os.pathconf(folder, "PC_NAME_MAX")
+        limit = os.pathconf(folder if _is_dir(folder) else ".", "PC_NAME_MAX")
     except (OSError, ValueError):
         limit = 255
-    if len(os.fsencode(path.name)) > limit:
-        raise OutputError(f"{what} {path}: the file name is {len(os.fsencode(path.name))} bytes, more "
-                          f"than the {limit} this file system allows")
+    for part in path.parts:
+        if len(os.fsencode(part)) > limit:
+            raise OutputError(f"{what} {path}: the name {part[:24]}... is {len(os.fsencode(part))} bytes, more "
+                              f"than the {limit} this file system allows")
+    if _is_dir(path):
+        raise OutputError(f"{what} {path}: is a folder; give a file name")
+    for parent in [folder, *folder.parents]:
+        if _exists(parent) and not _is_dir(parent):
+            raise OutputError(f"{what} {path}: {parent} is a file, not a folder")
+    if not _is_dir(folder):
+        raise OutputError(f"{what} {path}: the folder {folder} does not exist")
     try:
         fd, probe = tempfile.mkstemp(prefix=".mane-probe-", dir=folder)
     except OSError as exc:
@@ -102,6 +103,20 @@ def check_output_path(path, what: str = "output") -> Path:
     with contextlib.suppress(OSError):
         os.unlink(probe)
     return path
+
+
+def _is_dir(p: Path) -> bool:
+    try:
+        return p.is_dir()
+    except OSError:
+        return False
+
+
+def _exists(p: Path) -> bool:
+    try:
+        return p.exists()
+    except OSError:
+        return False
 
 
 def _sweep(folder: Path, stem: str) -> None:
@@ -146,10 +161,10 @@ def atomic_write_path(path, *, keep_partial: bool = False):
     """
     path = Path(path)
     directory = _folder(path)
-    if path.is_dir():
+    if _is_dir(path):
         raise OutputError(f"{path}: is a folder; give a file name")
-    if not directory.is_dir():
-        if directory.exists() or any(p.exists() and not p.is_dir() for p in directory.parents):
+    if not _is_dir(directory):
+        if _exists(directory) or any(_exists(p) and not _is_dir(p) for p in directory.parents):
             raise OutputError(f"{path}: a part of {directory} is a file, not a folder")
         raise OutputError(f"{path}: the folder {directory} does not exist")
     stem = _safe(path.stem, 40)
