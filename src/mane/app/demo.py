@@ -140,7 +140,10 @@ def _contact_sheet(frames: list[np.ndarray], path: Path, columns: int = 3) -> No
     for i, f in enumerate(frames):
         r, c = divmod(i, columns)
         sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = f
-    Image.fromarray(sheet).save(path)
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp:
+        Image.fromarray(sheet).save(tmp, format="PNG")
 
 
 def _want_window(args) -> bool:
@@ -342,7 +345,10 @@ def _run_headless(args) -> int:
         "groom": st, "sim_passes_ms": sim_ms, "render_passes_ms": rstats["passes"],
         "invariants": {**worst, "nan_recoveries": sim.nan_recoveries},
     }
-    (out / "demo_timings.json").write_text(json.dumps(summary, indent=2))
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(out / "demo_timings.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2))
     renderer.release()
     sim.release()
     return 0

@@ -86,8 +86,8 @@ def check_output_path(path, what: str = "output") -> Path:
         limit = 255
     for part in path.parts:
         if len(os.fsencode(part)) > limit:
-            raise OutputError(f"{what} {path}: the name {part[:24]}... is {len(os.fsencode(part))} bytes, more "
-                              f"than the {limit} this file system allows")
+            raise OutputError(f"{what} {path}: the name {part[:24]}... is too long ({len(os.fsencode(part))} "
+                              f"bytes; this file system allows {limit})")
     if _is_dir(path):
         raise OutputError(f"{what} {path}: is a folder; give a file name")
     for parent in [folder, *folder.parents]:
