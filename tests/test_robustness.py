@@ -396,7 +396,20 @@ def test_a_symlink_is_replaced_not_written_through(tmp_path):
     assert link.is_file() and not link.is_symlink()
 
 
+@pytest.mark.gpu
+def test_render_replaces_a_symlink_instead_of_writing_through_it(groom_file, tmp_path):
+    other = tmp_path / "precious.png"
+    other.write_bytes(b"keep me")
+    link = tmp_path / "a.png"
+    link.symlink_to(other)
+    assert main(["render", str(groom_file), "--out", str(link), "--size", "32x32", "--shadows", "none"]) == 0
+    assert other.read_bytes() == b"keep me"
+    assert not link.is_symlink() and link.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
 def test_a_failed_write_leaves_nothing_and_the_old_file_intact(tmp_path):
+    import errno
+
     from mane.io.atomic import atomic_write_path
 
     path = tmp_path / "x.json"
@@ -407,6 +420,12 @@ def test_a_failed_write_leaves_nothing_and_the_old_file_intact(tmp_path):
                 tmp.write_text("half")
                 raise exc
         assert path.read_text() == "old" and leftovers(tmp_path) == []
+    # an OS error while writing (a full disk) is a one-line ManeError naming the target
+    with pytest.raises(ManeError, match="x.json.*no space"):
+        with atomic_write_path(path) as tmp:
+            tmp.write_text("half")
+            raise OSError(errno.ENOSPC, "No space left on device")
+    assert path.read_text() == "old" and leftovers(tmp_path) == []
 
 
 def test_a_dead_writers_temporary_is_swept(tmp_path):

@@ -24,7 +24,12 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def run(args) -> int:
+    from ..io.atomic import check_output_path
+
     src, dst = Path(args.input), Path(args.output)
+    if args.scale is not None and not (args.scale > 0 and args.scale < float("inf")):
+        raise UsageError(f"--scale must be a positive finite number, got {args.scale}")
+    check_output_path(dst, "output")
     groom = load(src)
     if args.up and args.up != "y":
         groom = groom.with_up_axis(args.up, "y")
