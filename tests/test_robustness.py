@@ -240,7 +240,8 @@ def test_simulate_frame_budget_can_be_raised(groom_file, capsys):
 
 @pytest.mark.parametrize("argv,words", [
     (["--seed", "-1"], "--seed"),
-    (["--strands", "2000000000"], "memory"),
+    (["--strands", "2000000000"], "--strand-budget"),
+    (["--strands", "2000000000", "--strand-budget", "3000000000"], "memory"),
     (["--length", "nan"], "--length"),
 ])
 def test_grow_numbers_out_of_range(tmp_path, capsys, argv, words):
@@ -254,7 +255,8 @@ def test_grow_numbers_out_of_range(tmp_path, capsys, argv, words):
     (["--fps", "-5", "--frames", "4", "--out", "{d}/a.mp4"], "--fps"),
     (["--fps", "nan", "--frames", "4", "--out", "{d}/a.mp4"], "--fps"),
     (["--frames", "20000", "--out", "{d}/a.mp4"], "--max-frames"),
-    (["--guides", "10000000000"], "memory"),
+    (["--guides", "10000000"], "--strand-budget"),
+    (["--guides", "10000000000", "--strand-budget", "20000000000"], "memory"),
     (["--guides", "0"], "--guides"),
     (["--camera", "0,0,1,0"], "field of view"),
     (["--camera", "eye=0,0,1;target=0,0,0;fov=180"], "field of view"),

@@ -7,6 +7,8 @@ traceback deep inside NumPy. Work is bounded by budgets a user can raise:
 * ``--max-frames`` (default ``MAX_FRAMES`` = 10,000): frames a ``simulate`` or ``render`` run
   may produce (``--seconds 1e9`` or ``--fps 1e9`` is refused at once, not run forever);
 * ``MAX_STEPS`` (1,000,000, raised with ``--max-frames`` in proportion): simulation steps;
+* ``--strand-budget`` (default ``MAX_STRANDS`` = 5,000,000): strands ``grow`` or ``render``
+  (its default groom) may grow;
 * host memory: a groom that would not fit in the machine's available RAM (``grow --strands``,
   ``render --guides``) is refused before it is grown (``host_memory``).
 """
@@ -20,6 +22,9 @@ MAX_FRAMES = 10_000
 """Default frame budget of ``simulate`` and ``render`` (raise it with ``--max-frames``)."""
 MAX_STEPS_PER_FRAME = 100
 """Simulation steps allowed per frame of the budget (``--dt`` far below the frame time)."""
+MAX_STRANDS = 5_000_000
+"""Default budget of strands grown by ``grow --strands`` and ``render --guides`` (about an hour of
+growing on one core; raise it with ``--strand-budget``)."""
 GROW_BYTES_PER_POINT = 256
 """Peak host memory of ``grooming.grow`` per grown point (measured: ~200 bytes)."""
 
@@ -50,6 +55,15 @@ def frame_budget(frames: int, max_frames: int, what: str) -> int:
         raise UsageError(f"{what} is {frames:,} frames, more than the budget of {max_frames:,}; "
                          f"ask for fewer or raise it with --max-frames {frames}")
     return frames
+
+
+def strand_budget(strands: int, budget: int | None, flag: str) -> None:
+    """Refuse growing more than the strand budget (``--strand-budget`` raises it)."""
+    budget = MAX_STRANDS if budget is None else budget
+    number("--strand-budget", budget, lo=1, integer=True)
+    if strands > budget:
+        raise UsageError(f"{flag} {strands:,} is more than the budget of {budget:,} strands; ask for fewer or "
+                         f"raise it with --strand-budget {strands}")
 
 
 def host_memory(nbytes: float, what: str, reduce: str) -> None:

@@ -78,6 +78,10 @@ def main(argv: list[str] | None = None) -> int:
     except ManeError as exc:
         print(f"mane {args.command}: error: {exc}", file=sys.stderr)
         return 2
+    except MemoryError:
+        print(f"mane {args.command}: error: out of memory; ask for less (fewer strands, guides, frames or "
+              f"a smaller size)", file=sys.stderr)
+        return 2
     except KeyboardInterrupt as exc:
         print(f"mane {args.command}: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}",
               file=sys.stderr)

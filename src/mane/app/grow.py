@@ -31,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--blue-noise", action="store_true",
                         help="place roots by Poisson-disk sampling instead of uniformly at random")
+    parser.add_argument("--strand-budget", type=int, default=None,
+                        help="refuse --strands beyond this budget (default 5000000)")
     parser.add_argument("--out", required=True, help="output hair file (.npz .usda .hair .ply ...)")
 
 
@@ -46,7 +48,7 @@ def run(args) -> int:
         raise UsageError(f"--out {args.out}: cannot write {suffix or 'files without a suffix'} "
                          f"hair files; use one of {', '.join(writable)}")
     from ..io.atomic import check_output_path
-    from .checks import GROW_BYTES_PER_POINT, host_memory, number
+    from .checks import GROW_BYTES_PER_POINT, host_memory, number, strand_budget
 
     if args.strands <= 0:
         raise UsageError(f"--strands must be positive, got {args.strands}")
@@ -56,6 +58,7 @@ def run(args) -> int:
     for flag in ("length", "curl_radius", "curl_pitch"):
         if getattr(args, flag) is not None:
             number("--" + flag.replace("_", "-"), getattr(args, flag), lo=0, hi=100, lo_open=True)
+    strand_budget(args.strands, args.strand_budget, "--strands")
     host_memory(args.strands * args.points * GROW_BYTES_PER_POINT,
                 f"growing {args.strands:,} strands x {args.points} points", "ask for fewer strands or points")
     check_output_path(args.out, "--out")

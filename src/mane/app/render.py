@@ -68,6 +68,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--oit-k", type=int, default=None, help="OIT fragments sorted per pixel (default 8; 0: all)")
     parser.add_argument("--oit-opacity", type=float, default=None,
                         help="strand opacity in the camera view for --oit (times coverage; default 1)")
+    parser.add_argument("--strand-budget", type=int, default=None,
+                        help="refuse --guides beyond this budget (default 5000000)")
     parser.add_argument("--max-frames", type=int, default=None,
                         help="frame budget: refuse --frames beyond it (default 10000)")
 
@@ -76,7 +78,7 @@ def _check_arguments(args, video: bool) -> None:
     """Every numeric option against its documented range, the outputs writable, the work within
     its budgets: before anything is loaded or rendered."""
     from ..io.atomic import check_output_path
-    from .checks import MAX_FRAMES, frame_budget, host_memory, number
+    from .checks import MAX_FRAMES, frame_budget, host_memory, number, strand_budget
 
     number("--frames", args.frames, lo=1, integer=True)
     number("--fps", args.fps, lo=0, hi=1000, lo_open=True)
@@ -93,7 +95,8 @@ def _check_arguments(args, video: bool) -> None:
         number("--oit-opacity", args.oit_opacity, lo=0, hi=1, lo_open=True)
     max_frames = args.max_frames if getattr(args, "max_frames", None) is not None else MAX_FRAMES
     frame_budget(args.frames, max_frames, "--frames")
-    if not args.groom:   # the default groom is grown here: its memory first
+    if not args.groom:   # the default groom is grown here: its size and memory first
+        strand_budget(args.guides, getattr(args, "strand_budget", None), "--guides")
         host_memory(args.guides * 16 * 256, f"--guides {args.guides:,}", "ask for fewer guides")
     check_output_path(args.out, "--out")
     if args.stats:
