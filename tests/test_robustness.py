@@ -443,6 +443,16 @@ def test_a_dead_writers_temporary_is_swept(tmp_path):
     assert not stale.exists() and mine.exists()
 
 
+def test_viewer_recording_appears_only_when_stopped(tmp_path):
+    from mane.viewer.recorder import Recorder
+
+    rec = Recorder(tmp_path, fps=10, path=tmp_path / "rec.mp4")
+    rec.add(np.zeros((32, 32, 3), np.uint8))
+    assert not (tmp_path / "rec.mp4").exists()   # a half-written MP4 never sits at the name
+    rec.stop()
+    assert (tmp_path / "rec.mp4").stat().st_size > 0 and leftovers(tmp_path) == []
+
+
 def _slow_render(tmp_path: Path) -> subprocess.Popen:
     """A tiny render slowed down so that it is still writing when the signal comes."""
     script = (
