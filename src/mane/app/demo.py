@@ -287,7 +287,10 @@ def _run_headless(args) -> int:
 
     frames_n = max(2, int(round(seconds * q.fps)))
     video = out / "demo.mp4"
-    writer = mp4_writer(video, q.fps)
+    from ..io.atomic import atomic_write_path
+
+    video_file = atomic_write_path(video, keep_partial=True)   # demo.mp4 appears when complete
+    writer = mp4_writer(video_file.__enter__(), q.fps)
     keep = set(np.linspace(0, frames_n - 1, 6).round().astype(int).tolist())
     sheet, animation = [], []
     worst = {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}
@@ -317,8 +320,12 @@ def _run_headless(args) -> int:
             writer.append_data(image)
             if i in keep:
                 sheet.append(image)
-    finally:
+    except BaseException as exc:
         writer.close()
+        video_file.__exit__(type(exc), exc, exc.__traceback__)
+        raise
+    writer.close()
+    video_file.__exit__(None, None, None)
     wall = time.perf_counter() - t_start
     _contact_sheet(sheet, out / "demo_contact_sheet.png")
     usd_curves.write(groom, out / "demo_simulation.usda", frames=animation, fps=q.fps)
