@@ -8,7 +8,9 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import signal
 import sys
+import threading
 
 from .. import __version__
 from ..errors import ManeError
@@ -44,6 +46,25 @@ def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
     return parser
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM, raised in the main thread so that writers clean up as for Ctrl-C."""
+
+
+def _on_sigterm(signum, frame):
+    raise Terminated()
+
+
+def _install_sigterm():
+    """SIGTERM -> Terminated while a command runs (temporaries removed, exit 143); the old
+    handler back afterwards. Only the main thread may set handlers."""
+    if threading.current_thread() is not threading.main_thread():
+        return None
+    try:
+        return signal.signal(signal.SIGTERM, _on_sigterm)
+    except (ValueError, OSError):  # pragma: no cover
+        return None
+
+
 def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     chosen = next((a for a in argv if not a.startswith("-")), None)
@@ -52,6 +73,7 @@ def main(argv: list[str] | None = None) -> int:
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
+    previous = _install_sigterm()
     from .options import one_line_warnings
 
     try:
@@ -60,9 +82,17 @@ def main(argv: list[str] | None = None) -> int:
     except ManeError as exc:
         print(f"mane {args.command}: error: {exc}", file=sys.stderr)
         return 2
-    except KeyboardInterrupt:
-        print(f"mane {args.command}: interrupted", file=sys.stderr)
-        return 130
+    except MemoryError:
+        print(f"mane {args.command}: error: out of memory; ask for less (fewer strands, guides, frames or "
+              f"a smaller size)", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt as exc:
+        print(f"mane {args.command}: {'terminated' if isinstance(exc, Terminated) else 'interrupted'}",
+              file=sys.stderr)
+        return 143 if isinstance(exc, Terminated) else 130
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGTERM, previous)
 
 
 if __name__ == "__main__":

@@ -62,7 +62,10 @@ def _convert_mesh(args, src: Path, dst: Path) -> int:
 def run(args) -> int:
     from .info import is_mesh_file
 
+    from ..io.atomic import check_output_path
+
     src, dst = Path(args.input), Path(args.output)
+    check_output_path(dst, "output")
     if src.exists() and is_mesh_file(src):
         return _convert_mesh(args, src, dst)
     from ..progress import stage

@@ -144,7 +144,10 @@ def _contact_sheet(frames: list[np.ndarray], path: Path, columns: int = 3) -> No
     for i, f in enumerate(frames):
         r, c = divmod(i, columns)
         sheet[r * h:(r + 1) * h, c * w:(c + 1) * w] = f
-    Image.fromarray(sheet).save(path)
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp:
+        Image.fromarray(sheet).save(tmp, format="PNG")
 
 
 def _want_window(args) -> bool:
@@ -288,7 +291,10 @@ def _run_headless(args) -> int:
 
     frames_n = max(2, int(round(seconds * q.fps)))
     video = out / "demo.mp4"
-    writer = mp4_writer(video, q.fps)
+    from ..io.atomic import atomic_write_path
+
+    video_file = atomic_write_path(video, keep_partial=True)   # demo.mp4 appears when complete
+    writer = mp4_writer(video_file.__enter__(), q.fps)
     keep = set(np.linspace(0, frames_n - 1, 6).round().astype(int).tolist())
     sheet, animation = [], []
     worst = {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}
@@ -318,8 +324,12 @@ def _run_headless(args) -> int:
             writer.append_data(image)
             if i in keep:
                 sheet.append(image)
-    finally:
+    except BaseException as exc:
         writer.close()
+        video_file.__exit__(type(exc), exc, exc.__traceback__)
+        raise
+    writer.close()
+    video_file.__exit__(None, None, None)
     wall = time.perf_counter() - t_start
     _contact_sheet(sheet, out / "demo_contact_sheet.png")
     usd_curves.write(groom, out / "demo_simulation.usda", frames=animation, fps=q.fps)
@@ -346,7 +356,10 @@ def _run_headless(args) -> int:
         "groom": st, "sim_passes_ms": sim_ms, "render_passes_ms": rstats["passes"],
         "invariants": {**worst, "nan_recoveries": sim.nan_recoveries},
     }
-    (out / "demo_timings.json").write_text(json.dumps(summary, indent=2))
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(out / "demo_timings.json") as tmp:
+        tmp.write_text(json.dumps(summary, indent=2))
     renderer.release()
     sim.release()
     return 0

@@ -31,6 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--seed", type=int, default=0, help="random seed (default 0)")
     parser.add_argument("--blue-noise", action="store_true",
                         help="place roots by Poisson-disk sampling instead of uniformly at random")
+    parser.add_argument("--strand-budget", type=int, default=None,
+                        help="refuse --strands beyond this budget (default 5000000)")
     parser.add_argument("--out", required=True, help="output hair file (.npz .usda .hair .ply ...)")
 
 
@@ -45,10 +47,21 @@ def run(args) -> int:
         writable = sorted(s for s, e in HAIR_FORMATS.items() if e[2])
         raise UsageError(f"--out {args.out}: cannot write {suffix or 'files without a suffix'} "
                          f"hair files; use one of {', '.join(writable)}")
+    from ..io.atomic import check_output_path
+    from .checks import GROW_BYTES_PER_POINT, host_memory, number, strand_budget
+
     if args.strands <= 0:
         raise UsageError(f"--strands must be positive, got {args.strands}")
     if not 2 <= args.points <= 4096:
         raise UsageError(f"--points must be in 2..4096, got {args.points}")
+    number("--seed", args.seed, lo=0, hi=2**63 - 1, integer=True)
+    for flag in ("length", "curl_radius", "curl_pitch"):
+        if getattr(args, flag) is not None:
+            number("--" + flag.replace("_", "-"), getattr(args, flag), lo=0, hi=100, lo_open=True)
+    strand_budget(args.strands, args.strand_budget, "--strands")
+    host_memory(args.strands * args.points * GROW_BYTES_PER_POINT,
+                f"growing {args.strands:,} strands x {args.points} points", "ask for fewer strands or points")
+    check_output_path(args.out, "--out")
     t0 = time.perf_counter()
     mesh = load_mesh(args.mesh) if args.mesh else default_head()
     groom = grow(mesh, args.strands, args.style, args.points, args.seed,

@@ -70,6 +70,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--oit-k", type=int, default=None, help="OIT fragments sorted per pixel (default 8; 0: all)")
     parser.add_argument("--oit-opacity", type=float, default=None,
                         help="strand opacity in the camera view for --oit (times coverage; default 1)")
+    parser.add_argument("--strand-budget", type=int, default=None,
+                        help="refuse --guides beyond this budget (default 5000000)")
+    parser.add_argument("--max-frames", type=int, default=None,
+                        help="frame budget: refuse --frames beyond it (default 10000)")
     parser.add_argument("--file-colors", dest="file_colors", action=argparse.BooleanOptionalAction, default=True,
                         help="render a groom with the colours, widths and transparency its file carries "
                              "(default; --no-file-colors: the scene's hair model; --color implies it)")
@@ -85,6 +89,35 @@ HAIRS_ON_A_HEAD = 100_000
 def file_strands_per_guide(num_strands: int, most: int = 16) -> int:
     """Rendered strands per file strand: enough for ~100,000 hairs, 1..``most``."""
     return int(min(most, max(1, round(HAIRS_ON_A_HEAD / max(1, num_strands)))))
+
+
+def _check_arguments(args, video: bool) -> None:
+    """Every numeric option against its documented range, the outputs writable, the work within
+    its budgets: before anything is loaded or rendered."""
+    from ..io.atomic import check_output_path
+    from .checks import MAX_FRAMES, frame_budget, host_memory, number, strand_budget
+
+    number("--frames", args.frames, lo=1, integer=True)
+    number("--fps", args.fps, lo=0, hi=1000, lo_open=True)
+    number("--guides", args.guides, lo=1, integer=True)
+    if args.turntable is not None:
+        number("--turntable", args.turntable, lo=-1e6, hi=1e6)
+    for flag in ("strands_per_guide", "segments"):
+        if getattr(args, flag) is not None:
+            number("--" + flag.replace("_", "-"), getattr(args, flag), lo=1, hi=4096, integer=True)
+    number("--shadow-lights", getattr(args, "shadow_lights", 1), lo=1, hi=4, integer=True)
+    if getattr(args, "oit_k", None) is not None:
+        number("--oit-k", args.oit_k, lo=0, hi=64, integer=True)
+    if getattr(args, "oit_opacity", None) is not None:
+        number("--oit-opacity", args.oit_opacity, lo=0, hi=1, lo_open=True)
+    max_frames = args.max_frames if getattr(args, "max_frames", None) is not None else MAX_FRAMES
+    frame_budget(args.frames, max_frames, "--frames")
+    if not args.groom:   # the default groom is grown here: its size and memory first
+        strand_budget(args.guides, getattr(args, "strand_budget", None), "--guides")
+        host_memory(args.guides * 16 * 256, f"--guides {args.guides:,}", "ask for fewer guides")
+    check_output_path(args.out, "--out")
+    if args.stats:
+        check_output_path(args.stats, "--stats")
 
 
 def _load_scene(args):
@@ -129,6 +162,7 @@ def run(args) -> int:
         raise UsageError(f"{args.frames} frames need a video: use --out NAME.mp4")
     if args.shading not in SHADINGS:
         raise UsageError(f"--shading must be one of {', '.join(SHADINGS)}; got {args.shading!r}")
+    _check_arguments(args, video)
     lights = [parse_light(t) for t in args.light] if args.light else default_lights()
     if len(lights) > MAX_LIGHTS:
         raise UsageError(f"at most {MAX_LIGHTS} --light")
@@ -154,9 +188,9 @@ def run(args) -> int:
     if args.color:
         try:
             kw["hair_color"] = tuple(float(v) for v in args.color.split(","))
-            assert len(kw["hair_color"]) == 3
+            assert len(kw["hair_color"]) == 3 and all(math.isfinite(v) and v >= 0 for v in kw["hair_color"])
         except (ValueError, AssertionError):
-            raise UsageError(f"--color must be R,G,B, got {args.color!r}") from None
+            raise UsageError(f"--color must be R,G,B (finite, >= 0), got {args.color!r}") from None
     kw["oit"] = getattr(args, "oit", "none") or "none"
     if getattr(args, "oit_k", None) is not None:
         kw["oit_k"] = args.oit_k
@@ -179,6 +213,16 @@ def run(args) -> int:
 
             settings = replace(settings, strands_per_guide=file_strands_per_guide(groom.num_strands))
     renderer = Renderer(settings)
+    try:
+        return _render(args, settings, renderer, groom, head, lights, out, video, parse_camera, t0)
+    finally:
+        renderer.release()
+
+
+def _render(args, settings, renderer, groom, head, lights, out, video, parse_camera, t0) -> int:
+    from ..errors import ManeError
+    from ..io.atomic import atomic_write_path, partial_path
+
     sim = None
     if args.simulate:
         sim = simulator_for(groom, head)
@@ -194,14 +238,8 @@ def run(args) -> int:
     lo, hi = renderer.framing_bbox()
     camera = parse_camera(args.camera, lo, hi, w / h)
     turn = args.turntable if args.turntable is not None else (0.0 if args.simulate else 360.0)
-
-    writer = None
-    if video:
-        from ..io.video import mp4_writer
-
-        if w % 2 or h % 2:
-            raise UsageError("video sizes must be even (H.264 4:2:0)")
-        writer = mp4_writer(out, args.fps)
+    if video and (w % 2 or h % 2):
+        raise UsageError("video sizes must be even (H.264 4:2:0)")
     from ..progress import progress
 
     quiet = getattr(args, "quiet", False)
@@ -210,38 +248,57 @@ def run(args) -> int:
     pass_bar = progress(total=len(renderer.passes), desc="render passes", unit="pass",
                         quiet=quiet or args.frames > 1)
     renderer.on_pass = lambda name: (pass_bar.set_postfix_str(name, refresh=False), pass_bar.update(1))
-    image = None
-    try:
-        for i in frames:
-            if sim is not None and i > 0:
-                with renderer.profiler.section("simulate"):
-                    sim.advance(1.0 / args.fps)
-                renderer.strands_changed()
-            cam = camera.orbited(turn * i / args.frames) if turn else camera
-            image = renderer.render_image(cam, lights)
-            if writer is not None:
-                writer.append_data(image)
-    finally:
-        pass_bar.close()
-        renderer.on_pass = None
-        if writer is not None:
-            writer.close()
-    if writer is None:
-        from PIL import Image
+    drawn = 0
+    # the output appears only when complete: frames stream into a temporary beside it, renamed
+    # at the end (an interrupted video is kept as NAME.partial.mp4)
+    with atomic_write_path(out, keep_partial=video) as tmp:
+        writer = None
+        if video:
+            from ..io.video import mp4_writer
 
-        out.parent.mkdir(parents=True, exist_ok=True)
-        Image.fromarray(image).save(out)
+            writer = mp4_writer(tmp, args.fps)
+        try:
+            image = None
+            for i in frames:
+                if sim is not None and i > 0:
+                    with renderer.profiler.section("simulate"):
+                        sim.advance(1.0 / args.fps)
+                    renderer.strands_changed()
+                cam = camera.orbited(turn * i / args.frames) if turn else camera
+                image = renderer.render_image(cam, lights)
+                drawn += bool(np.any(image != image[0, 0]))
+                if writer is not None:
+                    writer.append_data(image)
+        except KeyboardInterrupt:
+            if writer is not None:
+                print(f"mane render: interrupted; the frames made so far are in {partial_path(out)}")
+            raise
+        finally:
+            pass_bar.close()
+            renderer.on_pass = None
+            if writer is not None:
+                writer.close()
+        if not drawn:
+            raise ManeError(f"the render drew nothing: every pixel of every frame is the background "
+                            f"(the hair and head are outside the camera, or too small); {out} not written")
+        if writer is None:
+            from PIL import Image
+
+            Image.fromarray(image).save(tmp, format="JPEG" if out.suffix.lower() in (".jpg", ".jpeg") else "PNG")
     wall = time.perf_counter() - t0
     stats = renderer.stats()
     stats["wall_s"] = round(wall, 3)
     stats["output"] = str(out)
+    stats["frames_drawn"] = drawn
     if args.stats:
-        Path(args.stats).write_text(json.dumps(stats, indent=2))
+        with atomic_write_path(args.stats) as tmp:
+            Path(tmp).write_text(json.dumps(stats, indent=2))
     passes = ", ".join(f"{k} {v:.1f}" for k, v in stats["passes"].items())
     print(f"{out}: {args.frames} frame(s) {w}x{h}, {stats['rendered_strands']} strands "
           f"({stats['guides']} guides x {settings.strands_per_guide}), {stats['rendered_segments']} segments; "
           f"ms per pass ({stats['timing']}): {passes}")
+    if drawn < args.frames:
+        print(f"warning: {args.frames - drawn} of {args.frames} frames show only the background")
     for warning in renderer.warnings:
         print(f"warning: {warning}")
-    renderer.release()
     return 0

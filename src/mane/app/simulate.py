@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import ManeError, UsageError
 
 HELP = "simulate a groom on the GPU while the head moves; write the animation and statistics"
 
@@ -42,6 +42,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--wind", default="0,0,0", help="mean wind velocity 'x,y,z' in m/s")
     parser.add_argument("--gust", type=float, default=0.5, help="gust strength (fraction of the wind speed)")
     parser.add_argument("--drag", type=float, default=0.5, help="air drag rate, 1/s")
+    parser.add_argument("--max-frames", type=int, default=None,
+                        help="frame budget: refuse --seconds x --fps beyond it (default 10000); steps "
+                             "are bounded by 100 per frame of it")
     from .options import add_frame_arguments, add_quiet_argument
 
     add_frame_arguments(parser)
@@ -84,6 +87,39 @@ def _load_scene(args):
         return groom, head
 
 
+def _check_arguments(args) -> int:
+    """Every number in its documented range, the outputs writable and the work within its
+    budget, before anything is loaded; returns the frames to make."""
+    from ..io.atomic import check_output_path
+    from ..sim.settings import MAX_DT, MIN_DT
+    from .checks import MAX_FRAMES, MAX_STEPS_PER_FRAME, frame_budget, number
+
+    number("--seconds", args.seconds, lo=0, lo_open=True)
+    number("--fps", args.fps, lo=0, hi=1000, lo_open=True)
+    number("--dt", args.dt, lo=MIN_DT, hi=MAX_DT)
+    number("--points", args.points, lo=2, hi=64, integer=True)
+    number("--max-strands", args.max_strands, lo=0, integer=True)
+    number("--friction", args.friction, lo=0, hi=1)
+    number("--local-shape", args.local_shape, lo=0, hi=1)
+    number("--gust", args.gust, lo=0, hi=10)
+    number("--drag", args.drag, lo=0, hi=1e4)
+    if args.out and Path(args.out).suffix.lower() not in (".usd", ".usda", ".usdc", ".npz"):
+        raise UsageError(f"--out must end in .usd, .usda, .usdc or .npz, got {args.out}")
+    max_frames = args.max_frames if args.max_frames is not None else MAX_FRAMES
+    n_frames = max(1, int(round(args.seconds * args.fps)))
+    frame_budget(n_frames, max_frames, f"--seconds {args.seconds:g} x --fps {args.fps:g}")
+    steps = math.ceil(args.seconds / args.dt)
+    if steps > max_frames * MAX_STEPS_PER_FRAME:
+        raise UsageError(f"--seconds {args.seconds:g} / --dt {args.dt:g} is {steps:,} steps, more than the "
+                         f"budget of {max_frames * MAX_STEPS_PER_FRAME:,} ({MAX_STEPS_PER_FRAME} per frame of "
+                         f"--max-frames); simulate less time or raise --max-frames")
+    if args.out:
+        check_output_path(args.out, "--out")
+    if args.stats:
+        check_output_path(args.stats, "--stats")
+    return n_frames
+
+
 def _pick_strands(groom, max_strands: int):
     if max_strands and groom.num_strands > max_strands:
         idx = np.linspace(0, groom.num_strands - 1, max_strands).round().astype(np.int64)
@@ -96,12 +132,7 @@ def run(args) -> int:
     from ..sim import SimSettings, Simulator, WindSettings, head_motion
     from ..sim.colliders import head_collider
 
-    if not (args.seconds > 0 and math.isfinite(args.seconds)):
-        raise UsageError("--seconds must be > 0")
-    if not (args.fps > 0 and math.isfinite(args.fps)):
-        raise UsageError("--fps must be > 0")
-    if args.out and Path(args.out).suffix.lower() not in (".usd", ".usda", ".usdc", ".npz"):
-        raise UsageError(f"--out must end in .usd, .usda, .usdc or .npz, got {args.out}")
+    n_frames = _check_arguments(args)
     groom, head = _load_scene(args)
     if args.groom != "default":
         from .options import fit_warnings
@@ -125,24 +156,23 @@ def run(args) -> int:
     pivot = ((lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2)
     motion = head_motion.preset(args.motion, pivot=pivot)
 
-    frames, worst = [], {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}
-    n_frames = max(1, int(round(args.seconds * args.fps)))
+    worst = {"max_length_error": 0.0, "max_root_error": 0.0, "max_penetration": 0.0}
     start = time.perf_counter()
     from ..progress import progress
 
-    for f in progress(range(n_frames), desc="simulate", unit="frame", quiet=args.quiet):
-        sim.set_head_transform(motion((f + 1) / args.fps))
-        sim.advance(1.0 / args.fps)
-        p = sim.positions()
-        worst["max_length_error"] = max(worst["max_length_error"], sim.max_length_error(positions=p))
-        worst["max_root_error"] = max(worst["max_root_error"], sim.max_root_error(positions=p))
-        worst["max_penetration"] = max(worst["max_penetration"], _penetration(sim, p))
-        if args.out:
-            frames.append(p)
-    wall = time.perf_counter() - start
-
-    if args.out:
-        _write(sim.groom, Path(args.out), frames, args.fps)
+    with _FrameStream(args.out, n_frames, sim.groom, args.fps) as stream:
+        for f in progress(range(n_frames), desc="simulate", unit="frame", quiet=args.quiet):
+            sim.set_head_transform(motion((f + 1) / args.fps))
+            sim.advance(1.0 / args.fps)
+            p = sim.positions()
+            worst["max_length_error"] = max(worst["max_length_error"], sim.max_length_error(positions=p))
+            worst["max_root_error"] = max(worst["max_root_error"], sim.max_root_error(positions=p))
+            worst["max_penetration"] = max(worst["max_penetration"], _penetration(sim, p))
+            stream.append(p)
+        wall = time.perf_counter() - start
+        if not all(math.isfinite(v) for v in worst.values()) or sim.state.steps == 0:
+            raise ManeError(f"the simulation went wrong: {worst}; nothing written")
+        stream.finish()
     stats = {
         "renderer": renderer_name(ctx),
         "strands": sim.groom.num_strands,
@@ -190,13 +220,69 @@ def _penetration(sim, p) -> float:
     return deepest
 
 
+class _FrameStream:
+    """Frames written to disk as they come (a float32 .npy memory map beside the output, so a
+    long run holds one frame in memory), turned into the output at ``finish``. Interrupted
+    (Ctrl-C, SIGTERM), the frames made so far are written to NAME.partial.npz/.usd; the
+    memory map is removed whatever happens."""
+
+    def __init__(self, out, n_frames: int, groom, fps: float):
+        self.out = Path(out) if out else None
+        self.groom, self.fps, self.count = groom, fps, 0
+        self.frames = None
+        self._tmp = None
+        if self.out is not None:
+            import os
+            import re
+
+            stem = re.sub(r"[^A-Za-z0-9_+-]", "_", self.out.stem)[:40]
+            folder = self.out.parent if str(self.out.parent) else Path(".")
+            self._tmp = folder / f".{stem}.mane-{os.getpid()}-frames.tmp.npy"
+            try:
+                self.frames = np.lib.format.open_memmap(self._tmp, mode="w+", dtype=np.float32,
+                                                        shape=(n_frames, groom.num_points, 3))
+            except OSError as exc:
+                from ..io.atomic import os_error
+
+                raise os_error(self.out, exc) from None
+
+    def __enter__(self):
+        return self
+
+    def append(self, positions) -> None:
+        if self.frames is not None:
+            self.frames[self.count] = positions
+        self.count += 1
+
+    def finish(self) -> None:
+        if self.frames is not None:
+            self.frames.flush()
+            _write(self.groom, self.out, self.frames[:self.count], self.fps)
+
+    def __exit__(self, kind, exc, tb) -> None:
+        try:
+            if kind is not None and issubclass(kind, KeyboardInterrupt) and self.frames is not None and self.count:
+                from ..io.atomic import partial_path
+
+                part = partial_path(self.out)
+                _write(self.groom, part, self.frames[:self.count], self.fps)
+                print(f"mane simulate: interrupted; the {self.count} frames made so far are in {part}")
+        finally:
+            self.frames = None
+            if self._tmp is not None:
+                import contextlib
+
+                with contextlib.suppress(OSError):
+                    self._tmp.unlink()
+
+
 def _write(groom, path: Path, frames, fps: float) -> None:
     if path.suffix.lower() == ".npz":
         from ..io.atomic import atomic_write_path
 
         with atomic_write_path(path) as tmp:
             with open(tmp, "wb") as fh:
-                np.savez_compressed(fh, frames=np.stack(frames).astype(np.float32), counts=groom.counts,
+                np.savez_compressed(fh, frames=np.asarray(frames, dtype=np.float32), counts=groom.counts,
                                     fps=np.float32(fps), rest=groom.points)
         return
     from ..io import usd_curves

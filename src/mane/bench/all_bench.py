@@ -144,7 +144,9 @@ def write_csv(path, rows: list[dict]) -> str:
             if c not in cols:
                 cols.append(c)
     path = Path(path)
-    with open(path, "w", newline="") as fh:
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp, open(tmp, "w", newline="") as fh:
         w = csv.DictWriter(fh, fieldnames=cols or ["status"], extrasaction="ignore")
         w.writeheader()
         for r in flat:
@@ -402,8 +404,10 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
     index = {"meta": meta, **index}
     index["targets_met"] = _targets_met(results)
     if out is not None:
-        note_path = out / "summary.md"
-        note_path.write_text(summary_markdown(results, index, summary_fits, comparison))
+        from ..io.atomic import atomic_write_path
+
+        with atomic_write_path(out / "summary.md") as tmp:
+            tmp.write_text(summary_markdown(results, index, summary_fits, comparison))
         index["files"].append("summary.md")
         index["files"].append("all.json")
         index["files"] = sorted(set(index["files"]))

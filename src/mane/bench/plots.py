@@ -60,7 +60,10 @@ def _footer(fig, results: dict, targets, seeds=()) -> None:
 def _save(fig, path) -> str:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format=path.suffix.lstrip(".") or "png")
     return str(path)
 
 

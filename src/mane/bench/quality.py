@@ -96,7 +96,10 @@ def _figure(ncols, nrows, size=(2.6, 2.4)):
 def _save(fig, path) -> str:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=100)
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp:
+        fig.savefig(tmp, dpi=100, format=path.suffix.lstrip(".") or "png")
     return str(path)
 
 

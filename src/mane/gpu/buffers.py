@@ -220,21 +220,80 @@ def _fmt_bytes(n: int | float) -> str:
     return f"{n:.1f} TiB"  # pragma: no cover
 
 
-def check_allocation(ctx, nbytes: int, what: str, *, ssbo: bool = True) -> None:
+ENV_BUDGET = "MANE_GPU_MEMORY"
+"""Environment variable: the GPU memory mane may use, bytes with an optional K/M/G/T suffix
+(binary: ``8G`` = 8 GiB). It lowers the budget the driver reports, or sets one where the
+driver says nothing."""
+SOFTWARE_RAM_FRACTION = 0.5
+"""On a software renderer (llvmpipe) "GPU memory" is the machine's RAM: the budget is the RAM
+available now, but at most this fraction of the total."""
+
+
+@dataclass(frozen=True)
+class Budget:
+    """The GPU memory one allocation may take now, bytes (None: unknown), and who said so."""
+
+    available: int | None
+    total: int | None
+    source: str
+
+
+def _parse_bytes(text: str) -> int:
+    t = str(text).strip().upper().removesuffix("B").removesuffix("I")
+    scale = 1
+    if t and t[-1] in "KMGT":
+        scale = 1024 ** ("KMGT".index(t[-1]) + 1)
+        t = t[:-1]
+    try:
+        v = float(t) * scale
+    except ValueError:
+        raise UsageError(f"{ENV_BUDGET}={text!r}: expected bytes like 8G, 512M or 1000000") from None
+    if not v > 0 or v != v or v == float("inf"):
+        raise UsageError(f"{ENV_BUDGET}={text!r}: must be a positive size")
+    return int(v)
+
+
+def memory_budget(ctx) -> Budget:
+    """The GPU memory budget now: the driver's free video memory (GL_NVX_gpu_memory_info's
+    GPU_MEMORY_INFO_CURRENT_AVAILABLE_VIDMEM_NVX, or GL_ATI_meminfo's VBO_FREE_MEMORY_ATI),
+    lowered by ``MANE_GPU_MEMORY`` when set (which alone gives the budget where the driver says
+    nothing); on a software renderer the available RAM, at most half the machine's."""
+    import os
+
+    from .capabilities import get_capabilities, gpu_memory
+
+    caps = get_capabilities(ctx)
+    mem = gpu_memory(ctx, caps.extensions, caps.is_software)
+    avail, total, source = mem.available, mem.total, mem.source
+    if caps.is_software and total is not None:
+        cap = int(total * SOFTWARE_RAM_FRACTION)
+        avail = cap if avail is None else min(avail, cap)
+        source += f", at most {SOFTWARE_RAM_FRACTION:g} of {_fmt_bytes(total)}"
+    setting = os.environ.get(ENV_BUDGET)
+    if setting:
+        limit = _parse_bytes(setting)
+        if avail is None or limit < avail:
+            avail, source = limit, f"{ENV_BUDGET}={setting}"
+    return Budget(avail, total, source)
+
+
+def check_allocation(ctx, nbytes: int, what: str, *, ssbo: bool = True, reduce: str | None = None) -> None:
     """Raise GPUMemoryError before allocating ``nbytes`` for ``what`` when it cannot fit.
 
-    Checks the driver's available memory when it reports it (NVIDIA, AMD; system RAM for
-    llvmpipe) and, for buffers bound as shader storage (``ssbo=True``), the largest SSBO
-    (GL_MAX_SHADER_STORAGE_BLOCK_SIZE: 128 MiB on llvmpipe, 2 GiB or more on NVIDIA).
+    Checks the budget of ``memory_budget`` (the driver's free memory on NVIDIA and AMD, system
+    RAM for llvmpipe, ``MANE_GPU_MEMORY``) and, for buffers bound as shader storage
+    (``ssbo=True``), the largest SSBO (GL_MAX_SHADER_STORAGE_BLOCK_SIZE: 128 MiB on llvmpipe,
+    2 GiB or more on NVIDIA). ``reduce`` says what the user should make smaller.
     """
-    from .capabilities import get_capabilities, gpu_memory
+    from .capabilities import get_capabilities
 
     try:
         nbytes = int(nbytes)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise UsageError(f"{what}: buffer size must be an integer number of bytes, not {nbytes!r}") from None
     if nbytes < 0:
         raise UsageError(f"{what}: negative buffer size {nbytes}")
+    advice = reduce or "Use fewer strands or points per strand"
     caps = get_capabilities(ctx)
     if ssbo:
         limit = caps.limits.get("max_shader_storage_block_size")
@@ -242,14 +301,35 @@ def check_allocation(ctx, nbytes: int, what: str, *, ssbo: bool = True) -> None:
             raise GPUMemoryError(
                 f"{what} needs {_fmt_bytes(nbytes)} ({nbytes} bytes) in one shader storage buffer, but "
                 f"{caps.renderer} allows at most {_fmt_bytes(limit)} (GL_MAX_SHADER_STORAGE_BLOCK_SIZE). "
-                f"Use fewer strands or points per strand, or a GPU with larger storage blocks.")
-    mem = gpu_memory(ctx, caps.extensions, caps.is_software)
-    if mem.available is not None and nbytes > mem.available:
+                f"{advice}, or a GPU with larger storage blocks.")
+    budget = memory_budget(ctx)
+    if budget.available is not None and nbytes > budget.available:
         raise GPUMemoryError(
-            f"{what} needs {_fmt_bytes(nbytes)} but only {_fmt_bytes(mem.available)} of "
-            f"{'GPU memory' if not caps.is_software else 'memory'} is free ({mem.source}"
-            f"{', total ' + _fmt_bytes(mem.total) if mem.total else ''}). "
-            f"Use fewer strands or points per strand, or free GPU memory (other programs, earlier scenes).")
+            f"{what} needs {_fmt_bytes(nbytes)} but only {_fmt_bytes(budget.available)} of "
+            f"{'GPU memory' if not caps.is_software else 'memory'} is free ({budget.source}"
+            f"{', total ' + _fmt_bytes(budget.total) if budget.total else ''}). "
+            f"{advice}, or free GPU memory (other programs, earlier scenes).")
+
+
+def check_texture(ctx, size, components: int, itemsize: int, what: str, *, samples: int = 1,
+                  reduce: str | None = None, extra_bytes: int = 0) -> int:
+    """Check a texture or render target of ``size`` (w, h) or (w, h, d) texels before making it:
+    its sides against GL_MAX_TEXTURE_SIZE (GL_MAX_3D_TEXTURE_SIZE), its bytes (times
+    ``samples``, plus ``extra_bytes`` of companions allocated with it) against the budget.
+    Returns the bytes."""
+    from .capabilities import get_capabilities
+
+    dims = [int(v) for v in size]
+    caps = get_capabilities(ctx)
+    key = "max_3d_texture_size" if len(dims) == 3 else "max_texture_size"
+    side = caps.limits.get(key)
+    advice = reduce or "Use a smaller size"
+    if side and max(dims) > side:
+        raise GPUMemoryError(f"{what} of {'x'.join(map(str, dims))} texels is larger than the "
+                             f"{side} per side this GPU allows ({key.upper()}). {advice}.")
+    nbytes = int(np.prod(dims, dtype=object)) * int(components) * int(itemsize) * max(1, int(samples))
+    check_allocation(ctx, nbytes + int(extra_bytes), what, ssbo=False, reduce=reduce)
+    return nbytes
 
 
 def buffer(ctx, data_or_size, what: str = "buffer", *, dynamic: bool = False, ssbo: bool = True):

@@ -134,6 +134,9 @@ def check_count(count: int, what: str, path, maximum: int, offset: int | None = 
 
 # ---------------------------------------------------------------------------- child process
 _CHILD_ERROR_EXIT = 3
+CHILD_BASE_BYTES = 3 << 30
+"""Address space (RLIMIT_AS) of the reader's child, plus 64 bytes per byte of the file: usd-core
+alone maps 1-2 GiB (measured), so 3 GiB leaves it ~1 GiB for a small file's data."""
 
 
 def read_in_child(module: str, path: Path, options: dict, timeout: float = 300.0,
@@ -152,14 +155,26 @@ def read_in_child(module: str, path: Path, options: dict, timeout: float = 300.0
     except OSError as exc:
         raise FormatError(f"cannot read the file ({exc.strerror or exc})", path) from None
     if memory_limit is None:
-        memory_limit = (6 << 30) + 64 * size
+        memory_limit = CHILD_BASE_BYTES + 64 * size
     src = str(Path(__file__).resolve().parents[2])  # the folder that holds the mane package
     env = dict(os.environ)
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
+    # address space stays near what the reader needs: few malloc arenas and worker threads
+    env.setdefault("MALLOC_ARENA_MAX", "2")
+    env.setdefault("PXR_WORK_THREAD_LIMIT", "2")
     with tempfile.TemporaryDirectory(prefix="mane-read-") as tmp:
         out = Path(tmp) / "groom.npz"
+        source = path
+        try:
+            str(path).encode("utf-8")
+        except UnicodeEncodeError:   # C++ readers take UTF-8 names: a link with a plain one
+            source = Path(tmp) / f"input{path.suffix.encode('ascii', 'replace').decode()}"
+            try:
+                os.symlink(path.resolve(), source)
+            except OSError as exc:
+                raise FormatError(f"cannot read the file ({exc.strerror or exc})", path) from None
         cmd = [sys.executable, "-c", "from mane.io.binary import _child_main; _child_main()",
-               module, str(path), json.dumps(options), str(out), str(int(memory_limit))]
+               module, str(source), json.dumps(options), str(out), str(int(memory_limit))]
         try:
             proc = subprocess.run(cmd, capture_output=True, timeout=timeout, env=env,
                                   stdin=subprocess.DEVNULL)

@@ -61,6 +61,9 @@ def read_mesh(path) -> Mesh:
         raise FormatError("the file asks for more memory than this machine has", path) from None
     except RecursionError:
         raise FormatError("the file nests too deeply", path) from None
+    except (ValueError, IndexError, TypeError, KeyError, AttributeError, OverflowError) as exc:
+        # trimesh's post-processing (normals, colours, reshapes) on a malformed file
+        raise FormatError(f"cannot read the mesh ({type(exc).__name__}: {str(exc)[:200]})", path) from None
 
 
 # ---------------------------------------------------------------------------- trimesh formats

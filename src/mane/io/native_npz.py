@@ -40,14 +40,39 @@ _CORE = {"points": (np.float32, (3,)), "counts": (np.int32, ()), "widths": (np.f
 _MAX_MEMBERS = 4096
 
 
+MIN_MEMBER_LIMIT = 64 << 20
+"""Decompressed bytes always accepted; beyond it at most MAX_RATIO times the file's size."""
+MAX_RATIO = 64
+"""Largest decompressed / compressed ratio accepted in all (mane's grooms compress ~1.1-3x;
+a zip bomb ~1000x)."""
+
+
 def _member_limit(file_size: int) -> int:
-    """The most decompressed bytes accepted in all (zip bombs stop here)."""
-    return max(1 << 30, 64 * file_size)
+    """The most decompressed bytes accepted in all (zip bombs stop here, before any is read)."""
+    return max(MIN_MEMBER_LIMIT, MAX_RATIO * file_size)
 
 
 def _read_member(zf: zipfile.ZipFile, info: zipfile.ZipInfo, path) -> np.ndarray:
     name = info.filename
-    raw = zf.read(info)
+    # the .npy header first: the array it declares must be the member's declared size, checked
+    # before the rest is decompressed
+    with zf.open(info) as fh:
+        head = fh.read(min(info.file_size, 1 << 16))
+        bio = io.BytesIO(head)
+        try:
+            version = np.lib.format.read_magic(bio)
+            reader = {(1, 0): np.lib.format.read_array_header_1_0}.get(version, np.lib.format.read_array_header_2_0)
+            shape, _, dtype = reader(bio)
+            count = int(np.prod(shape, dtype=object)) if shape else 1
+            want = bio.tell() + count * dtype.itemsize
+            if dtype.hasobject or dtype.fields is not None or dtype.kind not in "biufU":
+                want = None   # refused below with its own reason
+        except Exception:
+            want = None   # the full parse below reports it
+        if want is not None and want != info.file_size:
+            raise FormatError(f"member {name!r}: its header declares {want} bytes but the archive says "
+                              f"{info.file_size}", path)
+        raw = head + fh.read(max(info.file_size - len(head), 0))
     bio = io.BytesIO(raw)
     try:
         version = np.lib.format.read_magic(bio)

@@ -183,6 +183,10 @@ def _read_binary(data: bytes, header: Header, path):
         if el.count > len(data) - pos:
             raise FormatError(f"truncated: element {el.name!r} declares {el.count} rows but "
                               f"{len(data) - pos} bytes are left", path, pos)
+        fast = _binary_fixed_lists(data, pos, el)
+        if fast is not None:   # every row's lists as long as the first row's: one frombuffer
+            out[el.name], pos = fast
+            continue
         cols: dict[str, list] = {p.name: [] for p in el.properties}
         for r in range(el.count):
             for p in el.properties:
@@ -208,6 +212,83 @@ def _read_binary(data: bytes, header: Header, path):
     if pos != len(data):
         raise FormatError(f"{len(data) - pos} unexpected bytes after the last element", path, pos)
     return out
+
+
+def _binary_fixed_lists(data: bytes, pos: int, el: Element):
+    """Vectorised read of an element whose rows all have the first row's list lengths (faces of
+    one polygon size, fixed-length strands): (columns, new position), or None to walk the rows."""
+    if el.count == 0:
+        return None
+    fields, at = [], pos
+    for p in el.properties:
+        if p.list_count:
+            ct = np.dtype("<" + p.list_count)
+            if at + ct.itemsize > len(data):
+                return None
+            n = int(np.frombuffer(data, ct, 1, at)[0])
+            it = np.dtype("<" + p.dtype)
+            if n < 0 or n > len(data):
+                return None
+            fields += [("__mane_count_" + p.name, ct), (p.name, it, (n,))]
+            at += ct.itemsize + n * it.itemsize
+        else:
+            fields.append((p.name, np.dtype("<" + p.dtype)))
+            at += np.dtype(p.dtype).itemsize
+    dt = np.dtype(fields)
+    if el.count * dt.itemsize > len(data) - pos:
+        return None
+    rows = np.frombuffer(data, dtype=dt, count=el.count, offset=pos)
+    cols = {}
+    for p in el.properties:
+        if p.list_count:
+            n = dt[p.name].shape[0] if dt[p.name].shape else 1
+            if np.any(rows["__mane_count_" + p.name] != n):
+                return None
+            flat = np.ascontiguousarray(rows[p.name]).reshape(-1).astype(np.dtype(p.dtype))
+            cols[p.name] = (np.full(el.count, n, dtype=np.int64), flat)
+        else:
+            cols[p.name] = np.ascontiguousarray(rows[p.name]).astype(np.dtype(p.dtype))
+    return cols, pos + el.count * dt.itemsize
+
+
+def _ascii_fixed_lists(tokens, at: int, el: Element, path):
+    """The ASCII twin of ``_binary_fixed_lists``: (columns, new token index) or None."""
+    if el.count == 0:
+        return None
+    width, lengths, k = 0, {}, at
+    for p in el.properties:
+        if p.list_count:
+            if k >= len(tokens):
+                return None
+            try:
+                n = int(tokens[k])
+            except ValueError:
+                return None
+            if n < 0:
+                return None
+            lengths[p.name] = n
+            width += 1 + n
+            k += 1 + n
+        else:
+            width += 1
+            k += 1
+    need = el.count * width
+    if need > len(tokens) - at:
+        return None
+    block = _numbers(tokens[at:at + need], path, el.name).reshape(el.count, width)
+    cols, c = {}, 0
+    for p in el.properties:
+        if p.list_count:
+            n = lengths[p.name]
+            if np.any(block[:, c] != n):
+                return None
+            flat = _cast(block[:, c + 1:c + 1 + n].reshape(-1), p, path, el.name)
+            cols[p.name] = (np.full(el.count, n, dtype=np.int64), flat)
+            c += 1 + n
+        else:
+            cols[p.name] = _cast(block[:, c], p, path, el.name)
+            c += 1
+    return cols, at + need
 
 
 def _finish_column(p: Property, values):
@@ -241,6 +322,10 @@ def _read_ascii(data: bytes, header: Header, path):
             continue
         if el.count > len(tokens) - at:
             raise FormatError(f"truncated: element {el.name!r} declares {el.count} rows", path)
+        fast = _ascii_fixed_lists(tokens, at, el, path)
+        if fast is not None:   # every row's lists as long as the first row's: one block
+            out[el.name], at = fast
+            continue
         cols: dict[str, list] = {p.name: [] for p in el.properties}
         for r in range(el.count):
             for p in el.properties:

@@ -65,6 +65,9 @@ V3_HEADER_SIZE = 296
 MAX_VERTICES_PER_STRAND = 4096
 MAX_PROJECT_BYTES = 1 << 20
 MAX_PROJECT_PARTS = 256
+MAX_PROJECT_TOTAL_BYTES = 256 << 20
+"""Most bytes of .tfx parts one project may pull in, all parts together (the largest TressFX
+sample projects are a few MB; 256 mentions of one big part would otherwise read it 256 times)."""
 
 
 def read(path, **options) -> Groom:
@@ -288,13 +291,21 @@ def read_project(path) -> Groom:
     path = Path(path)
     project = parse_project(path)
     grooms = []
-    for i, part in enumerate(project["parts"]):
+    parts = []
+    total = 0
+    for part in project["parts"]:   # every part's size first: nothing is read past the budget
         rel = Path(part["file"])
         if rel.is_absolute():
             raise FormatError(f"hair part {part['file']!r} must be a path relative to the project", path)
         part_path = path.parent / rel
         if not part_path.is_file():
             raise FormatError(f"hair part {part['file']!r} not found (looked for {part_path})", path)
+        total += part_path.stat().st_size
+        if total > MAX_PROJECT_TOTAL_BYTES:
+            raise FormatError(f"the project's parts add up to more than {MAX_PROJECT_TOTAL_BYTES >> 20} MiB "
+                              f"(at part {len(parts) + 1}, {part['file']!r}); refused", path)
+        parts.append(part_path)
+    for i, (part, part_path) in enumerate(zip(project["parts"], parts)):
         g = read_tfx(part_path)
         g = g.replace(strand_attributes={**g.strand_attributes,
                                          "part": np.full(g.num_strands, i, dtype=np.int32)})

@@ -70,6 +70,18 @@ class Camera:
     near: float = 0.01
     far: float = 100.0
 
+    def __post_init__(self) -> None:
+        values = [*self.eye, *self.target, *self.up, self.fov_y, self.near, self.far]
+        if len(self.eye) != 3 or len(self.target) != 3 or not all(math.isfinite(float(v)) for v in values):
+            raise UsageError(f"a camera needs finite numbers (eye {self.eye}, target {self.target}, "
+                             f"fov {self.fov_y}, near {self.near}, far {self.far})")
+        if not 0.0 < float(self.fov_y) < 180.0:
+            raise UsageError(f"the camera's field of view must be in (0, 180) degrees, got {self.fov_y}")
+        if not 0.0 < float(self.near) < float(self.far):
+            raise UsageError(f"the camera needs 0 < near < far, got near {self.near}, far {self.far}")
+        if np.allclose(np.asarray(self.eye, float), np.asarray(self.target, float), rtol=0, atol=0):
+            raise UsageError(f"the camera's eye and target are the same point {self.eye}")
+
     def view(self) -> np.ndarray:
         return look_at(self.eye, self.target, self.up)
 
@@ -92,6 +104,13 @@ class Camera:
         """A camera that sees the box [lo, hi] whole, from ``azimuth`` degrees about +Y (0 looks
         at the face, +Z toward -Z) and ``elevation`` degrees above the horizon."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
+        for name, v in (("azimuth", azimuth), ("elevation", elevation), ("distance scale", distance_scale)):
+            if not math.isfinite(float(v)):
+                raise UsageError(f"the camera's {name} must be finite, got {v}")
+        if not float(distance_scale) > 0:
+            raise UsageError(f"the camera's distance scale must be > 0, got {distance_scale}")
+        if not 0.0 < float(fov_y) < 180.0:
+            raise UsageError(f"the camera's field of view must be in (0, 180) degrees, got {fov_y}")
         center = 0.5 * (lo + hi)
         az, el = math.radians(azimuth), math.radians(elevation)
         direction = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])

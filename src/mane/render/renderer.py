@@ -15,6 +15,7 @@ resolve (hdr -> output).
 from __future__ import annotations
 
 import math
+import sys as _sys
 
 import moderngl
 import numpy as np
@@ -127,6 +128,7 @@ class Renderer:
                                    HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
                                    ResolvePass(self)]
         self.last_frame: Frame | None = None
+        self._released = False
         # multi / hybrid interpolation (mane.render.multi_strand) and distance LOD
         self._guide_weights = None
         self._strand_table = None
@@ -352,6 +354,14 @@ class Renderer:
         if "hdr" not in self._targets:
             size = self.settings.render_size
             ctx = self.ctx
+            from ..gpu.buffers import check_texture
+
+            # the multisampled colour (RGBA16F) and depth (32-bit) plus their resolved copies and
+            # the output (RGBA8), checked together before any is made
+            px = size[0] * size[1]
+            check_texture(ctx, size, 1, 12, f"the {size[0]}x{size[1]} render targets ({self.samples} samples)",
+                          samples=self.samples, extra_bytes=px * 12 * (self.samples > 1) + 4 * px,
+                          reduce="Use a smaller --size, fewer MSAA samples (--aa) or no supersampling")
             if self.samples > 1:
                 color = ctx.renderbuffer(size, 4, samples=self.samples, dtype="f2")
                 depth = ctx.depth_renderbuffer(size, samples=self.samples)
@@ -544,7 +554,27 @@ class Renderer:
                 return p.stats()
         return {"oit": "none", "oit_bytes": 0}
 
+    def __enter__(self) -> "Renderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    def __del__(self):
+        # a dropped renderer (a notebook cell run again) gives its GPU memory back
+        if _sys.is_finalizing() or getattr(self, "_released", True):
+            return
+        try:
+            self.release()
+        except Exception:
+            pass
+
     def release(self) -> None:
+        """Free every GPU object (targets, passes, strands, head); safe to call twice. Also called
+        when the renderer is dropped or leaves a ``with`` block."""
+        if getattr(self, "_released", True):
+            return
+        self._released = True
         # Give the context back its framebuffer: moderngl's ctx.fbo would otherwise
         # point at one of ours once released, and break the next ctx.scope().
         if self._initial_fbo is not None:

@@ -283,6 +283,18 @@ class RenderSettings:
                      "curl_radius", "curl_frequency", "hybrid_margin", "lod_start"):
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")
+        import math
+
+        for f in fields(self):   # NaN passes every comparison: refuse it (and infinity) once, here
+            v = getattr(self, f.name)
+            items = v if isinstance(v, tuple) and f.name != "colliders" else (v,)
+            for x in items:
+                if isinstance(x, float) and not math.isfinite(x):
+                    raise UsageError(f"{f.name} must be finite, got {v}")
+        for name in ("hair_color", "skin_color", "background"):
+            c = getattr(self, name)
+            if c is not None and (len(c) != 3 or not all(math.isfinite(float(x)) and float(x) >= 0 for x in c)):
+                raise UsageError(f"{name} must be 3 finite numbers >= 0 (linear RGB), got {c}")
         if not 0.0 <= float(self.stray_fraction) <= 1.0:
             raise UsageError(f"stray_fraction is a probability in 0..1, got {self.stray_fraction}")
         if self.lod and not float(self.lod_end) > float(self.lod_start):

@@ -87,6 +87,12 @@ class FlipVolume:
                                       cubic=False)
         self.bounds: GridBounds = self._own_bounds
 
+        from ..gpu.buffers import check_allocation
+
+        check_allocation(ctx, (self.num_faces + self.num_cells) * 16 + self.num_faces * 8
+                         + self.num_cells * CELL_FLOATS * 4 + self.num_partials * 16 + 64,
+                         f"the FLIP volume's {resolution}^3 grid", ssbo=False,
+                         reduce="Use a smaller flip grid resolution")
         self.accumulator = ctx.buffer(reserve=(self.num_faces + self.num_cells) * 16)
         self.accumulator.clear()
         self.faces = ctx.buffer(reserve=self.num_faces * 8)               # vec2(u, u*)

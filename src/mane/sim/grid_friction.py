@@ -185,6 +185,11 @@ class GridFriction:
         self._own_bounds = GridBounds(ctx, margin=bounds_margin, relative_margin=bounds_relative_margin,
                                       cubic=bounds_cubic)
         self.bounds: GridBounds = self._own_bounds
+        from ..gpu.buffers import check_allocation
+
+        # the grid and (at most) its accumulator / 3D texture, before any is made
+        check_allocation(ctx, self.num_nodes * 48, f"the friction grid of {resolution}^3 nodes", ssbo=False,
+                         reduce="Use a smaller grid_resolution")
         self.grid = ctx.buffer(reserve=self.num_nodes * 16)        # vec4(v, mass) per node
         self._gather = compute_shader(ctx, HERE / "grid_gather.comp", defines)
         self.float_atomics = False

@@ -255,6 +255,10 @@ class MeshSDF:
         self.texture = None
         if ctx is not None:
             # x fastest in memory: the texture's (width, height, depth) = (nx, ny, nz)
+            from ..gpu.buffers import check_texture
+
+            check_texture(ctx, self.shape, 1, 4, f"the {'x'.join(map(str, self.shape))} signed distance field",
+                          reduce="Use a smaller SDF resolution")
             data = self.values.transpose(2, 1, 0).copy()
             self.texture = ctx.texture3d(self.shape, 1, data=data.tobytes(), dtype="f4")
 

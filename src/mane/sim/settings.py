@@ -39,6 +39,9 @@ def iteration_stiffness(k: float, iterations: int) -> float:
         return 1.0
     return 1.0 - (1.0 - k) ** (1.0 / n)
 
+MAX_GRAVITY = 1000.0
+"""Largest |gravity| accepted, m/s^2 (about 100 g): beyond it speeds overflow float32 within steps."""
+
 
 @dataclass(frozen=True)
 class SimSettings:
@@ -140,6 +143,9 @@ class SimSettings:
         g = np.asarray(self.gravity, dtype=float).reshape(-1)
         if g.shape != (3,) or not np.all(np.isfinite(g)):
             raise UsageError(f"gravity must be 3 finite numbers (m/s^2), got {self.gravity!r}")
+        if float(np.linalg.norm(g)) > MAX_GRAVITY:
+            raise UsageError(f"gravity of {float(np.linalg.norm(g)):.3g} m/s^2 is beyond the {MAX_GRAVITY:g} m/s^2 "
+                             f"(about 100 g) the solver handles; speeds would overflow")
         object.__setattr__(self, "gravity", tuple(float(x) for x in g))
         if not np.isfinite(self.dt) or not MIN_DT <= self.dt <= MAX_DT:
             raise UsageError(f"dt must be in [{MIN_DT}, {MAX_DT:.4f}] s, got {self.dt}")

@@ -49,6 +49,7 @@ has a gather deferred onto its grid).
 from __future__ import annotations
 
 import math
+import sys as _sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -134,6 +135,7 @@ class Simulator:
         self.ctx = ctx if ctx is not None else get_context()
         self.settings = settings if settings is not None else SimSettings()
         self.groom = self._prepare(groom, points_per_strand)
+        _check_coordinates(self.groom)
         self.colliders = list(colliders)
         for c in self.colliders:
             if not isinstance(c, (Collider, MeshCollider)):
@@ -146,6 +148,7 @@ class Simulator:
             inv_mass[np.asarray(immovable).reshape(S, N).astype(bool)] = 0.0
         n_prims = sum(isinstance(c, Collider) for c in self.colliders)
         self.state = SimState.allocate(self.ctx, self.groom.as_padded(), inv_mass.reshape(-1), n_prims)
+        self._released = False
         if head_transform is not None:
             self.set_head_transform(head_transform)
             self.reset()
@@ -807,8 +810,56 @@ class Simulator:
         return float(0.5 * (((x - x0)[free] / st.last_dt) ** 2).sum())
 
     def release(self) -> None:
+        """Free the GPU buffers (state, friction grid, FLIP volume, timers); safe to call twice.
+        Also called when the simulator is dropped or leaves a ``with`` block."""
+        if getattr(self, "_released", True):
+            return
+        self._released = True
         self._deferred = None
+        for name in ("_grid", "_flip", "_profiler"):
+            obj = getattr(self, name, None)
+            if obj is not None:
+                obj.release()
+                setattr(self, name, None)
         self.state.release()
+
+    def __enter__(self) -> "Simulator":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()
+
+    def __del__(self):
+        # a dropped simulator (a notebook cell run again) gives its GPU memory back
+        if _sys.is_finalizing() or getattr(self, "_released", True):
+            return
+        try:
+            self.release()
+        except Exception:
+            pass
+
+
+MAX_ULP_FRACTION = 1e-2
+"""float32 positions must resolve a segment to this fraction of its length: a groom farther
+from the origin than that allows is refused (its lengths would be silently wrong)."""
+
+
+def _check_coordinates(groom) -> None:
+    """Refuse a groom so far from the origin (or so large) that float32 cannot hold its segments."""
+    pts = np.asarray(groom.points, dtype=np.float64)
+    if not len(pts):
+        return
+    reach = float(np.max(np.abs(pts)))
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    inner = np.ones(len(seg), bool)
+    inner[np.asarray(groom.offsets[1:-1]) - 1] = False      # skip the jumps between strands
+    seg = seg[inner & (seg > 0)]
+    typical = float(np.median(seg)) if len(seg) else 0.0
+    spacing = reach * 2.0 ** -23
+    if not np.isfinite(reach) or (typical > 0 and spacing > MAX_ULP_FRACTION * typical):
+        raise UsageError(f"the groom reaches {reach:.3g} m from the origin, where float32 positions are "
+                         f"{spacing:.2g} m apart: too coarse for its {typical:.2g} m segments. Move it near "
+                         f"the origin (Groom.translated) and check its units (metres)")
 
 
 __all__ = ["Simulator", "SimSnapshot", "PASSES", "GroomError"]

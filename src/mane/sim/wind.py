@@ -26,6 +26,9 @@ import numpy as np
 
 from ..errors import UsageError
 
+MAX_WIND_SPEED = 500.0
+"""Largest peak wind speed accepted, m/s (|velocity| (1 + gust) + turbulence)."""
+
 
 @dataclass(frozen=True)
 class WindSettings:
@@ -61,6 +64,11 @@ class WindSettings:
         if not 1 <= int(self.octaves) <= 8:
             raise UsageError(f"wind octaves must be in 1..8, got {self.octaves}")
         object.__setattr__(self, "octaves", int(self.octaves))
+        with np.errstate(over="ignore"):
+            peak = float(np.linalg.norm(v)) * (1.0 + self.gust) + self.turbulence
+        if peak > MAX_WIND_SPEED:
+            raise UsageError(f"wind of up to {peak:.3g} m/s (velocity, gusts and turbulence) is beyond the "
+                             f"{MAX_WIND_SPEED:g} m/s the solver handles (hurricanes blow ~80 m/s)")
 
     @property
     def active(self) -> bool:

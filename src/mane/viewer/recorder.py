@@ -34,7 +34,10 @@ def save_screenshot(image: np.ndarray, folder="out/viewer", path=None) -> Path:
 
     path = Path(path) if path is not None else _stamp_name(Path(folder), ".png")
     path.parent.mkdir(parents=True, exist_ok=True)
-    Image.fromarray(np.ascontiguousarray(image)).save(path)
+    from ..io.atomic import atomic_write_path
+
+    with atomic_write_path(path) as tmp:
+        Image.fromarray(np.ascontiguousarray(image)).save(tmp, format="PNG")
     return path
 
 
@@ -51,7 +54,11 @@ class Recorder:
         self.fps = float(fps)
         self.frames = 0
         self.size: tuple[int, int] | None = None
-        self._writer = mp4_writer(self.path, self.fps)
+        from ..io.atomic import atomic_write_path
+
+        # frames stream into a temporary beside the file, renamed over it at stop()
+        self._atomic = atomic_write_path(self.path, keep_partial=True)
+        self._writer = mp4_writer(self._atomic.__enter__(), self.fps)
 
     @property
     def recording(self) -> bool:
@@ -79,4 +86,5 @@ class Recorder:
         if self._writer is not None:
             self._writer.close()
             self._writer = None
+            self._atomic.__exit__(None, None, None)
         return self.path

@@ -308,6 +308,10 @@ FAR = 1.0e9   # light depth (m) of a texel no geometry reached
 def light_depth_target(ctx, n: int):
     """An n x n R32F texture of linear light depth (nearest filtering), a depth renderbuffer and
     their framebuffer: (texture, depth, fbo)."""
+    from ...gpu.buffers import check_texture
+
+    check_texture(ctx, (n, n), 1, 4, f"a {n}x{n} light depth map", extra_bytes=n * n * 4,
+                  reduce="Use a smaller shadow_map_size")
     texture = ctx.texture((n, n), 1, dtype="f4")
     texture.filter = (ctx.NEAREST, ctx.NEAREST)
     depth = ctx.depth_renderbuffer((n, n))

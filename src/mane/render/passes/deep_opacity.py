@@ -33,6 +33,10 @@ class DeepOpacityPass(Pass):
         super().__init__(renderer)
         ctx = self.ctx
         n = int(renderer.settings.shadow_map_size)
+        from ...gpu.buffers import check_texture
+
+        check_texture(ctx, (n, n), 4, 4, f"the deep opacity map ({n}x{n} RGBA32F, with its depth maps)",
+                      extra_bytes=n * n * 8, reduce="Use a smaller shadow_map_size")
         self.z0, self.depth, self.z0_fbo = light_depth_target(ctx, n)
         self.opacity = ctx.texture((n, n), 4, dtype="f4")
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
@@ -83,6 +87,10 @@ class DeepOpacityPass(Pass):
         ctx, r = self.ctx, self.renderer
         n = int(r.settings.shadow_map_size)
         if self._counters is None:
+            from ...gpu.buffers import check_allocation
+
+            check_allocation(ctx, n * n * 16, f"the deep opacity counters ({n}x{n})",
+                             reduce="Use a smaller shadow_map_size")
             z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
             layers = ctx.buffer(reserve=n * n * 12)
             layers.write(bytes(n * n * 12))

@@ -74,6 +74,11 @@ class ExpandPass(Pass):
         points = (N - 1) * sub + 1
         nbytes = max(strands * points * 32, 32)
         if self.buffer is None or self.buffer.size != nbytes:
+            from ...gpu.buffers import check_allocation
+
+            check_allocation(ctx, nbytes, f"the expanded strands ({strands:,} rendered strands x {points} points, "
+                             f"32 bytes each)", reduce="Render fewer strands (guides, strands_per_guide / "
+                             "--strands-per-guide) or fewer segments (--segments)")
             if self.buffer is not None:
                 self.buffer.release()
             self.buffer = ctx.buffer(reserve=nbytes)

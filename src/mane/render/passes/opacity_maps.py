@@ -24,6 +24,7 @@ class OpacityMapsPass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self.maps: list = []
+        self.fbo = None
         self.range = (0.0, 1.0)
 
     @property
@@ -39,6 +40,10 @@ class OpacityMapsPass(Pass):
 
             raise UsageError(f"{self.renderer.settings.osm_slices} opacity slices need {self.targets} render "
                              f"targets; this OpenGL draws to at most {limit}")
+        from ...gpu.buffers import check_texture
+
+        check_texture(ctx, (n, n), 4, 4, f"{self.targets} opacity shadow maps of {n}x{n} RGBA32F",
+                      samples=self.targets, reduce="Use a smaller shadow_map_size or fewer osm_slices")
         self.maps = []
         for _ in range(self.targets):
             t = ctx.texture((n, n), 4, dtype="f4")
@@ -83,8 +88,9 @@ class OpacityMapsPass(Pass):
         return np.concatenate(out, axis=2).copy()
 
     def release(self) -> None:
-        if self.maps:
+        if self.fbo is not None:   # absent when an allocation failed half-way
             self.fbo.release()
-            for t in self.maps:
-                t.release()
-            self.maps = []
+            self.fbo = None
+        for t in self.maps:
+            t.release()
+        self.maps = []
