@@ -146,3 +146,27 @@ def test_renderer_takes_the_file_colour(gl):
         assert r.settings.hair_color == off.hair_color and r.settings.width == off.width
     finally:
         r.release()
+
+
+@pytest.mark.gpu
+def test_a_file_groom_look_does_not_outlive_it(gl, tmp_path):
+    """One renderer, a red file groom then a grown one: the second renders with the scene's
+    settings again (the file's look belongs to its groom only)."""
+    from dataclasses import replace
+
+    from mane.render import Renderer, RenderSettings
+    from mane.render.scene import default_scene
+
+    groom, _ = default_scene(num_guides=8, points=6, subdivisions=2)
+    red = replace(groom, colors=np.tile(np.float32([0.9, 0.1, 0.1]), (groom.num_points, 1)))
+    mane.save(red, tmp_path / "red.npz")
+    from_file = mane.load(tmp_path / "red.npz", units="m", up="y")
+    r = Renderer(RenderSettings(size=(32, 32)), ctx=gl)
+    try:
+        base = r.settings
+        r.set_strands(from_file)
+        assert r.settings.hair_color == pytest.approx((0.9, 0.1, 0.1), abs=1e-6)
+        r.set_strands(groom)
+        assert r.settings == base and r.file_appearance == {}
+    finally:
+        r.release()

@@ -191,7 +191,8 @@ class DatasetSpec:
         """The RenderSettings every sample starts from (colour and ambient vary per sample)."""
         from ..render.settings import RenderSettings
 
-        kw = {"shadows": "deep_opacity", **self.render, "size": tuple(self.size), "rasterizer": "compute",
+        # the spec's colours decide a sample's look, not a groom file's own colours
+        kw = {"shadows": "deep_opacity", "use_file_colors": False, **self.render, "size": tuple(self.size), "rasterizer": "compute",
               "pipeline": "compute"}
         try:
             settings = RenderSettings(**kw)

@@ -135,6 +135,7 @@ class Renderer:
         self.collider_sdf = None      # p (M, 3) -> (M,) signed distance; None: from settings / head
         self.lod_eye = None           # the camera's eye of the frame being drawn (LOD distances)
         self.file_appearance: dict = {}   # what the groom's own colours / widths set (set_strands)
+        self._scene_look: dict = {}       # the settings' values those replaced, restored for the next groom
         self.on_pass = None           # called with each pass's name after it ran (progress bars)
 
     @property
@@ -247,12 +248,16 @@ class Renderer:
         from ..groom import Groom
         from .file_appearance import file_appearance
 
-        self.file_appearance = {}
-        if not self.settings.use_file_colors or not isinstance(groom, Groom) or "frame" not in groom.metadata:
-            return   # only a groom read from a file (mane.load records its frame); grown ones keep the scene's look
-        self.file_appearance = file_appearance(groom)
-        if self.file_appearance:
+        before = self.settings
+        if self.file_appearance:   # the previous groom's look belonged to that groom only
+            self.settings = replace(self.settings, **self._scene_look)
+        self.file_appearance, self._scene_look = {}, {}
+        if self.settings.use_file_colors and isinstance(groom, Groom) and "frame" in groom.metadata:
+            # only a groom read from a file (mane.load records its frame); grown ones keep the scene's look
+            self.file_appearance = file_appearance(groom)
+            self._scene_look = {k: getattr(self.settings, k) for k in self.file_appearance}
             self.settings = replace(self.settings, **self.file_appearance)
+        if self.settings != before:
             self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
                                           self.settings.shading_options)
 
