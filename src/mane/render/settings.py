@@ -154,7 +154,8 @@ class RenderSettings:
     shadow_map_size: int = 512
     """Shadow / opacity map resolution (texels per side); 128..2048 is the intended range."""
     pcf: int = 3
-    """PCF kernel: pcf x pcf taps (1 = none)."""
+    """PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
+    interpolation between the 4 nearest texels), for every shadow method's look-up."""
     shadow_bias: float = 3.0
     """Depth bias, in shadow-map texels (world size of a texel)."""
     dom_layers: tuple[float, float, float] = (0.05, 0.15, 1.0)

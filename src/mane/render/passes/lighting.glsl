@@ -38,10 +38,8 @@ vec3 light_uvz(vec3 P) {
 float shadow_map_visibility(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_shadow_map, 0);
-    vec2 texel = q.xy * vec2(size) - 0.5;
-    ivec2 c = ivec2(floor(texel + 0.5));
     float lit;
-    PCF_MEAN(lit, c, size, t, (q.z - u_shadow_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
+    PCF_BILINEAR(lit, q.xy * vec2(size) - 0.5, size, t, (q.z - u_shadow_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
     return lit;
 }
 
@@ -59,9 +57,11 @@ float dom_opacity(vec4 t, float z, vec3 layers) {
 float dom_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_dom, 0);
-    ivec2 c = ivec2(floor(q.xy * vec2(size)));
     float tr;
-    PCF_MEAN(tr, c, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+    // each texel's transmittance at P's depth (its own z0 and layers), interpolated between
+    // texels: no texel blocks where z0 or the layers jump from one texel to the next
+    PCF_BILINEAR(tr, q.xy * vec2(size) - 0.5, size, t,
+                 exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
     return tr;
 }
 
@@ -104,12 +104,11 @@ uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
 float xlight_visibility(int i, vec3 P) {
     vec3 q = light_space(u_xlight_view_proj[i], u_xlight_eye[i], u_xlight_dir[i], P);
     ivec2 size = textureSize(u_xshadow_map[i], 0);
-    ivec2 cs = ivec2(floor(q.xy * vec2(size) - 0.5 + 0.5));
+    vec2 x = q.xy * vec2(size) - 0.5;
     float lit, tr = 1.0;
-    PCF_MEAN(lit, cs, size, t, (q.z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
+    PCF_BILINEAR(lit, x, size, t, (q.z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
 #if SHADOWS == 2
-    ivec2 cd = ivec2(floor(q.xy * vec2(size)));
-    PCF_MEAN(tr, cd, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
+    PCF_BILINEAR(tr, x, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
 #endif
     return lit * tr;
 }

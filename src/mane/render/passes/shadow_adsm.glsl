@@ -17,9 +17,8 @@ float adsm_texel(ivec2 t, float z) {
 float adsm_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_adsm, 0);
-    ivec2 c = ivec2(floor(q.xy * vec2(size)));
     float tr;
-    PCF_MEAN(tr, c, size, t, adsm_texel(t, q.z))
+    PCF_BILINEAR(tr, q.xy * vec2(size) - 0.5, size, t, adsm_texel(t, q.z))
     return tr;
 }
 #endif
