@@ -158,6 +158,12 @@ class RenderSettings:
     interpolation between the 4 nearest texels), for every shadow method's look-up."""
     shadow_bias: float = 3.0
     """Depth bias, in shadow-map texels (world size of a texel)."""
+    shadow_normal_offset: float = 1.5
+    """Surfaces receiving shadows (the head): the shadow look-up point moves off the surface
+    along its normal by this many texels of the map, times sin(angle between normal and light)."""
+    shadow_slope_bias: float = 1.5
+    """Surfaces receiving shadows (the head): more depth bias, in texels per unit of
+    tan(angle between normal and light) (up to 10), against acne and banding at grazing light."""
     dom_layers: tuple[float, float, float] = (0.05, 0.15, 1.0)
     """Deep opacity layer ends after z0, as fractions of the hair's depth extent seen from the light."""
     strand_opacity: float = 0.35
@@ -274,6 +280,7 @@ class RenderSettings:
         object.__setattr__(self, "dom_layers", d)
         for name in ("width", "clump_radius", "min_pixel_width", "stray_fraction", "stray_amount",
                      "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias",
+                     "shadow_normal_offset", "shadow_slope_bias",
                      "curl_radius", "curl_frequency", "hybrid_margin", "lod_start"):
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")

@@ -215,6 +215,9 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         s = renderer.settings
         texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
         set_uniform(prog, "u_shadow_bias", float(s.shadow_bias) * texel)
+        set_uniform(prog, "u_shadow_texel", float(texel))
+        set_uniform(prog, "u_normal_offset", float(s.shadow_normal_offset))
+        set_uniform(prog, "u_slope_bias", float(s.shadow_slope_bias))
         set_uniform(prog, "u_shadow_density", float(s.shadow_density))
         set_uniform(prog, "u_pcf", int(s.pcf))
         lo, hi = frame.hair_depth_range
@@ -245,6 +248,7 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         return
     center = renderer.scene_center()
     eyes, dirs, biases, layers = [(0.0, 0.0, 0.0)], [(0.0, 0.0, 1.0)], [0.0], [(1.0, 2.0, 3.0)]
+    texels = [0.0]
     mats = [np.eye(4)]
     for k, (lv, (lo, hi)) in enumerate(frame.shadow_views[:len(maps)]):
         mats.append(lv.view_proj)
@@ -252,15 +256,17 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         dirs.append(tuple(float(x) for x in lv.forward))
         texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
         biases.append(float(s.shadow_bias) * texel)
+        texels.append(float(texel))
         ext = max(hi - lo, 1e-4)
         layers.append(tuple(float(f) * ext for f in s.dom_layers))
     while len(mats) < MAX_SHADOW_LIGHTS:
         mats.append(np.eye(4)); eyes.append((0.0, 0.0, 0.0)); dirs.append((0.0, 0.0, 1.0))
-        biases.append(0.0); layers.append((1.0, 2.0, 3.0))
+        biases.append(0.0); layers.append((1.0, 2.0, 3.0)); texels.append(0.0)
     prog["u_xlight_view_proj"].write(b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]))
     set_uniform(prog, "u_xlight_eye", eyes[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xlight_dir", dirs[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xshadow_bias", biases[:MAX_SHADOW_LIGHTS])
+    set_uniform(prog, "u_xshadow_texel", texels[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xdom_layers", layers[:MAX_SHADOW_LIGHTS])
     for k in range(MAX_SHADOW_LIGHTS):
         if 1 <= k <= len(maps):
