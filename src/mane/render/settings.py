@@ -88,6 +88,11 @@ class RenderSettings:
     from 0 at the root to full by 10% of the strand."""
     curl_frequency: float = 6.0
     """Curl turns per strand, root to tip (each strand starts at its own hashed phase)."""
+    strand_spread: float = 5.0
+    """RMS angle (degrees) by which each rendered strand's direction, as shaded, tilts from its
+    curve's (random per strand, Rayleigh-distributed, in a random direction; the kept guide is
+    not tilted): the strands of a clump then catch the highlight at different places instead of
+    as one flat white patch. 0: the curves' own tangents."""
     keep_guide: bool = True
     """Render the guide itself as the clump's strand 0 (offset 0)."""
     # --- geometry
@@ -281,7 +286,7 @@ class RenderSettings:
         for name in ("width", "clump_radius", "min_pixel_width", "stray_fraction", "stray_amount",
                      "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias",
                      "shadow_normal_offset", "shadow_slope_bias",
-                     "curl_radius", "curl_frequency", "hybrid_margin", "lod_start"):
+                     "curl_radius", "curl_frequency", "hybrid_margin", "lod_start", "strand_spread"):
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")
         if not 0.0 <= float(self.stray_fraction) <= 1.0:

@@ -172,6 +172,7 @@ def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) 
                         ("u_clump_tip", s.clump_tip), ("u_stray_fraction", s.stray_fraction),
                         ("u_stray_amount", s.stray_amount), ("u_width", s.width),
                         ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
+                        ("u_strand_spread", math.radians(float(s.strand_spread))),
                         ("u_curl_frequency", s.curl_frequency)):
         set_uniform(prog, name, float(value))
     if lod_eye is None:
