@@ -15,20 +15,19 @@ vec3 light_space(mat4 view_proj, vec3 eye, vec3 dir, vec3 P) {
 // sets RESULT to the mean of EXPR over a box of u_pcf x u_pcf texels centred on X (the point in
 // continuous texel units: texel (i, j)'s centre at (i, j), i.e. uv * size - 0.5), each texel
 // weighted by its overlap with the box: the (u_pcf + 1)^2 texels T the box touches (clamped to
-// the SIZE-texel map), the first and last row and column weighted 1 - f and f (f = fract(X)).
-// With u_pcf = 1 it is bilinear interpolation of EXPR between the 4 nearest texels: the result
-// moves continuously with X, with no steps at texel edges (what a nearest-texel box shows).
+// the SIZE-texel map), the first and last row and column weighted 1 - f and f. With u_pcf = 1
+// it is bilinear interpolation of EXPR between the 4 nearest texels: the result moves
+// continuously with X, with no steps at texel edges (what a box of nearest texels shows).
 #define PCF_BILINEAR(RESULT, X, SIZE, T, EXPR) {                              \
-    vec2 pcf_x_ = (X);                                                        \
-    vec2 pcf_b_ = floor(pcf_x_);                                              \
-    vec2 pcf_f_ = pcf_x_ - pcf_b_;                                            \
+    vec2 pcf_s_ = (X) - 0.5 * float(u_pcf - 1);                               \
+    vec2 pcf_b_ = floor(pcf_s_);                                              \
+    vec2 pcf_f_ = pcf_s_ - pcf_b_;                                            \
     ivec2 pcf_c_ = ivec2(pcf_b_);                                             \
-    int pcf_lo_ = -(u_pcf / 2), pcf_hi_ = u_pcf - u_pcf / 2;                  \
     float pcf_sum_ = 0.0;                                                     \
-    for (int pcf_j_ = pcf_lo_; pcf_j_ <= pcf_hi_; ++pcf_j_) {                 \
-        float pcf_wy_ = pcf_j_ == pcf_lo_ ? 1.0 - pcf_f_.y : (pcf_j_ == pcf_hi_ ? pcf_f_.y : 1.0); \
-        for (int pcf_i_ = pcf_lo_; pcf_i_ <= pcf_hi_; ++pcf_i_) {             \
-            float pcf_wx_ = pcf_i_ == pcf_lo_ ? 1.0 - pcf_f_.x : (pcf_i_ == pcf_hi_ ? pcf_f_.x : 1.0); \
+    for (int pcf_j_ = 0; pcf_j_ <= u_pcf; ++pcf_j_) {                         \
+        float pcf_wy_ = pcf_j_ == 0 ? 1.0 - pcf_f_.y : (pcf_j_ == u_pcf ? pcf_f_.y : 1.0); \
+        for (int pcf_i_ = 0; pcf_i_ <= u_pcf; ++pcf_i_) {                     \
+            float pcf_wx_ = pcf_i_ == 0 ? 1.0 - pcf_f_.x : (pcf_i_ == u_pcf ? pcf_f_.x : 1.0); \
             ivec2 T = clamp(pcf_c_ + ivec2(pcf_i_, pcf_j_), ivec2(0), (SIZE) - 1); \
             pcf_sum_ += pcf_wx_ * pcf_wy_ * (EXPR);                           \
         }                                                                     \
