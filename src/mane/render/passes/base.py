@@ -279,6 +279,19 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_xdom", [XDOM_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
 
 
+def adsm_coverage(renderer, frame: Frame) -> float:
+    """The part of a map texel one strand covers (its mean width over the texel, at most 1): the
+    ADSM's fibre crossing passes exp(-shadow_density * strand_opacity * coverage), as a strand
+    adds strand_opacity times its coverage alpha to the deep opacity and opacity maps' texels,
+    instead of darkening the whole texel as an opaque fibre would."""
+    s, lv = renderer.settings, frame.light_view
+    if lv is None:
+        return 1.0
+    texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(renderer.scene_center() - lv.eye))
+    mean_width = float(s.width) * 0.5 * (1.0 + float(s.width_tip))
+    return min(1.0, mean_width / max(texel, 1e-12))
+
+
 def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
     """The ADSM, opacity shadow map and density look-ups' textures and uniforms (when made)."""
     s = renderer.settings
@@ -287,7 +300,7 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
         t["adsm"].use(ADSM_UNIT)
         set_uniform(prog, "u_adsm", ADSM_UNIT)
         set_uniform(prog, "u_adsm_spacing", float(s.adsm_spacing) * float(s.width))
-        set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity))
+        set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity) * adsm_coverage(renderer, frame))
     if "osm" in t:
         maps = t["osm"]
         for k, tex in enumerate(maps):

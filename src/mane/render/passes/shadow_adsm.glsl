@@ -5,7 +5,8 @@
 #if SHADOWS == 3
 uniform sampler2D u_adsm;
 uniform float u_adsm_spacing;   // m between fibres along the light (adsm_spacing * strand width)
-uniform float u_adsm_tau;       // optical depth of one fibre (shadow_density * strand_opacity)
+uniform float u_adsm_tau;       // optical depth of one fibre crossing: shadow_density * strand_opacity *
+                                // its coverage of a texel (base.adsm_coverage)
 
 // T at light depth z behind texel t's first occluder.
 float adsm_texel(ivec2 t, float z) {
