@@ -31,7 +31,7 @@ class Quality:
     shading: str = "marschner"
     shadows: str = "deep_opacity"
     shadow_map_size: int = 512
-    pcf: int = 3
+    pcf: int = 2
     sim_dt: float = 1.0 / 120.0
     friction: float = 0.05
     viewer_sim_dt: float | None = None

@@ -158,9 +158,10 @@ class RenderSettings:
     "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head)."""
     shadow_map_size: int = 512
     """Shadow / opacity map resolution (texels per side); 128..2048 is the intended range."""
-    pcf: int = 3
+    pcf: int = 2
     """PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
-    interpolation between the 4 nearest texels), for every shadow method's look-up."""
+    interpolation between the 4 nearest texels), for every shadow method's look-up. The
+    default's 9 taps are as many as the earlier 3 x 3 box of nearest texels."""
     shadow_bias: float = 3.0
     """Depth bias, in shadow-map texels (world size of a texel)."""
     shadow_normal_offset: float = 1.5
