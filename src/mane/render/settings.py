@@ -121,9 +121,9 @@ class RenderSettings:
     ~1.9 ms a frame at 1920x1080 (their raster units are few); the hair's own samples do not
     depend on it."""
     depth_prepass: bool = True
-    """With MSAA: draw the hair's depth first (alpha to coverage), then shade it with the depth
-    test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible strand
-    instead of once per overlapping strand."""
+    """With MSAA: draw the hair's depth first (its coverage as a sample mask), then shade it with
+    the depth test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible
+    strand instead of once per overlapping strand."""
     width: float = 0.0006
     """Strand width (m) at the root (ribbons)."""
     width_tip: float = 0.35
@@ -205,8 +205,8 @@ class RenderSettings:
     exposure: float = 1.0
     # --- order-independent transparency (mane.render.oit)
     oit: str = "none"
-    """Hair transparency: "none" (depth-tested premultiplied blending, or alpha to coverage with
-    MSAA), "sorted_blending" (guide segments sorted by view depth on the GPU, blended back to
+    """Hair transparency: "none" (depth-tested premultiplied blending, or a coverage sample mask
+    with MSAA), "sorted_blending" (guide segments sorted by view depth on the GPU, blended back to
     front), "random_subsets" (oit_k subsets, the nearest fragment of each, sorted per pixel),
     "a_buffer" (per-pixel linked lists of every fragment), "k_buffer" (the oit_k nearest per
     pixel), "dbk_buffer" (Hunz's depth-bounded lists over an opaque layer) or "shortcut"
