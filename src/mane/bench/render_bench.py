@@ -24,7 +24,8 @@ strands, tessellated to ``segments`` per strand. Sections (``bench`` in each row
     The Vulkan project's four charts around its shipped configuration (900 guides x 12 strands,
     10 points per guide, 42 segments, 1080x720, Marschner, shadow map + opacity map, no MSAA):
     guides {100 .. 5000}, divisions {9 .. 63} (multiples of the 9 guide segments, so exact),
-    strands per guide {1 .. 50}, PCF taps {1, 4, 9, 16} (pcf 1..4 per side).
+    strands per guide {1 .. 50}, PCF taps {1, 4, 9, 16} (pcf 1..4 per side; with the bilinear
+    weights a look-up reads (pcf + 1)^2 texels).
 ``chen_lod``
     Chen (2011) Table 5: camera distance {0.2 .. 3.0} (multiples of the framing distance; his
     units are not given) with LOD on and off, on his scene (1750 key hairs x 16 = 28,000 hairs,

@@ -90,6 +90,11 @@ class RenderSettings:
     from 0 at the root to full by 10% of the strand."""
     curl_frequency: float = 6.0
     """Curl turns per strand, root to tip (each strand starts at its own hashed phase)."""
+    strand_spread: float = 5.0
+    """RMS angle (degrees) by which each rendered strand's direction, as shaded, tilts from its
+    curve's (random per strand, Rayleigh-distributed, in a random direction; the kept guide is
+    not tilted): the strands of a clump then catch the highlight at different places instead of
+    as one flat white patch. 0: the curves' own tangents."""
     keep_guide: bool = True
     """Render the guide itself as the clump's strand 0 (offset 0)."""
     # --- geometry
@@ -118,9 +123,9 @@ class RenderSettings:
     ~1.9 ms a frame at 1920x1080 (their raster units are few); the hair's own samples do not
     depend on it."""
     depth_prepass: bool = True
-    """With MSAA: draw the hair's depth first (alpha to coverage), then shade it with the depth
-    test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible strand
-    instead of once per overlapping strand."""
+    """With MSAA: draw the hair's depth first (its coverage as a sample mask), then shade it with
+    the depth test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible
+    strand instead of once per overlapping strand."""
     width: float = 0.0006
     """Strand width (m) at the root (ribbons)."""
     width_tip: float = 0.35
@@ -160,10 +165,18 @@ class RenderSettings:
     "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head)."""
     shadow_map_size: int = 512
     """Shadow / opacity map resolution (texels per side); 128..2048 is the intended range."""
-    pcf: int = 3
-    """PCF kernel: pcf x pcf taps (1 = none)."""
+    pcf: int = 2
+    """PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
+    interpolation between the 4 nearest texels), for every shadow method's look-up. The
+    default's 9 taps are as many as the earlier 3 x 3 box of nearest texels."""
     shadow_bias: float = 3.0
     """Depth bias, in shadow-map texels (world size of a texel)."""
+    shadow_normal_offset: float = 1.5
+    """Surfaces receiving shadows (the head): the shadow look-up point moves off the surface
+    along its normal by this many texels of the map, times sin(angle between normal and light)."""
+    shadow_slope_bias: float = 1.5
+    """Surfaces receiving shadows (the head): more depth bias, in texels per unit of
+    tan(angle between normal and light) (up to 10), against acne and banding at grazing light."""
     dom_layers: tuple[float, float, float] = (0.05, 0.15, 1.0)
     """Deep opacity layer ends after z0, as fractions of the hair's depth extent seen from the light."""
     strand_opacity: float = 0.35
@@ -199,8 +212,8 @@ class RenderSettings:
     exposure: float = 1.0
     # --- order-independent transparency (mane.render.oit)
     oit: str = "none"
-    """Hair transparency: "none" (depth-tested premultiplied blending, or alpha to coverage with
-    MSAA), "sorted_blending" (guide segments sorted by view depth on the GPU, blended back to
+    """Hair transparency: "none" (depth-tested premultiplied blending, or a coverage sample mask
+    with MSAA), "sorted_blending" (guide segments sorted by view depth on the GPU, blended back to
     front), "random_subsets" (oit_k subsets, the nearest fragment of each, sorted per pixel),
     "a_buffer" (per-pixel linked lists of every fragment), "k_buffer" (the oit_k nearest per
     pixel), "dbk_buffer" (Hunz's depth-bounded lists over an opaque layer) or "shortcut"
@@ -280,7 +293,8 @@ class RenderSettings:
         object.__setattr__(self, "dom_layers", d)
         for name in ("width", "clump_radius", "min_pixel_width", "stray_fraction", "stray_amount",
                      "strand_opacity", "ambient", "exposure", "shadow_density", "shadow_bias",
-                     "curl_radius", "curl_frequency", "hybrid_margin", "lod_start"):
+                     "shadow_normal_offset", "shadow_slope_bias",
+                     "curl_radius", "curl_frequency", "hybrid_margin", "lod_start", "strand_spread"):
             if float(getattr(self, name)) < 0:
                 raise UsageError(f"{name} must be >= 0, got {getattr(self, name)}")
         import math

@@ -172,6 +172,7 @@ def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) 
                         ("u_clump_tip", s.clump_tip), ("u_stray_fraction", s.stray_fraction),
                         ("u_stray_amount", s.stray_amount), ("u_width", s.width),
                         ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
+                        ("u_strand_spread", math.radians(float(s.strand_spread))),
                         ("u_curl_frequency", s.curl_frequency)):
         set_uniform(prog, name, float(value))
     if lod_eye is None:
@@ -215,6 +216,9 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         s = renderer.settings
         texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
         set_uniform(prog, "u_shadow_bias", float(s.shadow_bias) * texel)
+        set_uniform(prog, "u_shadow_texel", float(texel))
+        set_uniform(prog, "u_normal_offset", float(s.shadow_normal_offset))
+        set_uniform(prog, "u_slope_bias", float(s.shadow_slope_bias))
         set_uniform(prog, "u_shadow_density", float(s.shadow_density))
         set_uniform(prog, "u_pcf", int(s.pcf))
         lo, hi = frame.hair_depth_range
@@ -245,6 +249,7 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         return
     center = renderer.scene_center()
     eyes, dirs, biases, layers = [(0.0, 0.0, 0.0)], [(0.0, 0.0, 1.0)], [0.0], [(1.0, 2.0, 3.0)]
+    texels = [0.0]
     mats = [np.eye(4)]
     for k, (lv, (lo, hi)) in enumerate(frame.shadow_views[:len(maps)]):
         mats.append(lv.view_proj)
@@ -252,15 +257,17 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         dirs.append(tuple(float(x) for x in lv.forward))
         texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
         biases.append(float(s.shadow_bias) * texel)
+        texels.append(float(texel))
         ext = max(hi - lo, 1e-4)
         layers.append(tuple(float(f) * ext for f in s.dom_layers))
     while len(mats) < MAX_SHADOW_LIGHTS:
         mats.append(np.eye(4)); eyes.append((0.0, 0.0, 0.0)); dirs.append((0.0, 0.0, 1.0))
-        biases.append(0.0); layers.append((1.0, 2.0, 3.0))
+        biases.append(0.0); layers.append((1.0, 2.0, 3.0)); texels.append(0.0)
     prog["u_xlight_view_proj"].write(b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]))
     set_uniform(prog, "u_xlight_eye", eyes[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xlight_dir", dirs[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xshadow_bias", biases[:MAX_SHADOW_LIGHTS])
+    set_uniform(prog, "u_xshadow_texel", texels[:MAX_SHADOW_LIGHTS])
     set_uniform(prog, "u_xdom_layers", layers[:MAX_SHADOW_LIGHTS])
     for k in range(MAX_SHADOW_LIGHTS):
         if 1 <= k <= len(maps):
@@ -272,6 +279,19 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_xdom", [XDOM_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
 
 
+def adsm_coverage(renderer, frame: Frame) -> float:
+    """The part of a map texel one strand covers (its mean width over the texel, at most 1): the
+    ADSM's fibre crossing passes exp(-shadow_density * strand_opacity * coverage), as a strand
+    adds strand_opacity times its coverage alpha to the deep opacity and opacity maps' texels,
+    instead of darkening the whole texel as an opaque fibre would."""
+    s, lv = renderer.settings, frame.light_view
+    if lv is None:
+        return 1.0
+    texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(renderer.scene_center() - lv.eye))
+    mean_width = float(s.width) * 0.5 * (1.0 + float(s.width_tip))
+    return min(1.0, mean_width / max(texel, 1e-12))
+
+
 def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
     """The ADSM, opacity shadow map and density look-ups' textures and uniforms (when made)."""
     s = renderer.settings
@@ -280,7 +300,7 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
         t["adsm"].use(ADSM_UNIT)
         set_uniform(prog, "u_adsm", ADSM_UNIT)
         set_uniform(prog, "u_adsm_spacing", float(s.adsm_spacing) * float(s.width))
-        set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity))
+        set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity) * adsm_coverage(renderer, frame))
     if "osm" in t:
         maps = t["osm"]
         for k, tex in enumerate(maps):

@@ -32,6 +32,7 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
+flat out int g_strand;        // the rendered strand (the MSAA coverage mask's seed)
 invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
 
 #if CAPTURE
@@ -77,6 +78,7 @@ void main() {
         g_s = e_s[i];
         g_rand = e_rand[i];
         g_alpha = alpha[i];
+        g_strand = int(e_id[0]);
 #if GEOMETRY_LINES
         g_pos = e_pos[i];
         g_depth = dot(g_pos - u_eye, u_view_dir);

@@ -1,5 +1,6 @@
 // The hair fragment shader's body (after the shading model's include).
 #include "hair_radiance.glsl"
+#include "coverage_mask.glsl"
 
 in vec3 g_pos;
 in vec3 g_tangent;
@@ -7,12 +8,13 @@ in float g_s;
 in float g_rand;
 in float g_alpha;
 in float g_depth;
+flat in int g_strand;          // the rendered strand (coverage_mask.glsl)
 
 uniform vec3 u_eye;
 uniform sampler2D u_dom_depth;   // PASS 2: z0 of the hair (m)
 uniform vec3 u_dom_layers_abs;   // PASS 3: layer ends after z0 (m)
 uniform float u_strand_opacity;
-uniform int u_premultiply;     // 1: blending (premultiplied); 0: alpha to coverage (MSAA)
+uniform int u_premultiply;     // 1: blending (premultiplied); 0: MSAA, the coverage as a sample mask
 
 #if PASS == 0
 layout(location = 0) out vec4 frag;
@@ -25,7 +27,12 @@ layout(location = 0) out vec4 frag_opacity;
 void main() {
 #if PASS == 0
     vec3 color = hair_radiance(g_pos, normalize(g_tangent), u_eye, g_s, g_rand);
-    frag = u_premultiply != 0 ? vec4(color * g_alpha, g_alpha) : vec4(color, g_alpha);
+    if (u_premultiply != 0) {
+        frag = vec4(color * g_alpha, g_alpha);
+    } else {   // MSAA: each sample covered with probability g_alpha, covered samples opaque
+        gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));
+        frag = vec4(color, 1.0);
+    }
 #elif PASS == 1 || PASS == 2
     // light depth (shadow map, deep opacity z0)
     frag_depth = g_depth;

@@ -2,7 +2,9 @@
 
 Blending is premultiplied (ONE, ONE_MINUS_SRC_ALPHA) with the depth test and writes on, so
 sub-pixel strands (coverage alpha < 1) fade into what lies behind them; with MSAA the
-coverage goes to the sample mask instead (alpha to coverage), which needs no order; then a
+coverage goes to the sample mask instead (each sample covered with probability alpha, drawn per
+strand and pixel: coverage_mask.glsl), which needs no order and adds up like the compute
+rasteriser's coverage; then a
 depth pre-pass (settings.depth_prepass) lets the shading run once per pixel and visible strand.
 """
 from __future__ import annotations
@@ -29,20 +31,17 @@ class HairPass(Pass):
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)
-        if msaa:
+        if msaa:   # the coverage as a per-strand random sample mask (coverage_mask.glsl), opaque
             ctx.disable(ctx.BLEND)
-            ctx.enable_direct(0x809E)  # GL_SAMPLE_ALPHA_TO_COVERAGE
-            ctx.enable_direct(0x809F)  # GL_SAMPLE_ALPHA_TO_ONE: covered samples are opaque
         else:
             ctx.enable(ctx.BLEND)
             ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
         set_uniform(prog, "u_premultiply", int(not msaa))
         if prepass:
-            # depth first (alpha to coverage, a trivial fragment shader, no colour), then shade
+            # depth first (the coverage mask, a trivial fragment shader, no colour), then shade
             # once per pixel and visible strand: LEQUAL, no depth writes (the driver tests
-            # depth early; layout(early_fragment_tests) measured no faster), alpha to coverage
-            # again (Mesa writes the pre-pass's depth to every covered sample; the same alpha
-            # gives the same mask)
+            # depth early; layout(early_fragment_tests) measured no faster), the same mask
+            # again (the same strand, pixel and alpha give the same samples)
             depth = hair_program(r, PASS_SHADE, fragment_file=HERE / "hair_depth.frag")
             fbo = r.hdr_fbo()
             fbo.color_mask = (False, False, False, False)
@@ -57,7 +56,4 @@ class HairPass(Pass):
             fbo.depth_mask = True
             fbo.use()
             ctx.depth_func = "<"
-        if msaa:
-            ctx.disable_direct(0x809E)
-            ctx.disable_direct(0x809F)
         ctx.disable(ctx.BLEND)

@@ -20,6 +20,7 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
+flat out int g_strand;        // the rendered strand (the MSAA coverage mask's seed)
 invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
 
 void main() {
@@ -51,6 +52,7 @@ void main() {
     g_s = float(j) / float(u_points_per_strand - 1);
     g_rand = tr.w;
     g_alpha = a;
+    g_strand = gl_InstanceID;
     g_depth = dot(P - u_eye, u_view_dir);
     gl_Position = u_view_proj * vec4(P, 1.0);
     if (!(pw.w > 0.0)) gl_Position = vec4(0.0, 0.0, -2.0, 1.0);   // dropped by the LOD: clipped

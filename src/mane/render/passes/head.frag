@@ -1,6 +1,7 @@
 #version 430
 // The head: Lambert with a little wrap, skin albedo, the scalp tinted toward the hair colour,
-// light 0 shadowed by the hair (deep opacity) and by the head (shadow map).
+// light 0 shadowed by the hair (deep opacity) and by the head (shadow map), with normal-offset
+// and slope-scaled bias (lighting.glsl's surface_light_visibility).
 #include "lighting.glsl"
 in vec3 h_pos;
 in vec3 h_normal;
@@ -26,7 +27,7 @@ void main() {
         float falloff;
         vec3 L = light_dir_at(i, h_pos, falloff);
         float ndl = max(0.0, (dot(N, L) + 0.15) / 1.15);    // a little wrap for skin
-        float vis = ndl > 0.0 ? light_visibility(i, h_pos) : 1.0;
+        float vis = ndl > 0.0 ? surface_light_visibility(i, h_pos, N, L) : 1.0;
         vec3 H = normalize(L + V);
         float spec = 0.04 * pow(max(dot(N, H), 0.0), 24.0);
         color += u_light_radiance[i] * falloff * vis * (albedo * ndl / 3.14159265 + spec * ndl);

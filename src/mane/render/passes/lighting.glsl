@@ -14,6 +14,10 @@ uniform sampler2D u_shadow_map;              // R32F: nearest light depth (m)
 uniform sampler2D u_dom;                     // RGBA32F: opacity layers 1..3, z0 (m)
 uniform vec3 u_dom_layers;                   // layer ends after z0 (m)
 uniform float u_shadow_bias;                 // m
+uniform float u_shadow_texel;                // m: the world size of a texel of light 0's maps
+uniform float u_normal_offset;               // surface receivers: normal offset (texels, settings)
+uniform float u_slope_bias;                  // surface receivers: depth bias per unit tan(N, L) (texels)
+float g_receiver_bias = 0.0;                 // m: more depth bias for the receiver being shaded
 uniform float u_shadow_density;
 uniform int u_pcf;
 
@@ -38,10 +42,9 @@ vec3 light_uvz(vec3 P) {
 float shadow_map_visibility(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_shadow_map, 0);
-    vec2 texel = q.xy * vec2(size) - 0.5;
-    ivec2 c = ivec2(floor(texel + 0.5));
     float lit;
-    PCF_MEAN(lit, c, size, t, (q.z - u_shadow_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
+    PCF_BILINEAR(lit, q.xy * vec2(size) - 0.5, size, t,
+                 (q.z - u_shadow_bias - g_receiver_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
     return lit;
 }
 
@@ -59,9 +62,11 @@ float dom_opacity(vec4 t, float z, vec3 layers) {
 float dom_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_dom, 0);
-    ivec2 c = ivec2(floor(q.xy * vec2(size)));
     float tr;
-    PCF_MEAN(tr, c, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+    // each texel's transmittance at P's depth (its own z0 and layers), interpolated between
+    // texels: no texel blocks where z0 or the layers jump from one texel to the next
+    PCF_BILINEAR(tr, q.xy * vec2(size) - 0.5, size, t,
+                 exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
     return tr;
 }
 
@@ -97,6 +102,7 @@ uniform mat4 u_xlight_view_proj[MAX_SHADOW_LIGHTS];
 uniform vec3 u_xlight_eye[MAX_SHADOW_LIGHTS];
 uniform vec3 u_xlight_dir[MAX_SHADOW_LIGHTS];
 uniform float u_xshadow_bias[MAX_SHADOW_LIGHTS];
+uniform float u_xshadow_texel[MAX_SHADOW_LIGHTS];
 uniform vec3 u_xdom_layers[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xshadow_map[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
@@ -104,12 +110,12 @@ uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
 float xlight_visibility(int i, vec3 P) {
     vec3 q = light_space(u_xlight_view_proj[i], u_xlight_eye[i], u_xlight_dir[i], P);
     ivec2 size = textureSize(u_xshadow_map[i], 0);
-    ivec2 cs = ivec2(floor(q.xy * vec2(size) - 0.5 + 0.5));
+    vec2 x = q.xy * vec2(size) - 0.5;
     float lit, tr = 1.0;
-    PCF_MEAN(lit, cs, size, t, (q.z - u_xshadow_bias[i] <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
+    PCF_BILINEAR(lit, x, size, t,
+                 (q.z - u_xshadow_bias[i] - g_receiver_bias <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
 #if SHADOWS == 2
-    ivec2 cd = ivec2(floor(q.xy * vec2(size)));
-    PCF_MEAN(tr, cd, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
+    PCF_BILINEAR(tr, x, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
 #endif
     return lit * tr;
 }
@@ -125,4 +131,25 @@ float light_visibility(int i, vec3 P) {
     if (i < u_num_shadow_lights) return xlight_visibility(i, P);
 #endif
     return 1.0;
+}
+
+// The same for a point on a surface with unit normal N (the head), L toward light i: a surface
+// seen by the light at a grazing angle changes depth by tan(N, L) texels per texel, so a
+// constant bias lets it shadow itself in terraces (acne) and rings, the more so under the PCF
+// box. The look-up point moves off the surface along N by u_normal_offset texels times
+// sin(N, L) (normal offset; the full offset on the side facing away, where wrap lighting still
+// lights it), and the depth bias grows by u_slope_bias texels per unit tan(N, L), up to 10.
+float surface_light_visibility(int i, vec3 P, vec3 N, vec3 L) {
+    float c = dot(N, L);
+    float s = c > 0.0 ? sqrt(max(1.0 - c * c, 0.0)) : 1.0;
+    float tan_nl = min(s / max(c, 0.1), 10.0);
+#if SHADOWS != 0 && XSHADOWS
+    float texel = i == 0 ? u_shadow_texel : u_xshadow_texel[min(i, MAX_SHADOW_LIGHTS - 1)];
+#else
+    float texel = u_shadow_texel;
+#endif
+    g_receiver_bias = u_slope_bias * texel * tan_nl;
+    float v = light_visibility(i, P + N * (u_normal_offset * texel * s));
+    g_receiver_bias = 0.0;
+    return v;
 }

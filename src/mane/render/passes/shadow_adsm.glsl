@@ -5,7 +5,8 @@
 #if SHADOWS == 3
 uniform sampler2D u_adsm;
 uniform float u_adsm_spacing;   // m between fibres along the light (adsm_spacing * strand width)
-uniform float u_adsm_tau;       // optical depth of one fibre (shadow_density * strand_opacity)
+uniform float u_adsm_tau;       // optical depth of one fibre crossing: shadow_density * strand_opacity *
+                                // its coverage of a texel (base.adsm_coverage)
 
 // T at light depth z behind texel t's first occluder.
 float adsm_texel(ivec2 t, float z) {
@@ -17,9 +18,8 @@ float adsm_texel(ivec2 t, float z) {
 float adsm_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_adsm, 0);
-    ivec2 c = ivec2(floor(q.xy * vec2(size)));
     float tr;
-    PCF_MEAN(tr, c, size, t, adsm_texel(t, q.z))
+    PCF_BILINEAR(tr, q.xy * vec2(size) - 0.5, size, t, adsm_texel(t, q.z))
     return tr;
 }
 #endif

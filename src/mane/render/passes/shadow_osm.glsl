@@ -25,9 +25,8 @@ float osm_opacity(ivec2 t, float z) {
 float osm_transmittance(vec3 P) {
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_osm[0], 0);
-    ivec2 c = ivec2(floor(q.xy * vec2(size)));
     float tr;
-    PCF_MEAN(tr, c, size, t, exp(-u_shadow_density * osm_opacity(t, q.z - u_shadow_bias)))
+    PCF_BILINEAR(tr, q.xy * vec2(size) - 0.5, size, t, exp(-u_shadow_density * osm_opacity(t, q.z - u_shadow_bias)))
     return tr;
 }
 #endif

@@ -1,6 +1,7 @@
 // Shadow-map look-ups shared by light 0's maps (lighting.glsl, shadow_adsm.glsl, shadow_osm.glsl)
 // and the other shadow-casting lights: where a point falls in a light's map, and percentage-
-// closer filtering over the u_pcf x u_pcf texels around it (u_pcf: lighting.glsl's uniform).
+// closer filtering over a u_pcf x u_pcf texel box around it, bilinearly weighted (u_pcf:
+// lighting.glsl's uniform).
 
 // (uv in the light's map, depth along the light's forward in m) of P, for a light's
 // view-projection, eye and unit forward.
@@ -10,18 +11,26 @@ vec3 light_space(mat4 view_proj, vec3 eye, vec3 dir, vec3 P) {
     return vec3(uv, dot(P - eye, dir));
 }
 
-//     PCF_MEAN(RESULT, C, SIZE, T, EXPR)
-// sets RESULT to the mean of EXPR over the texels T = C + (x, y) of a SIZE-texel map, x and y
-// in [-(u_pcf / 2), u_pcf - 1 - u_pcf / 2] (row by row), each clamped to the map.
-#define PCF_MEAN(RESULT, C, SIZE, T, EXPR) {                                  \
-    int pcf_r_ = u_pcf / 2;                                                   \
-    int pcf_lo_ = -pcf_r_, pcf_hi_ = u_pcf - 1 - pcf_r_;                      \
-    float pcf_sum_ = 0.0, pcf_n_ = 0.0;                                       \
-    for (int pcf_y_ = pcf_lo_; pcf_y_ <= pcf_hi_; ++pcf_y_)                   \
-        for (int pcf_x_ = pcf_lo_; pcf_x_ <= pcf_hi_; ++pcf_x_) {             \
-            ivec2 T = clamp((C) + ivec2(pcf_x_, pcf_y_), ivec2(0), (SIZE) - 1); \
-            pcf_sum_ += (EXPR);                                               \
-            pcf_n_ += 1.0;                                                    \
+//     PCF_BILINEAR(RESULT, X, SIZE, T, EXPR)
+// sets RESULT to the mean of EXPR over a box of u_pcf x u_pcf texels centred on X (the point in
+// continuous texel units: texel (i, j)'s centre at (i, j), i.e. uv * size - 0.5), each texel
+// weighted by its overlap with the box: the (u_pcf + 1)^2 texels T the box touches (clamped to
+// the SIZE-texel map), the first and last row and column weighted 1 - f and f. With u_pcf = 1
+// it is bilinear interpolation of EXPR between the 4 nearest texels: the result moves
+// continuously with X, with no steps at texel edges (what a box of nearest texels shows).
+#define PCF_BILINEAR(RESULT, X, SIZE, T, EXPR) {                              \
+    vec2 pcf_s_ = (X) - 0.5 * float(u_pcf - 1);                               \
+    vec2 pcf_b_ = floor(pcf_s_);                                              \
+    vec2 pcf_f_ = pcf_s_ - pcf_b_;                                            \
+    ivec2 pcf_c_ = ivec2(pcf_b_);                                             \
+    float pcf_sum_ = 0.0;                                                     \
+    for (int pcf_j_ = 0; pcf_j_ <= u_pcf; ++pcf_j_) {                         \
+        float pcf_wy_ = pcf_j_ == 0 ? 1.0 - pcf_f_.y : (pcf_j_ == u_pcf ? pcf_f_.y : 1.0); \
+        for (int pcf_i_ = 0; pcf_i_ <= u_pcf; ++pcf_i_) {                     \
+            float pcf_wx_ = pcf_i_ == 0 ? 1.0 - pcf_f_.x : (pcf_i_ == u_pcf ? pcf_f_.x : 1.0); \
+            ivec2 T = clamp(pcf_c_ + ivec2(pcf_i_, pcf_j_), ivec2(0), (SIZE) - 1); \
+            pcf_sum_ += pcf_wx_ * pcf_wy_ * (EXPR);                           \
         }                                                                     \
-    RESULT = pcf_sum_ / pcf_n_;                                               \
+    }                                                                         \
+    RESULT = pcf_sum_ / float(u_pcf * u_pcf);                                 \
 }

@@ -8,7 +8,8 @@
 //     that guide's frame.
 // Then every strand: deviation with probability u_stray_fraction in one of five equiprobable
 // shapes (Vulkan hair after Rapp 2014; twins in mane/render/strand_math.py), render-time curl
-// (a helix around the curve), distance LOD (width multiplier, fading strands).
+// (a helix around the curve), distance LOD (width multiplier, fading strands). The tangent is
+// the strand's own (offsets and curl differentiated), tilted per strand by u_strand_spread.
 // Needs strand_common.glsl first.
 
 uniform float u_clump_radius;
@@ -21,6 +22,7 @@ uniform float u_width;
 uniform float u_width_tip;
 uniform float u_curl_radius;
 uniform float u_curl_frequency;
+uniform float u_strand_spread;   // radians: RMS tilt of a strand's direction (shading tangent)
 
 struct StrandVertex {
     vec3 pos;
@@ -44,6 +46,18 @@ float stray_profile(int k, float s) {
     else if (k == 3) v = 4.5 * pow(s, 10.0);   // a sharp exponential: flyaway tips
     else v = 4.0 * pow(s, 1.3);                // a gradual exponential
     return v / 4.5;
+}
+
+// How far a strand sits from its guide at s: the clump disc's radius (quadratic taper: root
+// fraction -> 1 (mid) -> tip fraction) plus a stray's deviation.
+float offset_radius(float s, bool disc, bool stray, float r_radius, float r_shape) {
+    float radius = 0.0;
+    if (disc) {
+        float profile = mix(mix(u_clump_root, 1.0, s), mix(1.0, u_clump_tip, s), s);
+        radius = u_clump_radius * sqrt(r_radius) * profile;
+    }
+    if (stray) radius += u_clump_radius * u_stray_amount * stray_profile(min(int(r_shape * 5.0), 4), s);
+    return radius;
 }
 
 vec3 frame_normal(vec3 n, vec3 T) {
@@ -121,20 +135,24 @@ StrandVertex strand_eval(int guide, int seg, float u, int strand, float lod_coun
     float strand_rand = rand01(seed);
     float r_curl = rand01(seed);
     float r_lod = rand01(seed);
+    float r_tilt = rand01(seed);
+    float r_tilt_dir = rand01(seed);
 
     n = frame_normal(n, T);
     vec3 b = cross(T, n);
-    float radius = 0.0;
-    if (disc) {
-        // quadratic taper: root fraction -> 1 (mid) -> tip fraction
-        float profile = mix(mix(u_clump_root, 1.0, s), mix(1.0, u_clump_tip, s), s);
-        radius = u_clump_radius * sqrt(r_radius) * profile;
-    }
     bool keep = !(MULTI == 0 && strand == 0 && u_keep_guide != 0);
-    if (keep && r_stray < u_stray_fraction)
-        radius += u_clump_radius * u_stray_amount * stray_profile(min(int(r_shape * 5.0), 4), s);
+    bool stray = keep && r_stray < u_stray_fraction;
+    float radius = offset_radius(s, disc, stray, r_radius, r_shape);
     float angle = 6.28318530718 * r_angle;
-    P += radius * (cos(angle) * n + sin(angle) * b);
+    vec3 dir = cos(angle) * n + sin(angle) * b;
+    P += radius * dir;
+    // the strand's own direction, not its guide's: the guide's derivative plus the change of the
+    // offset along the strand (the clump's taper, a stray leaving its clump)
+    const float ds = 1e-3;
+    float dr = (offset_radius(s + ds, disc, stray, r_radius, r_shape)
+              - offset_radius(s - ds, disc, stray, r_radius, r_shape)) / (2.0 * ds);
+    vec3 dPds = D * float(u_n - 1) + dr * dir;
+    if (dot(dPds, dPds) > 1e-20) T = normalize(dPds);
 
     if (u_curl_radius > 0.0) {
         // a helix around the curve: radius ramps in over the first 10% (the root stays put)
@@ -145,8 +163,18 @@ StrandVertex strand_eval(int guide, int seg, float u, int strand, float lod_coun
         vec3 radial = cos(th) * n + sin(th) * b;
         vec3 around = -sin(th) * n + cos(th) * b;
         P += u_curl_radius * ramp * radial;
-        vec3 dPds = D * float(u_n - 1) + u_curl_radius * (dramp * radial + ramp * 6.28318530718 * u_curl_frequency * around);
+        dPds += u_curl_radius * (dramp * radial + ramp * 6.28318530718 * u_curl_frequency * around);
         if (dot(dPds, dPds) > 1e-20) T = normalize(dPds);
+    }
+    if (keep && u_strand_spread > 0.0) {
+        // fibres of a clump are not parallel copies: each strand's direction tilts from its
+        // curve's by a random angle (Rayleigh, RMS u_strand_spread radians) in a random
+        // direction, so that a clump's strands catch the highlight at different places along
+        // it instead of all at once as one flat reflector
+        float tilt = u_strand_spread * sqrt(-log(max(1.0 - r_tilt, 1e-7)));
+        float phi = 6.28318530718 * (r_tilt_dir + 2.0 * s);   // turning twice along the strand
+        vec3 nt = frame_normal(n, T);
+        T = normalize(T + tan(min(tilt, 1.2)) * (cos(phi) * nt + sin(phi) * cross(T, nt)));
     }
 
     float lod_alpha = 1.0;
