@@ -104,9 +104,9 @@ def test_pbd_holds_sintel_lengths_with_a_nodding_head(gl, shared_data):
     from mane.io import load, load_mesh
     from mane.sim import MeshCollider
 
-    groom = load(shared_data / "tressfx/sintel_hair.tfx").scaled(0.01)
+    groom = load(shared_data / "tressfx/sintel_hair.tfx")   # TressFX: centimetres, read as metres
     groom = groom.subset(np.arange(0, groom.num_strands, 4))
-    head = load_mesh(shared_data / "heads/sintel.obj").transformed(np.diag([0.01, 0.01, 0.01, 1.0]))
+    head = load_mesh(shared_data / "heads/sintel.obj", like=groom)   # her bust, in the groom's frame
     lo, hi = head.bbox()
     pivot = ((lo[0] + hi[0]) / 2, lo[1], (lo[2] + hi[2]) / 2)
     settings = SimSettings(length_method="pbd", bending_stiffness=0.2, local_shape_stiffness=0.05, drag=0.5)

@@ -1,9 +1,9 @@
 """mane: real-time hair simulation and rendering on the GPU.
 
     import mane
-    groom = mane.load("hair.tfx")        # any supported hair file
+    groom = mane.load("hair.tfx")        # any supported hair file, in metres, Y up
     print(groom.stats())
-    mane.save(groom.scaled(0.01), "hair.usda")
+    mane.save(groom, "hair.usda")        # declares metres and Y up
     img = mane.render_image(groom)       # (H, W, 3) uint8; as_pil=True: a PIL image for notebooks
 """
 from __future__ import annotations

@@ -30,7 +30,7 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
         camera = camera if camera is not None else r.default_camera()
         view = r.camera_view(camera)
     if max_segments is None:
-        max_segments = r.rendered_segments
+        max_segments = r.segment_capacity
     ctx = r.ctx
     r.strands.update_frames()
     prog = hair_program(r, PASS_SHADOW_DEPTH, capture=True)

@@ -521,6 +521,20 @@ class Renderer:
 
             return lod_segments_drawn(st.read_positions()[:, 0], self.lod_eye, self.settings, st.points_per_strand,
                                       per, tessellation=not pulls(self))
+        return self.segment_capacity
+
+    @property
+    def segment_capacity(self) -> int:
+        """The most segments one frame can draw (with the LOD: every strand at its nearest
+        level, fractional_odd_spacing's count): what capture buffers are sized for."""
+        if self.strands is None:
+            return 0
+        st = self.strands
+        per = subdivisions(self.settings, st.points_per_strand)
+        if self.settings.lod:
+            from .strand_math import lod_level, odd_spacing_count
+
+            per = int(odd_spacing_count(lod_level(0.0, self.settings.replace(lod=False), st.points_per_strand)))
         return self.rendered_strands * (st.points_per_strand - 1) * per
 
     def stats(self) -> dict:
