@@ -160,7 +160,7 @@ def run(args) -> int:
     renderer.set_head(head)
     w, h = settings.size
     lo, hi = renderer.framing_bbox()
-    camera = parse_camera(args.camera, lo, hi, w / h)
+    camera = parse_camera(args.camera, lo, hi, w / h, points=renderer.framing_points())
     turn = args.turntable if args.turntable is not None else (0.0 if args.simulate else 360.0)
 
     writer = None

@@ -104,7 +104,7 @@ def head_sdf(p: np.ndarray) -> np.ndarray:
     # nose: bridge, tip, wings (alae)
     d = _smin(d, _capsule(p, (0.0, 0.012, 0.087), (0.0, -0.028, 0.110), 0.0068), 0.010)
     d = _smin(d, _sphere(p, (0.0, -0.030, 0.108), 0.0085), 0.006)
-    d = _smin(d, _ellipsoid(m, (0.0105, -0.035, 0.097), (0.0070, 0.0060, 0.0075)), 0.005)
+    d = _smin(d, _ellipsoid(m, (0.0095, -0.034, 0.094), (0.0060, 0.0050, 0.0065)), 0.006)
     # mouth: the muzzle under the nose, upper and lower lips, the line between them
     d = _smin(d, _ellipsoid(p, (0.0, -0.058, 0.074), (0.028, 0.024, 0.020)), 0.012)
     d = _smin(d, _ellipsoid(p, (0.0, -0.0580, 0.0880), (0.0230, 0.0075, 0.0100)), 0.010)  # upper lip

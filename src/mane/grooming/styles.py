@@ -122,7 +122,7 @@ PRESETS: dict[str, StyleSettings] = {
                            droop=0.6, clump_strength=0.2, **{**_PARTED, "parting": 0.0}),
     "short": StyleSettings(kind="straight", length=0.05, droop=0.4, clump_strength=0.1, **_PARTED),
     "long": StyleSettings(kind="straight", length=0.45, length_variation=0.1, clump_strength=0.45, **_PARTED),
-    "long_wavy": StyleSettings(kind="wavy", length=0.32, length_variation=0.1, wave_amplitude=0.01,
+    "long_wavy": StyleSettings(kind="wavy", length=0.26, length_variation=0.1, wave_amplitude=0.01,
                                wave_length=0.08, clump_strength=0.35, **_PARTED),
 }
 

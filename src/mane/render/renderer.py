@@ -322,9 +322,25 @@ class Renderer:
                 lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
         return lo.astype(float), hi.astype(float)
 
+    def framing_points(self, max_points: int = 20000) -> np.ndarray | None:
+        """What the default camera fits: points of the hair (at most ``max_points``) and the
+        head's vertices inside ``framing_bbox`` (head and shoulders down to the hair's ends)."""
+        if self.strands is None:
+            return None
+        p = self.strands.read_positions()[..., :3].reshape(-1, 3).astype(np.float64)
+        if len(p) > max_points:
+            p = p[np.linspace(0, len(p) - 1, max_points).astype(np.int64)]
+        lo, hi = self.framing_bbox()
+        if self.head is not None and self.settings.draw_head:
+            v = self.head.vertices.astype(np.float64)
+            v = v[np.all((v >= lo) & (v <= hi), axis=1)]
+            p = np.concatenate([p, v])
+        return p
+
     def default_camera(self, azimuth: float = 25.0, elevation: float = 12.0, **kw) -> Camera:
         lo, hi = self.framing_bbox()
         w, h = self.settings.size
+        kw.setdefault("points", self.framing_points())
         return Camera.framing(lo, hi, azimuth=azimuth, elevation=elevation, aspect=w / h, **kw)
 
     # ------------------------------------------------------------------ targets
