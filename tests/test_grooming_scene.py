@@ -108,4 +108,4 @@ def test_framing_points_fill_the_frame():
         assert span.max() >= 0.85          # tight: ~1/1.05 of the frame, less perspective
         boxed = Camera.framing(lo, hi, azimuth=az, elevation=10.0, aspect=aspect, margin=1.05)
         qb = np.c_[pts, np.ones(len(pts))] @ boxed.view_projection(aspect).T
-        assert span.max() > ((qb[:, :2] / qb[:, 3:4]).ptp(axis=0) / 2).max()  # tighter than the box
+        assert span.max() > (np.ptp(qb[:, :2] / qb[:, 3:4], axis=0) / 2).max()  # tighter than the box
