@@ -1,22 +1,29 @@
 """The procedural default head: a bust (head, neck, shoulders) made by code, with a painted scalp.
 
 The shape is a signed distance field: ellipsoids, capsules and spheres joined with smooth
-minima (cranium, face, jaw, chin, brow, cheekbones, nose, lips, eye sockets, ears, neck,
-trapezius, deltoids, chest), cut flat below the chest. The mesh is an icosphere whose every
-vertex is sent along a ray, from a centre that slides down the body's axis, to the first point
-where the field crosses zero; a few rounds of Laplacian relaxation, each followed by a Newton
-projection back onto the surface, even out the triangles. Because the mesh keeps the sphere's
-connectivity it is closed, manifold and wound counter-clockwise seen from outside.
+minima: cranium, forehead, midface, a jaw line tapering to the chin, cheekbones, cheeks, brow
+ridge, eye sockets with eyeballs and upper lids, the nose's bridge, tip and wings, a muzzle
+with upper and lower lips, ears with a hollow, a neck with its sternocleidomastoids,
+collarbones, trapezius, deltoids and chest, cut flat below the chest. The mesh is an icosphere
+(built here) whose every vertex is sent along a ray, from a centre that slides down the body's
+axis, to the first point where the field crosses zero (sphere tracing, then bisection); a few
+rounds of tangential Laplacian relaxation, each followed by a Newton step back onto the
+surface, even out the triangles (the face keeps its ray-cast vertices, which hold the nose).
+Because the mesh keeps the sphere's connectivity it is closed, manifold and wound
+counter-clockwise seen from outside. Shading normals come from the field's gradient. A built
+bust is cached on disk (``~/.cache/mane``, keyed by a hash of this file; ``MANE_NO_CACHE=1``
+turns it off): the first build takes seconds, later ones a fraction of a second.
 
 Frame: metres, Y up, right-handed, the face looks toward +Z; the origin lies at the centre of
-the head (about at the height of the eyes, midway between the ears). The head is about 0.235 m
-from chin to crown and the shoulders about 0.46 m across.
+the head (at the height of the eyes, midway between the ears). Head breadth 14.8 cm, length
+(brow to back) 20.4 cm, chin to vertex 23.2 cm, shoulders about 0.42 m across.
 
 The scalp is painted into the vertex colours: ``colors[:, 0]`` (red) is the scalp weight in
-[0, 1] with a soft, natural hairline (forehead, temples, sideburns in front of the ears, above
-the ears, down to the nape); green and blue hold a skin tone scaled by ``1 - weight`` so that a
-renderer that draws vertex colours shows the scalp. The same weight is kept as
-``vertex_attributes['scalp']``.
+[0, 1] with a soft, natural hairline (forehead 4.6 cm above the brow, temples, sideburns in
+front of the ears, above the ears, down to the nape; about 620 cm² of scalp); green and blue
+hold a skin tone scaled by ``1 - weight`` so that a renderer that draws vertex colours shows
+the scalp. The same weight is kept as ``vertex_attributes['scalp']``. ``FACE_BOX`` is the
+space in front of the eyes, nose and mouth that grown hair keeps out of.
 """
 from __future__ import annotations
 
@@ -92,7 +99,7 @@ def head_sdf(p: np.ndarray) -> np.ndarray:
     d = _smin(d, _ellipsoid(p, (0.0, 0.035, 0.030), (0.066, 0.062, 0.060)), 0.02)      # forehead
     # face: midface and the mandible (a tapered jaw, its angles and the chin)
     d = _smin(d, _ellipsoid(p, (0.0, -0.030, 0.028), (0.058, 0.070, 0.062)), 0.02)     # midface
-    d = _smin(d, _capsule(m, (0.052, -0.052, -0.008), (0.020, -0.100, 0.058), 0.013), 0.022)  # jaw line
+    d = _smin(d, _capsule(m, (0.052, -0.052, -0.008), (0.020, -0.098, 0.056), 0.013), 0.026)  # jaw line
     d = _smin(d, _ellipsoid(p, (0.0, -0.097, 0.062), (0.022, 0.020, 0.017)), 0.020)    # chin
     d = _smin(d, _ellipsoid(m, (0.042, -0.012, 0.060), (0.022, 0.016, 0.022)), 0.018)  # cheekbones
     d = _smin(d, _ellipsoid(m, (0.036, -0.048, 0.052), (0.026, 0.028, 0.024)), 0.02)  # cheeks
@@ -103,19 +110,18 @@ def head_sdf(p: np.ndarray) -> np.ndarray:
     d = _smin(d, _ellipsoid(m, (0.032, 0.0050, 0.074), (0.0130, 0.0070, 0.0090)), 0.005)  # upper lid
     # nose: bridge, tip, wings (alae)
     d = _smin(d, _capsule(p, (0.0, 0.012, 0.087), (0.0, -0.028, 0.110), 0.0068), 0.010)
-    d = _smin(d, _sphere(p, (0.0, -0.030, 0.108), 0.0085), 0.006)
+    d = _smin(d, _sphere(p, (0.0, -0.029, 0.106), 0.0095), 0.008)
     d = _smin(d, _ellipsoid(m, (0.0095, -0.034, 0.094), (0.0060, 0.0050, 0.0065)), 0.006)
     # mouth: the muzzle under the nose, upper and lower lips, the line between them
     d = _smin(d, _ellipsoid(p, (0.0, -0.058, 0.074), (0.028, 0.024, 0.020)), 0.012)
     d = _smin(d, _ellipsoid(p, (0.0, -0.0580, 0.0880), (0.0230, 0.0075, 0.0100)), 0.010)  # upper lip
     d = _smin(d, _ellipsoid(p, (0.0, -0.0710, 0.0860), (0.0200, 0.0080, 0.0100)), 0.010)  # lower lip
-    d = _smax(d, -_ellipsoid(p, (0.0, -0.0648, 0.1010), (0.0190, 0.0030, 0.0095)), 0.004)  # lip line
     # ears: a flat shell leaning back, with a hollow (concha)
     ear = _ellipsoid(m, (0.074, -0.012, -0.012), (0.012, 0.030, 0.018))
     ear = _smax(ear, -_ellipsoid(m, (0.086, -0.016, -0.008), (0.006, 0.016, 0.009)), 0.003)
     d = _smin(d, ear, 0.006)
     # neck with its sternocleidomastoids, then shoulders and chest
-    d = _smin(d, _capsule(p, (0.0, -0.050, -0.024), (0.0, -0.200, -0.010), 0.052), 0.03)
+    d = _smin(d, _capsule(p, (0.0, -0.050, -0.024), (0.0, -0.200, -0.010), 0.052), 0.04)
     d = _smin(d, _capsule(m, (0.045, -0.060, -0.030), (0.014, -0.205, 0.030), 0.012), 0.02)
     body = _capsule(m, (0.030, -0.175, -0.030), (0.150, -0.220, -0.035), 0.040)  # trapezius
     body = _smin(body, _ellipsoid(m, (0.165, -0.255, -0.030), (0.045, 0.060, 0.050)), 0.04)  # deltoids
@@ -142,10 +148,10 @@ def _sdf_gradient(p: np.ndarray, h: float = 1e-5, f0: np.ndarray | None = None) 
 # Stages of the ray parameter u (degrees, 0 at the crown, 180 under the base): the head seen
 # from its centre, the jaw and neck from a centre sliding down to the chest, the base.
 _C_HEAD = np.array([0.0, 0.0, 0.0])
-_C_JAW = np.array([0.0, -0.14, -0.02])
+_C_JAW = np.array([0.0, -0.13, 0.0])
 _C_CHEST = np.array([0.0, -0.34, -0.028])
 _U_A, _U_B, _U_C = 100.0, 112.0, 150.0
-_ALPHA_A = 140.0  # the head stage's last ray angle from +Y, degrees
+_ALPHA_A = 150.0  # the head stage's last ray angle from +Y, degrees
 _HEAD_DENSITY = 5.0  # relative vertex density on the head against the body
 
 
@@ -235,7 +241,7 @@ def _relax(v: np.ndarray, faces: np.ndarray, rounds: int, strength: float = 0.6)
     n = len(v)
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     deg = np.bincount(edges[:, 0], minlength=n).astype(np.float64)
-    # The face keeps its ray-cast vertices: relaxing would fold them over the nose and lips.
+    # The face keeps its ray-cast vertices: relaxing would round the nose off.
     keep = 1.0 - _smoothstep(0.040, 0.065, v[:, 2]) * _smoothstep(-0.125, -0.100, v[:, 1])
     for _ in range(rounds):
         acc = np.zeros_like(v)
@@ -306,8 +312,48 @@ def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
     return v, f
 
 
+def _cache_file(subdivisions: int, relax_rounds: int):
+    """Where a built bust is kept between runs (None when caching is off: MANE_NO_CACHE=1).
+    The name carries a hash of this file, so any change to the shape builds afresh."""
+    import hashlib
+    import os
+    from pathlib import Path
+
+    if os.environ.get("MANE_NO_CACHE"):
+        return None
+    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mane"
+    digest = hashlib.sha1(Path(__file__).read_bytes()).hexdigest()[:12]
+    return root / f"default_head_{digest}_{subdivisions}_{relax_rounds}.npz"
+
+
 @lru_cache(maxsize=4)
 def _build(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bust's vertices, faces and normals: from the on-disk cache, or built (seconds) and
+    cached (then a fraction of a second)."""
+    import os
+
+    path = _cache_file(subdivisions, relax_rounds)
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as z:
+                return z["vertices"], z["faces"], z["normals"]
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache file: build afresh
+    built = _build_uncached(subdivisions, relax_rounds)
+    if path is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+            np.savez(tmp, vertices=built[0], faces=built[1], normals=built[2])
+            os.replace(tmp, path)
+        except OSError:
+            pass  # a read-only home: build every time
+    return built
+
+
+def _build_uncached(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if not 0 <= subdivisions <= 7:
+        raise GroomError(f"head subdivisions must be in 0..7, got {subdivisions}")
     unit, faces = icosphere(subdivisions)
     # Equal sphere area -> equal (density-weighted) bust area, ring by ring.
     u_grid, frac = _area_map()

@@ -15,8 +15,9 @@ def _head(subdivisions: int):
     return default_head(subdivisions)
 
 
-def default_head(subdivisions: int = 4):
-    """The default bust (cached per subdivision level; 4 gives 5,120 triangles)."""
+def default_head(subdivisions: int = 5):
+    """The default bust (cached per subdivision level; 5 gives 20,480 triangles: enough for the
+    lips, nose and eyes)."""
     return _head(int(subdivisions))
 
 
@@ -29,7 +30,7 @@ def default_groom(head=None, num_guides: int = 600, points: int = 16, style: str
     return grow(head, num_strands=num_guides, style=style, points_per_strand=points, seed=seed)
 
 
-def default_scene(num_guides: int = 600, points: int = 16, subdivisions: int = 4):
+def default_scene(num_guides: int = 600, points: int = 16, subdivisions: int = 5):
     """(groom, head) of the procedural default."""
     head = default_head(subdivisions)
     return default_groom(head, num_guides, points), head
