@@ -10,9 +10,14 @@ points of a strand):
 2. Waves and curls are offsets in a frame parallel-transported along the centreline: a planar
    sine (``wave_amplitude``, ``wave_length``) or a helix (``curl_radius``, ``curl_pitch``)
    around the centreline, faded in over ``curl_start`` from the root.
-3. Clumps: follicles are gathered around clump centres about ``clump_radius`` apart; every
+3. Clumps: follicles are gathered around clump centres about ``clump_radius`` apart; a clump
+   waves or curls as one lock (its strands take the centre strand's phase and side), and every
    point is pulled toward the same point of its clump's centre strand by
    ``clump_strength × (t ** clump_taper)``, t being 0 at the root and 1 at the tip.
+
+With a ``parting`` the root direction is combed away from the parting line, back over the
+front and down behind the crown (``parted_comb``), and a strand that would cross ``face_box``
+(in front of the eyes, nose and mouth) ends just before it: hair frames the face.
 
 A last pass pushes every point but the roots out of the mesh again.
 """
@@ -122,8 +127,8 @@ PRESETS: dict[str, StyleSettings] = {
                            droop=0.6, clump_strength=0.2, **{**_PARTED, "parting": 0.0}),
     "short": StyleSettings(kind="straight", length=0.05, droop=0.4, clump_strength=0.1, **_PARTED),
     "long": StyleSettings(kind="straight", length=0.45, length_variation=0.1, clump_strength=0.45, **_PARTED),
-    "long_wavy": StyleSettings(kind="wavy", length=0.26, length_variation=0.1, wave_amplitude=0.01,
-                               wave_length=0.08, clump_strength=0.35, **_PARTED),
+    "long_wavy": StyleSettings(kind="wavy", length=0.26, length_variation=0.1, wave_amplitude=0.009,
+                               wave_length=0.09, clump_radius=0.015, clump_strength=0.35, **_PARTED),
 }
 
 
@@ -288,24 +293,26 @@ def grow_strands(fol: Follicles, mesh: Mesh, st: StyleSettings, points_per_stran
     seg = axial / (n - 1)
     p = _centrelines(fol, seg, n, st, collider, rng)
     s = seg[:, None] * np.arange(n)[None, :]  # axial arc length at every point
+    leader = np.arange(S)
+    if st.clump_radius > 0 and S > 1:  # clumps wave together even when not pulled in
+        _, leader = _clump_centres(fol.positions, st.clump_radius)
     if st.kind in ("wavy", "curly"):
+        # a clump waves (or curls) as one lock: its strands take their leader's phase and side
         _, u, v = transported_frames(p, fol.tangents)
         ramp = _smoothstep01(s / st.curl_start) if st.curl_start > 0 else np.ones_like(s)
-        phase = rng.random(S)[:, None] * 2 * np.pi
+        phase = (rng.random(S) * 2 * np.pi)[leader][:, None]
         if st.kind == "wavy":
-            psi = rng.random(S)[:, None, None] * 2 * np.pi
+            psi = (rng.random(S) * 2 * np.pi)[leader][:, None, None]
             side = np.cos(psi) * u + np.sin(psi) * v
             amp = st.wave_amplitude * ramp * np.sin(2 * np.pi * s / st.wave_length + phase)
             p = p + amp[..., None] * side
         else:
-            hand = np.where(rng.random(S) < 0.5, -1.0, 1.0)[:, None]
+            hand = np.where(rng.random(S) < 0.5, -1.0, 1.0)[leader][:, None]
             theta = hand * (2 * np.pi * s / st.curl_pitch) + phase
             r = st.curl_radius * ramp
             # centred on the axis: the root sits on the follicle because the ramp is 0 there
             p = p + (r * np.cos(theta))[..., None] * u + (r * np.sin(theta))[..., None] * v
-    leader = np.arange(S)
-    if st.clump_radius > 0 and st.clump_strength > 0 and S > 1:
-        _, leader = _clump_centres(fol.positions, st.clump_radius)
+    if st.clump_strength > 0 and S > 1:
         t = np.linspace(0.0, 1.0, n)[None, :, None]
         pull = st.clump_strength * t ** st.clump_taper
         p = p + pull * (p[leader] - p)

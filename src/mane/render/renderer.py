@@ -85,6 +85,10 @@ class FramesPass(Pass):
         self.renderer._frames_dirty = not self.renderer.strands.owns_positions
 
 
+DEFAULT_HEAD_FRAME_FLOOR = -0.30
+"""Lowest height (m) the default camera frames on the default bust (mid-chest)."""
+
+
 class Renderer:
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
@@ -317,6 +321,10 @@ class Renderer:
         if self.head is not None and self.settings.draw_head:
             v = self.head.vertices
             floor = lo[1] - 0.04 * (hi[1] - lo[1])
+            if str(getattr(self.head, "metadata", {}).get("source", "")).endswith("default_head"):
+                # the default bust: head and shoulders, down to the middle of the chest
+                floor = max(floor, DEFAULT_HEAD_FRAME_FLOOR)
+                lo[1] = max(lo[1], floor)
             v = v[v[:, 1] >= floor]
             if len(v):
                 lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
@@ -331,6 +339,7 @@ class Renderer:
         if len(p) > max_points:
             p = p[np.linspace(0, len(p) - 1, max_points).astype(np.int64)]
         lo, hi = self.framing_bbox()
+        p = p[p[:, 1] >= lo[1]]
         if self.head is not None and self.settings.draw_head:
             v = self.head.vertices.astype(np.float64)
             v = v[np.all((v >= lo) & (v <= hi), axis=1)]
