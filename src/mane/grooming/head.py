@@ -108,11 +108,12 @@ def head_sdf(p: np.ndarray) -> np.ndarray:
     d = _smax(d, -_ellipsoid(m, (0.032, 0.003, 0.090), (0.018, 0.012, 0.010)), 0.008)
     d = _smin(d, _sphere(m, (0.032, 0.000, 0.070), 0.0120), 0.004)
     d = _smin(d, _ellipsoid(m, (0.032, 0.0050, 0.074), (0.0130, 0.0070, 0.0090)), 0.005)  # upper lid
-    # nose: bridge, tip, wings (alae)
-    d = _smin(d, _capsule(p, (0.0, 0.012, 0.087), (0.0, -0.028, 0.110), 0.0068), 0.010)
-    d = _smin(d, _sphere(p, (0.0, -0.029, 0.106), 0.0095), 0.008)
-    d = _smin(d, _ellipsoid(m, (0.0095, -0.034, 0.094), (0.0060, 0.0050, 0.0065)), 0.006)
-    # mouth: the muzzle under the nose, upper and lower lips, the line between them
+    # nose: body, bridge, tip, wings (alae) blended into one
+    d = _smin(d, _ellipsoid(p, (0.0, -0.020, 0.090), (0.012, 0.022, 0.013)), 0.012)
+    d = _smin(d, _capsule(p, (0.0, 0.012, 0.087), (0.0, -0.026, 0.108), 0.0062), 0.012)
+    d = _smin(d, _sphere(p, (0.0, -0.029, 0.105), 0.0090), 0.010)
+    d = _smin(d, _ellipsoid(m, (0.0095, -0.033, 0.095), (0.0065, 0.0055, 0.0070)), 0.010)
+    # mouth: the muzzle under the nose, upper and lower lips
     d = _smin(d, _ellipsoid(p, (0.0, -0.058, 0.074), (0.028, 0.024, 0.020)), 0.012)
     d = _smin(d, _ellipsoid(p, (0.0, -0.0580, 0.0880), (0.0230, 0.0075, 0.0100)), 0.010)  # upper lip
     d = _smin(d, _ellipsoid(p, (0.0, -0.0710, 0.0860), (0.0200, 0.0080, 0.0100)), 0.010)  # lower lip
