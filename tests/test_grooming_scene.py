@@ -109,3 +109,16 @@ def test_framing_points_fill_the_frame():
         boxed = Camera.framing(lo, hi, azimuth=az, elevation=10.0, aspect=aspect, margin=1.05)
         qb = np.c_[pts, np.ones(len(pts))] @ boxed.view_projection(aspect).T
         assert span.max() > (np.ptp(qb[:, :2] / qb[:, 3:4], axis=0) / 2).max()  # tighter than the box
+
+
+def test_the_bob_has_a_fringe_that_stops_above_the_eyes(head):
+    """Strands from the forehead hang in front of it and end above the face box (the brows)."""
+    g = grow(head, 800, "bob", 24, seed=2)
+    roots, tips = g.roots.astype(np.float64), g.tips.astype(np.float64)
+    lo, hi = np.asarray(FACE_BOX[0]), np.asarray(FACE_BOX[1])
+    front = (roots[:, 2] > 0.05) & (np.abs(roots[:, 0]) < 0.03)
+    assert front.sum() >= 5
+    fringe = tips[front]
+    assert np.all(fringe[:, 2] > 0.06)          # in front of the forehead, not combed back
+    assert np.all(fringe[:, 1] > hi[1])         # above the eyes
+    assert np.median(fringe[:, 1]) < roots[front, 1].min()  # hanging down from the hairline

@@ -61,6 +61,9 @@ class StyleSettings:
     """X (m, head frame: Y up, face toward +Z) of a parting line over the top of the head, or
     None. With a parting, hair is combed away from it, sideways and back over the top, back and
     down behind the crown, and back past the ears on the sides: off the face."""
+    fringe: bool = False
+    """With a parting: hair rooted over the forehead is combed forward and down instead, as a
+    fringe (bangs), which ``face_box`` cuts off above the eyes."""
     face_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
     """An (lo, hi) box in front of the face (eyes, nose, mouth) that no hair may cross: a strand
     that would enter it is cut ``face_clearance`` before it does (a fringe that stops above the
@@ -127,6 +130,8 @@ PRESETS: dict[str, StyleSettings] = {
                            droop=0.6, clump_strength=0.2, **{**_PARTED, "parting": 0.0}),
     "short": StyleSettings(kind="straight", length=0.05, droop=0.4, clump_strength=0.1, **_PARTED),
     "long": StyleSettings(kind="straight", length=0.45, length_variation=0.1, clump_strength=0.45, **_PARTED),
+    "bob": StyleSettings(kind="straight", length=0.16, length_variation=0.08,
+                         clump_strength=0.3, fringe=True, **{**_PARTED, "parting": 0.0, "droop_length": 0.04}),
     "long_wavy": StyleSettings(kind="wavy", length=0.26, length_variation=0.1, wave_amplitude=0.009,
                                wave_length=0.09, clump_radius=0.015, clump_strength=0.35, **_PARTED),
 }
@@ -198,10 +203,12 @@ def transported_frames(p: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.n
 # ---------------------------------------------------------------------------- growth
 
 
-def parted_comb(positions: np.ndarray, parting: float, rng: np.random.Generator | None = None) -> np.ndarray:
+def parted_comb(positions: np.ndarray, parting: float, rng: np.random.Generator | None = None,
+                fringe: bool = False) -> np.ndarray:
     """(N, 3) unit combing directions (before projection onto the surface) for hair parted at
     x = ``parting`` (head frame: Y up, face toward +Z): away from the parting and back over
-    the top and the front, back and down behind the crown."""
+    the top and the front, back and down behind the crown; with ``fringe`` the roots over the
+    forehead (in front of z = 0.03 m, within 5 cm of the midline) comb forward instead."""
     p = np.asarray(positions, dtype=np.float64)
     off = p[:, 0] - parting
     side = np.sign(off)
@@ -211,9 +218,14 @@ def parted_comb(positions: np.ndarray, parting: float, rng: np.random.Generator 
     # sideways at the parting, more and more back away from it (a natural swirl off the face)
     away = _smoothstep01(np.abs(off) / 0.05)
     front = np.stack([side * (1.0 - 0.5 * away), np.zeros_like(off), -(0.6 + 0.6 * away)], axis=1)
-    behind = np.stack([0.25 * side, -np.ones_like(off), -0.35 * np.ones_like(off)], axis=1)
+    behind = np.stack([0.08 * side, -np.ones_like(off), -0.35 * np.ones_like(off)], axis=1)
     w = _smoothstep01((0.02 - p[:, 2]) / 0.08)[:, None]  # 0 at the front, 1 behind the crown
-    return _normalize((1.0 - w) * _normalize(front) + w * _normalize(behind))
+    comb = (1.0 - w) * _normalize(front) + w * _normalize(behind)
+    if fringe:
+        f = (_smoothstep01((p[:, 2] - 0.03) / 0.02) * _smoothstep01((0.05 - np.abs(p[:, 0])) / 0.015))[:, None]
+        forward = np.stack([0.15 * np.sign(p[:, 0]), np.zeros(len(p)), np.ones(len(p))], axis=1)
+        comb = (1.0 - f) * _normalize(comb) + f * _normalize(forward)
+    return _normalize(comb)
 
 
 def trim_before_box(p: np.ndarray, lo, hi, clearance: float) -> tuple[np.ndarray, np.ndarray]:
@@ -250,7 +262,7 @@ def _centrelines(fol: Follicles, seg: np.ndarray, n: int, st: StyleSettings,
         if st.parting is None:
             w = np.broadcast_to(_normalize(np.asarray(st.sweep_direction, dtype=np.float64)), (S, 3))
         else:
-            w = parted_comb(fol.positions, st.parting, rng)
+            w = parted_comb(fol.positions, st.parting, rng, st.fringe)
         w = w - (fol.normals * w).sum(axis=1, keepdims=True) * fol.normals  # along the surface
         d = _normalize(d + st.sweep * _normalize(w))
     p = np.empty((S, n, 3))
