@@ -312,7 +312,8 @@ class Renderer:
         return 0.5 * (lo + hi)
 
     def framing_bbox(self) -> tuple[np.ndarray, np.ndarray]:
-        """What the default camera frames: the hair, and the head down to a little below it."""
+        """What the default camera frames: the hair, and the head down to a little below it (on
+        the default bust no lower than mid-chest: a head-and-shoulders frame)."""
         if self.strands is None:
             return self.scene_bbox()
         lo, hi = self.strands.bbox()
