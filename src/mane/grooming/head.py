@@ -236,14 +236,16 @@ def _project(v: np.ndarray, rounds: int = 2) -> np.ndarray:
     return v
 
 
-def _relax(v: np.ndarray, faces: np.ndarray, rounds: int, strength: float = 0.6) -> np.ndarray:
+def _relax(v: np.ndarray, faces: np.ndarray, rounds: int, strength: float = 0.6,
+           hold_face: float = 1.0) -> np.ndarray:
     """Tangential Laplacian smoothing, each round followed by a Newton step back onto the
-    surface (with the round's gradient)."""
+    surface (with the round's gradient). ``hold_face`` (0..1): how firmly the face keeps its
+    ray-cast vertices (1: fixed, which keeps the nose sharp on a fine mesh; a coarse mesh is
+    better relaxed, its few face vertices zigzag otherwise)."""
     n = len(v)
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     deg = np.bincount(edges[:, 0], minlength=n).astype(np.float64)
-    # The face keeps its ray-cast vertices: relaxing would round the nose off.
-    keep = 1.0 - _smoothstep(0.040, 0.065, v[:, 2]) * _smoothstep(-0.125, -0.100, v[:, 1])
+    keep = 1.0 - hold_face * _smoothstep(0.040, 0.065, v[:, 2]) * _smoothstep(-0.125, -0.100, v[:, 1])
     for _ in range(rounds):
         acc = np.zeros_like(v)
         np.add.at(acc, edges[:, 0], v[edges[:, 1]])
@@ -363,7 +365,7 @@ def _build_uncached(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, n
     xz = unit[:, [0, 2]]
     xz = xz / np.maximum(np.linalg.norm(xz, axis=1, keepdims=True), 1e-12)
     v = _surface(u, xz)
-    v = _relax(v, faces, relax_rounds)
+    v = _relax(v, faces, relax_rounds, hold_face=1.0 if subdivisions >= 5 else 0.0)
     # shading normals from the field (smooth where the triangles are long and thin)
     g = _sdf_gradient(v, h=2e-4)
     normals = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
