@@ -122,3 +122,39 @@ def test_the_bob_has_a_fringe_that_stops_above_the_eyes(head):
     assert np.all(fringe[:, 2] > 0.06)          # in front of the forehead, not combed back
     assert np.all(fringe[:, 1] > hi[1])         # above the eyes
     assert np.median(fringe[:, 1]) < roots[front, 1].min()  # hanging down from the hairline
+
+
+def test_default_camera_frames_head_and_shoulders(gl):
+    """`mane render`'s default view of the default scene: the hair spans most of the frame's
+    height and its points fall in at least 30% of the frame's 20-pixel cells (a projection in
+    NumPy of what the camera sees); the bust is cut at mid-chest, not shown whole."""
+    from mane.render import Renderer, RenderSettings
+    from mane.render.renderer import DEFAULT_HEAD_FRAME_FLOOR
+    from mane.render.scene import default_groom
+
+    head = default_head(4)
+    groom = default_groom(head, num_guides=1000)
+    w, h = 640, 480
+    r = Renderer(RenderSettings(size=(w, h)), ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        cam = r.default_camera()
+    finally:
+        r.release()
+    hair = groom.points.astype(np.float64)
+    q = np.c_[hair, np.ones(len(hair))] @ cam.view_projection(w / h).T
+    ndc = q[:, :2] / q[:, 3:4]
+    seen = np.all(np.abs(ndc) <= 1, axis=1)
+    cells = np.zeros((w // 20, h // 20), bool)
+    ij = ((ndc[seen] + 1) / 2 * cells.shape).astype(int).clip(0, np.array(cells.shape) - 1)
+    cells[ij[:, 0], ij[:, 1]] = True
+    assert cells.mean() >= 0.30
+    assert np.ptp(ndc[seen, 1]) / 2 >= 0.8
+    # everything above mid-chest is in the frame; most of the bust's base (its flat cut at
+    # -0.40 m) is not (the camera looks down a little: the front edge just shows)
+    above = hair[:, 1] >= DEFAULT_HEAD_FRAME_FLOOR
+    assert seen[above].all()
+    base = head.vertices[head.vertices[:, 1] < -0.385].astype(np.float64)
+    qb = np.c_[base, np.ones(len(base))] @ cam.view_projection(w / h).T
+    assert np.mean(qb[:, 1] / qb[:, 3] < -1.0) >= 0.75
