@@ -5,6 +5,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples"
@@ -53,3 +54,14 @@ def test_export_usd(tmp_path):
     out = run_example("export_usd.py", "--frames", "3", "--out", "a.usda", cwd=tmp_path)
     assert "3 time samples" in out
     assert mane.load(tmp_path / "a.usda").metadata["usd"]["num_time_samples"] == 3
+
+
+def test_sintel(tmp_path, shared_data):
+    from PIL import Image
+
+    out = run_example("sintel.py", "--size", "96x96", "--strands-per-guide", "2", "--out", "s.png",
+                      "--data", str(shared_data), cwd=tmp_path)
+    assert "Blender Foundation" in out and "228 guides x 2 strands" in out
+    img = np.asarray(Image.open(tmp_path / "s.png"))
+    assert img.shape == (96, 3 * 96, 3)
+    assert img.std() > 5  # three views with something in them

@@ -84,3 +84,66 @@ def test_scalp_mask_needs_colours():
     m = Mesh(np.eye(3), [[0, 1, 2]])
     with pytest.raises(GroomError, match="no vertex colours"):
         scalp_mask(m)
+
+
+# ---------------------------------------------------------------- from anthropometry and topology
+
+
+def test_every_edge_has_exactly_two_faces(head):
+    """Closed 2-manifold by counting: each undirected edge is used twice, once each way."""
+    f = head.faces.astype(np.int64)
+    directed = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+    assert len(np.unique(directed, axis=0)) == len(directed)  # no directed edge twice
+    undirected, counts = np.unique(np.sort(directed, axis=1), axis=0, return_counts=True)
+    assert np.all(counts == 2)
+    # Euler characteristic V - E + F of a sphere-like surface (no handles)
+    assert len(head.vertices) - len(undirected) + len(f) == 2
+
+
+def test_left_right_symmetric(head):
+    """The mirror image of every vertex lies on the surface (within a fraction of an edge)."""
+    from scipy.spatial import cKDTree
+
+    v = head.vertices.astype(np.float64)
+    mirrored = v * np.array([-1.0, 1.0, 1.0])
+    d, _ = cKDTree(v).query(mirrored)
+    edge = np.linalg.norm(v[head.faces[:, 0]] - v[head.faces[:, 1]], axis=1)
+    assert np.median(d) < 0.5 * np.median(edge)
+    assert np.abs(head_sdf(mirrored)).max() < 3e-4
+
+
+def test_anthropometric_dimensions(head):
+    """Adult ranges (e.g. ANSUR II / Farkas): head breadth 14-16.5 cm, head length (glabella to
+    back) 18-21.5 cm, menton to vertex 21-25 cm, forehead (brow to hairline) 4-7 cm."""
+    v = head.vertices.astype(np.float64)
+    skull = v[v[:, 1] > 0.02]  # above the ears
+    assert 0.14 <= np.ptp(skull[:, 0]) <= 0.165
+    assert 0.18 <= np.ptp(skull[:, 2]) <= 0.215
+    face = v[(np.abs(v[:, 0]) < 0.015) & (v[:, 2] > 0.04) & (v[:, 1] > -0.16)]
+    assert 0.21 <= v[:, 1].max() - face[:, 1].min() <= 0.25
+    w = head.colors[:, 0]
+    midline_front = (np.abs(v[:, 0]) < 0.01) & (v[:, 2] > 0.04) & (v[:, 1] > 0.0)
+    hairline = v[midline_front & (w >= 0.5), 1].min()
+    brow = v[(np.abs(v[:, 0] - 0.03) < 0.01) & (v[:, 1] > 0.0) & (v[:, 1] < 0.045)]
+    brow_y = brow[np.argmax(brow[:, 2]), 1]   # the most forward point above the eye
+    assert 0.04 <= hairline - brow_y <= 0.07
+
+
+def test_scalp_area_is_a_human_scalp(head):
+    """The hair-bearing scalp of an adult is about 600 cm² (0.05-0.075 m²)."""
+    area = head.face_areas()[scalp_faces(head)].sum()
+    assert 0.05 <= area <= 0.075
+
+
+def test_face_features_stand_out():
+    """Seen along rays from the front: the nose tip ahead of the lips, the lips ahead of the
+    chin, the eyes set back behind the brow ridge (the surface the mesh lies on)."""
+    zs = np.linspace(0.2, 0.0, 4001)
+
+    def z(x, y):
+        f = head_sdf(np.stack([np.full_like(zs, x), np.full_like(zs, y), zs], axis=1))
+        return zs[np.argmax(f < 0)]
+
+    nose, lips, chin = z(0.0, -0.030), z(0.0, -0.060), z(0.0, -0.100)
+    assert nose > lips + 0.01 and lips > chin + 0.01
+    assert z(0.032, 0.0) < z(0.032, 0.024) - 0.003

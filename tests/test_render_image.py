@@ -218,7 +218,12 @@ def render_reference(gl):
     try:
         r.set_strands(groom)
         r.set_head(head)
-        return r.render_image()
+        # the box-corner framing the reference was made with (the default camera now fits the
+        # scene's points: a framing change is not a renderer change)
+        from mane.render.camera import Camera
+
+        lo, hi = r.framing_bbox()
+        return r.render_image(Camera.framing(lo, hi, azimuth=25.0, elevation=12.0, aspect=160 / 120))
     finally:
         r.release()
 

@@ -36,6 +36,8 @@ class Quality:
     friction: float = 0.05
     viewer_sim_dt: float | None = None
     """the viewer's simulation step (None: ``sim_dt``): the viewer's frame rate, not the clip's."""
+    head_subdivisions: int = 5
+    """detail of the default bust (5: 20,480 triangles; 4: 5,120, a quarter of llvmpipe's head pass)."""
 
     def render_settings(self, **changes):
         from ..render import RenderSettings
@@ -56,7 +58,7 @@ class Quality:
 # (SOFTWARE_LADDER) on a machine slower than that.
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
-                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0)
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4)
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
 # guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
@@ -76,7 +78,7 @@ def demo_scene(q: Quality):
     """(groom, head): the procedural default with ``q.guides`` strands of ``q.points`` points."""
     from ..render.scene import default_scene
 
-    return default_scene(num_guides=q.guides, points=q.points)
+    return default_scene(num_guides=q.guides, points=q.points, subdivisions=q.head_subdivisions)
 
 
 def demo_sim_settings(q: Quality, wind: bool = True, dt: float | None = None):

@@ -236,7 +236,7 @@ def _render(args, settings, renderer, groom, head, lights, out, video, parse_cam
     renderer.set_head(head)
     w, h = settings.size
     lo, hi = renderer.framing_bbox()
-    camera = parse_camera(args.camera, lo, hi, w / h)
+    camera = parse_camera(args.camera, lo, hi, w / h, points=renderer.framing_points())
     turn = args.turntable if args.turntable is not None else (0.0 if args.simulate else 360.0)
     if video and (w % 2 or h % 2):
         raise UsageError("video sizes must be even (H.264 4:2:0)")

@@ -1,22 +1,29 @@
 """The procedural default head: a bust (head, neck, shoulders) made by code, with a painted scalp.
 
 The shape is a signed distance field: ellipsoids, capsules and spheres joined with smooth
-minima (cranium, face, jaw, chin, brow, cheekbones, nose, lips, eye sockets, ears, neck,
-trapezius, deltoids, chest), cut flat below the chest. The mesh is an icosphere whose every
-vertex is sent along a ray, from a centre that slides down the body's axis, to the first point
-where the field crosses zero; a few rounds of Laplacian relaxation, each followed by a Newton
-projection back onto the surface, even out the triangles. Because the mesh keeps the sphere's
-connectivity it is closed, manifold and wound counter-clockwise seen from outside.
+minima: cranium, forehead, midface, a jaw line tapering to the chin, cheekbones, cheeks, brow
+ridge, eye sockets with eyeballs and upper lids, the nose's bridge, tip and wings, a muzzle
+with upper and lower lips, ears with a hollow, a neck with its sternocleidomastoids,
+collarbones, trapezius, deltoids and chest, cut flat below the chest. The mesh is an icosphere
+(built here) whose every vertex is sent along a ray, from a centre that slides down the body's
+axis, to the first point where the field crosses zero (sphere tracing, then bisection); a few
+rounds of tangential Laplacian relaxation, each followed by a Newton step back onto the
+surface, even out the triangles (the face keeps its ray-cast vertices, which hold the nose).
+Because the mesh keeps the sphere's connectivity it is closed, manifold and wound
+counter-clockwise seen from outside. Shading normals come from the field's gradient. A built
+bust is cached on disk (``~/.cache/mane``, keyed by a hash of this file; ``MANE_NO_CACHE=1``
+turns it off): the first build takes seconds, later ones a fraction of a second.
 
 Frame: metres, Y up, right-handed, the face looks toward +Z; the origin lies at the centre of
-the head (about at the height of the eyes, midway between the ears). The head is about 0.235 m
-from chin to crown and the shoulders about 0.46 m across.
+the head (at the height of the eyes, midway between the ears). Head breadth 14.8 cm, length
+(brow to back) 20.4 cm, chin to vertex 23.2 cm, shoulders about 0.42 m across.
 
 The scalp is painted into the vertex colours: ``colors[:, 0]`` (red) is the scalp weight in
-[0, 1] with a soft, natural hairline (forehead, temples, sideburns in front of the ears, above
-the ears, down to the nape); green and blue hold a skin tone scaled by ``1 - weight`` so that a
-renderer that draws vertex colours shows the scalp. The same weight is kept as
-``vertex_attributes['scalp']``.
+[0, 1] with a soft, natural hairline (forehead 4.6 cm above the brow, temples, sideburns in
+front of the ears, above the ears, down to the nape; about 620 cm² of scalp); green and blue
+hold a skin tone scaled by ``1 - weight`` so that a renderer that draws vertex colours shows
+the scalp. The same weight is kept as ``vertex_attributes['scalp']``. ``FACE_BOX`` is the
+space in front of the eyes, nose and mouth that grown hair keeps out of.
 """
 from __future__ import annotations
 
@@ -35,20 +42,27 @@ SCALP_CHANNEL = 0
 
 SKIN_TONE = np.array([0.80, 0.62, 0.52])
 
+FACE_BOX = ((-0.048, -0.115, 0.045), (0.048, 0.045, 0.25))
+"""(lo, hi) metres: the space in front of the eyes, nose and mouth that hair must not cross."""
+
 # ---------------------------------------------------------------------------- SDF primitives
+
+
+def _norm(q: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.einsum("...k,...k->...", q, q))
 
 
 def _ellipsoid(p: np.ndarray, c, r) -> np.ndarray:
     """Approximate signed distance to an axis-aligned ellipsoid (exact zero set)."""
     r = np.asarray(r, dtype=np.float64)
     q = (p - np.asarray(c, dtype=np.float64)) / r
-    k0 = np.linalg.norm(q, axis=-1)
-    k1 = np.linalg.norm(q / r, axis=-1)
+    k0 = _norm(q)
+    k1 = _norm(q / r)
     return k0 * (k0 - 1.0) / np.maximum(k1, 1e-12)
 
 
 def _sphere(p, c, r):
-    return np.linalg.norm(p - np.asarray(c, dtype=np.float64), axis=-1) - r
+    return _norm(p - np.asarray(c, dtype=np.float64)) - r
 
 
 def _capsule(p, a, b, r):
@@ -56,7 +70,7 @@ def _capsule(p, a, b, r):
     b = np.asarray(b, dtype=np.float64)
     pa, ba = p - a, b - a
     h = np.clip((pa @ ba) / (ba @ ba), 0.0, 1.0)
-    return np.linalg.norm(pa - h[..., None] * ba, axis=-1) - r
+    return _norm(pa - h[..., None] * ba) - r
 
 
 def _smin(a, b, k):
@@ -80,31 +94,42 @@ def head_sdf(p: np.ndarray) -> np.ndarray:
     """Signed distance-like field of the default bust (negative inside), for (..., 3) points."""
     p = np.asarray(p, dtype=np.float64)
     m = _mirror(p)
-    # skull and face
-    d = _ellipsoid(p, (0.0, 0.028, -0.016), (0.075, 0.084, 0.097))  # cranium
-    d = _smin(d, _ellipsoid(p, (0.0, -0.032, 0.030), (0.060, 0.086, 0.066)), 0.025)  # face
-    d = _smin(d, _ellipsoid(p, (0.0, -0.068, 0.012), (0.057, 0.050, 0.066)), 0.02)  # jaw
-    d = _smin(d, _ellipsoid(p, (0.0, -0.108, 0.062), (0.020, 0.016, 0.018)), 0.018)  # chin
-    d = _smin(d, _ellipsoid(m, (0.045, -0.014, 0.058), (0.024, 0.017, 0.024)), 0.02)  # cheekbones
-    d = _smin(d, _ellipsoid(p, (0.0, 0.020, 0.078), (0.052, 0.014, 0.020)), 0.02)  # brow
-    # eye sockets, then eyeballs inside them
-    d = _smax(d, -_sphere(m, (0.031, 0.000, 0.103), 0.0160), 0.012)
-    d = _smin(d, _sphere(m, (0.031, 0.000, 0.083), 0.0120), 0.006)
-    # nose: bridge, tip, wings
-    d = _smin(d, _capsule(p, (0.0, 0.006, 0.094), (0.0, -0.031, 0.112), 0.0085), 0.012)
-    d = _smin(d, _sphere(p, (0.0, -0.033, 0.109), 0.0110), 0.008)
-    d = _smin(d, _ellipsoid(m, (0.010, -0.039, 0.099), (0.0100, 0.0080, 0.0100)), 0.008)
-    # mouth: a soft muzzle
-    d = _smin(d, _ellipsoid(p, (0.0, -0.066, 0.080), (0.026, 0.017, 0.014)), 0.012)
-    # ears
-    d = _smin(d, _ellipsoid(m, (0.077, -0.010, -0.016), (0.011, 0.031, 0.019)), 0.008)
-    # neck, shoulders, chest
-    d = _smin(d, _capsule(p, (0.0, -0.06, -0.024), (0.0, -0.22, -0.034), 0.057), 0.025)
-    body = _capsule(m, (0.0, -0.165, -0.050), (0.160, -0.212, -0.038), 0.048)  # trapezius
-    body = _smin(body, _ellipsoid(m, (0.168, -0.238, -0.032), (0.050, 0.058, 0.054)), 0.05)  # deltoids
-    body = _smin(body, _ellipsoid(p, (0.0, -0.345, -0.030), (0.178, 0.170, 0.098)), 0.06)  # chest
-    d = _smin(d, body, 0.035)
-    d = _smax(d, -(p[..., 1] + 0.46), 0.01)  # flat base
+    # cranium, forehead and the back of the skull
+    d = _ellipsoid(p, (0.0, 0.030, -0.014), (0.074, 0.083, 0.095))
+    d = _smin(d, _ellipsoid(p, (0.0, 0.035, 0.030), (0.066, 0.062, 0.060)), 0.02)      # forehead
+    # face: midface and the mandible (a tapered jaw, its angles and the chin)
+    d = _smin(d, _ellipsoid(p, (0.0, -0.030, 0.028), (0.058, 0.070, 0.062)), 0.02)     # midface
+    d = _smin(d, _capsule(m, (0.052, -0.052, -0.008), (0.020, -0.098, 0.056), 0.013), 0.026)  # jaw line
+    d = _smin(d, _ellipsoid(p, (0.0, -0.097, 0.062), (0.022, 0.020, 0.017)), 0.020)    # chin
+    d = _smin(d, _ellipsoid(m, (0.042, -0.012, 0.060), (0.022, 0.016, 0.022)), 0.018)  # cheekbones
+    d = _smin(d, _ellipsoid(m, (0.036, -0.048, 0.052), (0.026, 0.028, 0.024)), 0.02)  # cheeks
+    d = _smin(d, _capsule(m, (0.014, 0.022, 0.084), (0.046, 0.024, 0.068), 0.0095), 0.012)  # brow ridge
+    # eye sockets, eyeballs, upper lids
+    d = _smax(d, -_ellipsoid(m, (0.032, 0.003, 0.090), (0.018, 0.012, 0.010)), 0.008)
+    d = _smin(d, _sphere(m, (0.032, 0.000, 0.070), 0.0120), 0.004)
+    d = _smin(d, _ellipsoid(m, (0.032, 0.0050, 0.074), (0.0130, 0.0070, 0.0090)), 0.005)  # upper lid
+    # nose: body, bridge, tip, wings (alae) blended into one
+    d = _smin(d, _ellipsoid(p, (0.0, -0.020, 0.090), (0.012, 0.022, 0.013)), 0.012)
+    d = _smin(d, _capsule(p, (0.0, 0.012, 0.087), (0.0, -0.026, 0.108), 0.0062), 0.012)
+    d = _smin(d, _sphere(p, (0.0, -0.029, 0.105), 0.0090), 0.010)
+    d = _smin(d, _ellipsoid(m, (0.0095, -0.033, 0.095), (0.0065, 0.0055, 0.0070)), 0.010)
+    # mouth: the muzzle under the nose, upper and lower lips
+    d = _smin(d, _ellipsoid(p, (0.0, -0.058, 0.074), (0.028, 0.024, 0.020)), 0.012)
+    d = _smin(d, _ellipsoid(p, (0.0, -0.0580, 0.0880), (0.0230, 0.0075, 0.0100)), 0.010)  # upper lip
+    d = _smin(d, _ellipsoid(p, (0.0, -0.0710, 0.0860), (0.0200, 0.0080, 0.0100)), 0.010)  # lower lip
+    # ears: a flat shell leaning back, with a hollow (concha)
+    ear = _ellipsoid(m, (0.074, -0.012, -0.012), (0.012, 0.030, 0.018))
+    ear = _smax(ear, -_ellipsoid(m, (0.086, -0.016, -0.008), (0.006, 0.016, 0.009)), 0.003)
+    d = _smin(d, ear, 0.006)
+    # neck with its sternocleidomastoids, then shoulders and chest
+    d = _smin(d, _capsule(p, (0.0, -0.050, -0.024), (0.0, -0.200, -0.010), 0.052), 0.04)
+    d = _smin(d, _capsule(m, (0.045, -0.060, -0.030), (0.014, -0.205, 0.030), 0.012), 0.02)
+    body = _capsule(m, (0.030, -0.175, -0.030), (0.150, -0.220, -0.035), 0.040)  # trapezius
+    body = _smin(body, _ellipsoid(m, (0.165, -0.255, -0.030), (0.045, 0.060, 0.050)), 0.04)  # deltoids
+    body = _smin(body, _ellipsoid(p, (0.0, -0.330, -0.025), (0.160, 0.125, 0.090)), 0.05)  # chest
+    body = _smin(body, _capsule(m, (0.012, -0.215, 0.030), (0.120, -0.215, 0.010), 0.010), 0.02)  # collarbones
+    d = _smin(d, body, 0.03)
+    d = _smax(d, -(p[..., 1] + 0.40), 0.01)  # flat base
     return d
 
 
@@ -124,10 +149,10 @@ def _sdf_gradient(p: np.ndarray, h: float = 1e-5, f0: np.ndarray | None = None) 
 # Stages of the ray parameter u (degrees, 0 at the crown, 180 under the base): the head seen
 # from its centre, the jaw and neck from a centre sliding down to the chest, the base.
 _C_HEAD = np.array([0.0, 0.0, 0.0])
-_C_JAW = np.array([0.0, -0.14, -0.02])
+_C_JAW = np.array([0.0, -0.13, 0.0])
 _C_CHEST = np.array([0.0, -0.34, -0.028])
 _U_A, _U_B, _U_C = 100.0, 112.0, 150.0
-_ALPHA_A = 140.0  # the head stage's last ray angle from +Y, degrees
+_ALPHA_A = 150.0  # the head stage's last ray angle from +Y, degrees
 _HEAD_DENSITY = 5.0  # relative vertex density on the head against the body
 
 
@@ -174,22 +199,27 @@ def _area_map(n_u: int = 181, n_az: int = 48) -> tuple[np.ndarray, np.ndarray]:
     return u, cum / cum[-1]
 
 
-def _first_exit(origin: np.ndarray, direction: np.ndarray, t_max=0.6, step=0.003) -> np.ndarray:
-    """Distance along each ray to the first inside-to-outside crossing of the field."""
+def _first_exit(origin: np.ndarray, direction: np.ndarray, t_max=0.6) -> np.ndarray:
+    """Distance along each ray to the first inside-to-outside crossing of the field.
+
+    Sphere tracing from the inside: while the field is negative, a step of 0.8 |f| (at least
+    0.4 mm) cannot jump over the surface of a field whose slope is at most about one; the last
+    step is then bisected.
+    """
     n = len(origin)
-    hi = np.full(n, np.nan)
-    t = 0.0
-    while t < t_max:
-        idx = np.flatnonzero(np.isnan(hi))
-        if idx.size == 0:
-            break
-        t += step
-        f = head_sdf(origin[idx] + t * direction[idx])
-        hi[idx[f > 0]] = t
-    if np.isnan(hi).any():
-        raise GroomError("internal: a head ray never left the body")
-    lo = hi - step
-    for _ in range(24):
+    t = np.zeros(n)
+    prev = np.zeros(n)
+    live = np.arange(n)
+    while live.size:
+        f = head_sdf(origin[live] + t[live, None] * direction[live])
+        inside = live[f <= 0]
+        prev[inside] = t[inside]
+        t[inside] += np.maximum(0.8 * -f[f <= 0], 4e-4)
+        if (t[inside] >= t_max).any():
+            raise GroomError("internal: a head ray never left the body")
+        live = inside
+    lo, hi = prev, t
+    for _ in range(12):
         mid = 0.5 * (lo + hi)
         inside = head_sdf(origin + mid[:, None] * direction) <= 0
         lo = np.where(inside, mid, lo)
@@ -206,22 +236,27 @@ def _project(v: np.ndarray, rounds: int = 2) -> np.ndarray:
     return v
 
 
-def _relax(v: np.ndarray, faces: np.ndarray, rounds: int, strength: float = 0.6) -> np.ndarray:
-    """Tangential Laplacian smoothing, each round projected back onto the surface."""
+def _relax(v: np.ndarray, faces: np.ndarray, rounds: int, strength: float = 0.6,
+           hold_face: float = 1.0) -> np.ndarray:
+    """Tangential Laplacian smoothing, each round followed by a Newton step back onto the
+    surface (with the round's gradient). ``hold_face`` (0..1): how firmly the face keeps its
+    ray-cast vertices (1: fixed, which keeps the nose sharp on a fine mesh; a coarse mesh is
+    better relaxed, its few face vertices zigzag otherwise)."""
     n = len(v)
     edges = np.concatenate([faces[:, [0, 1]], faces[:, [1, 2]], faces[:, [2, 0]]])
     deg = np.bincount(edges[:, 0], minlength=n).astype(np.float64)
-    # The face keeps its ray-cast vertices: relaxing would round the nose off.
-    keep = 1.0 - _smoothstep(0.045, 0.07, v[:, 2]) * _smoothstep(-0.085, -0.065, v[:, 1])
+    keep = 1.0 - hold_face * _smoothstep(0.040, 0.065, v[:, 2]) * _smoothstep(-0.125, -0.100, v[:, 1])
     for _ in range(rounds):
         acc = np.zeros_like(v)
         np.add.at(acc, edges[:, 0], v[edges[:, 1]])
         lap = acc / deg[:, None] - v
         f = head_sdf(v)
         g = _sdf_gradient(v, f0=f)
-        g /= np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
-        lap -= (lap * g).sum(axis=1, keepdims=True) * g  # keep only the tangential part
-        v = _project(v + (strength * keep)[:, None] * lap, rounds=1)
+        gn = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+        lap -= (lap * gn).sum(axis=1, keepdims=True) * gn  # keep only the tangential part
+        v = v + (strength * keep)[:, None] * lap
+        f = head_sdf(v)
+        v = v - (f / np.maximum((g * g).sum(axis=1), 1e-12))[:, None] * g
     return _project(v, rounds=2)
 
 
@@ -249,7 +284,7 @@ def scalp_weight(points: np.ndarray) -> np.ndarray:
     line = np.interp(az, _HAIRLINE_AZ, _HAIRLINE_Y)
     w = _smoothstep(line - 0.5 * _HAIRLINE_SOFTNESS, line + 0.5 * _HAIRLINE_SOFTNESS, p[:, 1])
     # not the ears themselves, nor anything below the skull
-    ear = _ellipsoid(_mirror(p), (0.077, -0.010, -0.014), (0.016, 0.036, 0.024))
+    ear = _ellipsoid(_mirror(p), (0.076, -0.012, -0.012), (0.016, 0.034, 0.022))
     w *= _smoothstep(-0.002, 0.004, ear)
     return w
 
@@ -257,14 +292,72 @@ def scalp_weight(points: np.ndarray) -> np.ndarray:
 # ---------------------------------------------------------------------------- public
 
 
-@lru_cache(maxsize=4)
-def _build(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray]:
-    import trimesh
+def icosphere(subdivisions: int) -> tuple[np.ndarray, np.ndarray]:
+    """Unit icosphere: (V, 3) float64 vertices and (F, 3) int64 faces, counter-clockwise seen
+    from outside; every subdivision splits each triangle in four at its edges' midpoints."""
+    g = (1.0 + 5.0 ** 0.5) / 2.0
+    v = np.array([[-1, g, 0], [1, g, 0], [-1, -g, 0], [1, -g, 0], [0, -1, g], [0, 1, g],
+                  [0, -1, -g], [0, 1, -g], [g, 0, -1], [g, 0, 1], [-g, 0, -1], [-g, 0, 1]], float)
+    f = np.array([[0, 11, 5], [0, 5, 1], [0, 1, 7], [0, 7, 10], [0, 10, 11], [1, 5, 9], [5, 11, 4],
+                  [11, 10, 2], [10, 7, 6], [7, 1, 8], [3, 9, 4], [3, 4, 2], [3, 2, 6], [3, 6, 8],
+                  [3, 8, 9], [4, 9, 5], [2, 4, 11], [6, 2, 10], [8, 6, 7], [9, 8, 1]], np.int64)
+    v /= np.linalg.norm(v, axis=1, keepdims=True)
+    for _ in range(int(subdivisions)):
+        e = np.concatenate([f[:, [0, 1]], f[:, [1, 2]], f[:, [2, 0]]])
+        uniq, inv = np.unique(np.sort(e, axis=1), axis=0, return_inverse=True)
+        mid = v[uniq].mean(axis=1)
+        mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+        m = len(v) + inv.reshape(3, -1).T  # (F, 3): midpoints of edges 01, 12, 20
+        v = np.concatenate([v, mid])
+        a, b, c = f[:, 0], f[:, 1], f[:, 2]
+        f = np.concatenate([np.stack([a, m[:, 0], m[:, 2]], 1), np.stack([b, m[:, 1], m[:, 0]], 1),
+                            np.stack([c, m[:, 2], m[:, 1]], 1), m])
+    return v, f
 
-    sphere = trimesh.creation.icosphere(subdivisions=subdivisions)
-    unit = np.asarray(sphere.vertices, dtype=np.float64)
-    unit /= np.linalg.norm(unit, axis=1, keepdims=True)
-    faces = np.asarray(sphere.faces, dtype=np.int64)
+
+def _cache_file(subdivisions: int, relax_rounds: int):
+    """Where a built bust is kept between runs (None when caching is off: MANE_NO_CACHE=1).
+    The name carries a hash of this file, so any change to the shape builds afresh."""
+    import hashlib
+    import os
+    from pathlib import Path
+
+    if os.environ.get("MANE_NO_CACHE"):
+        return None
+    root = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mane"
+    digest = hashlib.sha1(Path(__file__).read_bytes()).hexdigest()[:12]
+    return root / f"default_head_{digest}_{subdivisions}_{relax_rounds}.npz"
+
+
+@lru_cache(maxsize=4)
+def _build(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The bust's vertices, faces and normals: from the on-disk cache, or built (seconds) and
+    cached (then a fraction of a second)."""
+    import os
+
+    path = _cache_file(subdivisions, relax_rounds)
+    if path is not None and path.is_file():
+        try:
+            with np.load(path) as z:
+                return z["vertices"], z["faces"], z["normals"]
+        except (OSError, KeyError, ValueError):
+            pass  # a damaged cache file: build afresh
+    built = _build_uncached(subdivisions, relax_rounds)
+    if path is not None:
+        try:
+            path.parent.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp.npz")
+            np.savez(tmp, vertices=built[0], faces=built[1], normals=built[2])
+            os.replace(tmp, path)
+        except OSError:
+            pass  # a read-only home: build every time
+    return built
+
+
+def _build_uncached(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    if not 0 <= subdivisions <= 7:
+        raise GroomError(f"head subdivisions must be in 0..7, got {subdivisions}")
+    unit, faces = icosphere(subdivisions)
     # Equal sphere area -> equal (density-weighted) bust area, ring by ring.
     u_grid, frac = _area_map()
     sphere_frac = 0.5 * (1.0 - np.clip(unit[:, 1], -1.0, 1.0))
@@ -272,17 +365,20 @@ def _build(subdivisions: int, relax_rounds: int) -> tuple[np.ndarray, np.ndarray
     xz = unit[:, [0, 2]]
     xz = xz / np.maximum(np.linalg.norm(xz, axis=1, keepdims=True), 1e-12)
     v = _surface(u, xz)
-    v = _relax(v, faces, relax_rounds)
-    return v, faces
+    v = _relax(v, faces, relax_rounds, hold_face=1.0 if subdivisions >= 5 else 0.0)
+    # shading normals from the field (smooth where the triangles are long and thin)
+    g = _sdf_gradient(v, h=2e-4)
+    normals = g / np.maximum(np.linalg.norm(g, axis=1, keepdims=True), 1e-12)
+    return v, faces, normals
 
 
-def default_head(subdivisions: int = 5, relax_rounds: int = 25) -> Mesh:
+def default_head(subdivisions: int = 5, relax_rounds: int = 12) -> Mesh:
     """The procedural bust as a Mesh (cached; each call returns a fresh Mesh of shared data).
 
     ``subdivisions`` of the underlying icosphere: 5 gives 20,480 triangles. The scalp weight is
     in ``colors[:, 0]`` and ``vertex_attributes['scalp']``.
     """
-    v, faces = _build(int(subdivisions), int(relax_rounds))
+    v, faces, normals = _build(int(subdivisions), int(relax_rounds))
     weight = scalp_weight(v)
     colors = np.empty((len(v), 4), dtype=np.float32)
     colors[:, 0] = weight
@@ -291,6 +387,7 @@ def default_head(subdivisions: int = 5, relax_rounds: int = 25) -> Mesh:
     mesh = Mesh(
         v.astype(np.float32),
         faces.astype(np.int32),
+        normals=normals.astype(np.float32),
         colors=colors,
         vertex_attributes={"scalp": weight.astype(np.float32)},
         metadata={"source": "mane.grooming.head.default_head", "subdivisions": int(subdivisions),
@@ -317,4 +414,4 @@ def scalp_faces(mesh: Mesh, threshold: float = 0.5, channel: int = SCALP_CHANNEL
 
 
 __all__ = ["default_head", "head_sdf", "scalp_weight", "scalp_mask", "scalp_faces",
-           "HEAD_CENTER", "SCALP_CHANNEL"]
+           "HEAD_CENTER", "SCALP_CHANNEL", "FACE_BOX"]

@@ -10,9 +10,14 @@ points of a strand):
 2. Waves and curls are offsets in a frame parallel-transported along the centreline: a planar
    sine (``wave_amplitude``, ``wave_length``) or a helix (``curl_radius``, ``curl_pitch``)
    around the centreline, faded in over ``curl_start`` from the root.
-3. Clumps: follicles are gathered around clump centres about ``clump_radius`` apart; every
+3. Clumps: follicles are gathered around clump centres about ``clump_radius`` apart; a clump
+   waves or curls as one lock (its strands take the centre strand's phase and side), and every
    point is pulled toward the same point of its clump's centre strand by
    ``clump_strength × (t ** clump_taper)``, t being 0 at the root and 1 at the tip.
+
+With a ``parting`` the root direction is combed away from the parting line, back over the
+front and down behind the crown (``parted_comb``), and a strand that would cross ``face_box``
+(in front of the eyes, nose and mouth) ends just before it: hair frames the face.
 
 A last pass pushes every point but the roots out of the mesh again.
 """
@@ -50,7 +55,21 @@ class StyleSettings:
     sweep: float = 0.8
     """How strongly hair is combed along ``sweep_direction`` at the root (0: along the normal)."""
     sweep_direction: tuple[float, float, float] = (0.0, 0.0, -1.0)
-    """Combing direction (unit; projected onto the surface): by default back, off the face."""
+    """Combing direction (unit; projected onto the surface): by default back, off the face.
+    Used when ``parting`` is None."""
+    parting: float | None = None
+    """X (m, head frame: Y up, face toward +Z) of a parting line over the top of the head, or
+    None. With a parting, hair is combed away from it, sideways and back over the top, back and
+    down behind the crown, and back past the ears on the sides: off the face."""
+    fringe: bool = False
+    """With a parting: hair rooted over the forehead is combed forward and down instead, as a
+    fringe (bangs), which ``face_box`` cuts off above the eyes."""
+    face_box: tuple[tuple[float, float, float], tuple[float, float, float]] | None = None
+    """An (lo, hi) box in front of the face (eyes, nose, mouth) that no hair may cross: a strand
+    that would enter it is cut ``face_clearance`` before it does (a fringe that stops above the
+    eyes). None: the default head's box when growing on the default head, else no box."""
+    face_clearance: float = 0.01
+    """How far (m of strand) before the face box a strand that would cross it ends."""
     wave_amplitude: float = 0.008
     """Wavy: half the peak-to-peak sideways excursion (m)."""
     wave_length: float = 0.06
@@ -95,20 +114,26 @@ class StyleSettings:
             v = getattr(self, name)
             if not np.isfinite(v) or v < 0:
                 raise UsageError(f"style {name} must be zero or positive, got {v}")
+        if self.parting is not None and not np.isfinite(self.parting):
+            raise UsageError(f"parting must be a number of metres or None, got {self.parting}")
         if self.clump_strength > 1:
             raise UsageError(f"clump_strength must be in 0..1, got {self.clump_strength}")
         return self
 
 
+# Every preset is parted a little off the middle and combed off the face (see ``parted_comb``).
+_PARTED = dict(parting=0.022, sweep=2.5, droop_length=0.05)
 PRESETS: dict[str, StyleSettings] = {
-    "straight": StyleSettings(kind="straight"),
-    "wavy": StyleSettings(kind="wavy", length=0.25, wave_amplitude=0.008, wave_length=0.06),
+    "straight": StyleSettings(kind="straight", **_PARTED),
+    "wavy": StyleSettings(kind="wavy", length=0.25, wave_amplitude=0.008, wave_length=0.06, **_PARTED),
     "curly": StyleSettings(kind="curly", length=0.30, curl_radius=0.007, curl_pitch=0.02,
-                           droop=0.6, clump_strength=0.2),
-    "short": StyleSettings(kind="straight", length=0.05, droop=0.4, clump_strength=0.1),
-    "long": StyleSettings(kind="straight", length=0.45, length_variation=0.1, clump_strength=0.45),
-    "long_wavy": StyleSettings(kind="wavy", length=0.32, length_variation=0.1, wave_amplitude=0.01,
-                               wave_length=0.08, clump_strength=0.35, sweep=1.6),
+                           droop=0.6, clump_strength=0.2, **{**_PARTED, "parting": 0.0}),
+    "short": StyleSettings(kind="straight", length=0.05, droop=0.4, clump_strength=0.1, **_PARTED),
+    "long": StyleSettings(kind="straight", length=0.45, length_variation=0.1, clump_strength=0.45, **_PARTED),
+    "bob": StyleSettings(kind="straight", length=0.16, length_variation=0.08,
+                         clump_strength=0.3, fringe=True, **{**_PARTED, "parting": 0.0, "droop_length": 0.04}),
+    "long_wavy": StyleSettings(kind="wavy", length=0.26, length_variation=0.1, wave_amplitude=0.009,
+                               wave_length=0.09, clump_radius=0.015, clump_strength=0.35, **_PARTED),
 }
 
 
@@ -178,6 +203,52 @@ def transported_frames(p: np.ndarray, ref: np.ndarray) -> tuple[np.ndarray, np.n
 # ---------------------------------------------------------------------------- growth
 
 
+def parted_comb(positions: np.ndarray, parting: float, rng: np.random.Generator | None = None,
+                fringe: bool = False) -> np.ndarray:
+    """(N, 3) unit combing directions (before projection onto the surface) for hair parted at
+    x = ``parting`` (head frame: Y up, face toward +Z): away from the parting and back over
+    the top and the front, back and down behind the crown; with ``fringe`` the roots over the
+    forehead (in front of z = 0.03 m, within 5 cm of the midline) comb forward instead."""
+    p = np.asarray(positions, dtype=np.float64)
+    off = p[:, 0] - parting
+    side = np.sign(off)
+    tie = side == 0
+    if tie.any():
+        side[tie] = np.where((rng.random(int(tie.sum())) if rng is not None else 0.0) < 0.5, -1.0, 1.0)
+    # sideways at the parting, more and more back away from it (a natural swirl off the face)
+    away = _smoothstep01(np.abs(off) / 0.05)
+    front = np.stack([side * (1.0 - 0.5 * away), np.zeros_like(off), -(0.6 + 0.6 * away)], axis=1)
+    behind = np.stack([0.08 * side, -np.ones_like(off), -0.35 * np.ones_like(off)], axis=1)
+    w = _smoothstep01((0.02 - p[:, 2]) / 0.08)[:, None]  # 0 at the front, 1 behind the crown
+    comb = (1.0 - w) * _normalize(front) + w * _normalize(behind)
+    if fringe:
+        f = (_smoothstep01((p[:, 2] - 0.03) / 0.02) * _smoothstep01((0.05 - np.abs(p[:, 0])) / 0.015))[:, None]
+        forward = np.stack([0.15 * np.sign(p[:, 0]), np.zeros(len(p)), np.ones(len(p))], axis=1)
+        comb = (1.0 - f) * _normalize(comb) + f * _normalize(forward)
+    return _normalize(comb)
+
+
+def trim_before_box(p: np.ndarray, lo, hi, clearance: float) -> tuple[np.ndarray, np.ndarray]:
+    """Strands (S, N, 3) that enter the box [lo, hi] resampled to end ``clearance`` of arc
+    length before they do (the same N points, evenly spaced); returns (points, cut mask)."""
+    lo, hi = np.asarray(lo, dtype=np.float64), np.asarray(hi, dtype=np.float64)
+    S, n, _ = p.shape
+    inside = np.all((p >= lo) & (p <= hi), axis=2)
+    inside[:, 0] = False  # a root in the box (not on the default scalp) stays
+    cut = inside.any(axis=1)
+    if not cut.any():
+        return p, cut
+    seg = np.linalg.norm(np.diff(p, axis=1), axis=2)
+    s = np.concatenate([np.zeros((S, 1)), np.cumsum(seg, axis=1)], axis=1)
+    first = np.argmax(inside, axis=1)
+    out = p.copy()
+    for i in np.flatnonzero(cut):
+        end = max(s[i, first[i]] - clearance, 0.25 * s[i, first[i]], 1e-4)
+        t = np.linspace(0.0, end, n)
+        out[i] = np.stack([np.interp(t, s[i], p[i, :, k]) for k in range(3)], axis=1)
+    return out, cut
+
+
 def _centrelines(fol: Follicles, seg: np.ndarray, n: int, st: StyleSettings,
                  collider: SurfaceProximity, rng: np.random.Generator) -> np.ndarray:
     S = len(fol)
@@ -188,9 +259,12 @@ def _centrelines(fol: Follicles, seg: np.ndarray, n: int, st: StyleSettings,
     d = _normalize(fol.normals + tilt[:, None] * (np.cos(ang)[:, None] * fol.tangents
                                                    + np.sin(ang)[:, None] * fol.bitangents))
     if st.sweep > 0:
-        w = _normalize(np.asarray(st.sweep_direction, dtype=np.float64))
-        w = w[None, :] - (fol.normals @ w)[:, None] * fol.normals  # along the surface
-        d = _normalize(d + st.sweep * w)
+        if st.parting is None:
+            w = np.broadcast_to(_normalize(np.asarray(st.sweep_direction, dtype=np.float64)), (S, 3))
+        else:
+            w = parted_comb(fol.positions, st.parting, rng, st.fringe)
+        w = w - (fol.normals * w).sum(axis=1, keepdims=True) * fol.normals  # along the surface
+        d = _normalize(d + st.sweep * _normalize(w))
     p = np.empty((S, n, 3))
     p[:, 0] = fol.positions
     bend = (st.droop * seg / st.droop_length)[:, None]
@@ -231,30 +305,35 @@ def grow_strands(fol: Follicles, mesh: Mesh, st: StyleSettings, points_per_stran
     seg = axial / (n - 1)
     p = _centrelines(fol, seg, n, st, collider, rng)
     s = seg[:, None] * np.arange(n)[None, :]  # axial arc length at every point
+    leader = np.arange(S)
+    if st.clump_radius > 0 and S > 1:  # clumps wave together even when not pulled in
+        _, leader = _clump_centres(fol.positions, st.clump_radius)
     if st.kind in ("wavy", "curly"):
+        # a clump waves (or curls) as one lock: its strands take their leader's phase and side
         _, u, v = transported_frames(p, fol.tangents)
         ramp = _smoothstep01(s / st.curl_start) if st.curl_start > 0 else np.ones_like(s)
-        phase = rng.random(S)[:, None] * 2 * np.pi
+        phase = (rng.random(S) * 2 * np.pi)[leader][:, None]
         if st.kind == "wavy":
-            psi = rng.random(S)[:, None, None] * 2 * np.pi
+            psi = (rng.random(S) * 2 * np.pi)[leader][:, None, None]
             side = np.cos(psi) * u + np.sin(psi) * v
             amp = st.wave_amplitude * ramp * np.sin(2 * np.pi * s / st.wave_length + phase)
             p = p + amp[..., None] * side
         else:
-            hand = np.where(rng.random(S) < 0.5, -1.0, 1.0)[:, None]
+            hand = np.where(rng.random(S) < 0.5, -1.0, 1.0)[leader][:, None]
             theta = hand * (2 * np.pi * s / st.curl_pitch) + phase
             r = st.curl_radius * ramp
             # centred on the axis: the root sits on the follicle because the ramp is 0 there
             p = p + (r * np.cos(theta))[..., None] * u + (r * np.sin(theta))[..., None] * v
-    leader = np.arange(S)
-    if st.clump_radius > 0 and st.clump_strength > 0 and S > 1:
-        _, leader = _clump_centres(fol.positions, st.clump_radius)
+    if st.clump_strength > 0 and S > 1:
         t = np.linspace(0.0, 1.0, n)[None, :, None]
         pull = st.clump_strength * t ** st.clump_taper
         p = p + pull * (p[leader] - p)
     # keep every point but the root out of the mesh (clumps may have pulled some in deep)
     inner = collider.push_out(p[:, 1:].reshape(-1, 3), st.collision_margin * 0.5, reach=0.08)
     p[:, 1:] = inner.reshape(S, n - 1, 3)
+    if st.face_box is not None:
+        p, cut = trim_before_box(p, st.face_box[0], st.face_box[1], st.face_clearance)
+        lengths = np.where(cut, np.linalg.norm(np.diff(p, axis=1), axis=2).sum(axis=1), lengths)
     return p, lengths, leader
 
 
@@ -291,6 +370,10 @@ def grow(
     if n < 2 or n > 4096:
         raise UsageError(f"points per strand must be in 2..4096, got {n}")
     mesh = default_head() if mesh is None else mesh
+    if st.face_box is None and str(dict(mesh.metadata).get("source", "")).endswith("default_head"):
+        from .head import FACE_BOX
+
+        st = replace(st, face_box=FACE_BOX)
     if follicles is None:
         if int(num_strands) <= 0:
             raise UsageError(f"the number of strands must be positive, got {num_strands}")

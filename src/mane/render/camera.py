@@ -100,9 +100,12 @@ class Camera:
 
     @classmethod
     def framing(cls, lo, hi, *, azimuth: float = 25.0, elevation: float = 12.0, fov_y: float = 30.0,
-                aspect: float = 4 / 3, margin: float = 1.08, distance_scale: float = 1.0) -> "Camera":
+                aspect: float = 4 / 3, margin: float = 1.08, distance_scale: float = 1.0,
+                points=None) -> "Camera":
         """A camera that sees the box [lo, hi] whole, from ``azimuth`` degrees about +Y (0 looks
-        at the face, +Z toward -Z) and ``elevation`` degrees above the horizon."""
+        at the face, +Z toward -Z) and ``elevation`` degrees above the horizon. With ``points``
+        ((N, 3), inside the box) it fits those points instead of the box's corners: a tighter
+        frame, centred on the points' projection."""
         lo, hi = np.asarray(lo, float), np.asarray(hi, float)
         for name, v in (("azimuth", azimuth), ("elevation", elevation), ("distance scale", distance_scale)):
             if not math.isfinite(float(v)):
@@ -114,9 +117,18 @@ class Camera:
         center = 0.5 * (lo + hi)
         az, el = math.radians(azimuth), math.radians(elevation)
         direction = np.array([math.sin(az) * math.cos(el), math.sin(el), math.cos(az) * math.cos(el)])
-        # fit the box's corners in both the vertical and horizontal field of view
+        # fit the box's corners (or the points) in both the vertical and horizontal field of view
         view = look_at(center + direction, center)
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        if points is not None and len(points):
+            corners = np.asarray(points, float).reshape(-1, 3)
+            rot = view[:3, :3]
+            loc = (rot @ (corners - center).T).T
+            # centre the frame on the points as seen from the side they are viewed from
+            mid = 0.5 * (loc.min(axis=0) + loc.max(axis=0))
+            center = center + rot.T @ np.array([mid[0], mid[1], 0.0])
+            view = look_at(center + direction, center)
+        else:
+            corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         local = (view[:3, :3] @ (corners - center).T).T  # camera at distance 0 looking at center
         ty = math.tan(math.radians(fov_y) / 2.0)
         tx = ty * aspect
@@ -139,9 +151,9 @@ class Camera:
         return self.replace(eye=tuple(t + e))
 
 
-def parse_camera(text: str, lo, hi, aspect: float) -> Camera:
-    """--camera: "AZIMUTH,ELEVATION[,DISTANCE_SCALE[,FOV]]" (degrees) framing the scene, or
-    "eye=x,y,z;target=x,y,z[;fov=deg]"."""
+def parse_camera(text: str, lo, hi, aspect: float, points=None) -> Camera:
+    """--camera: "AZIMUTH,ELEVATION[,DISTANCE_SCALE[,FOV]]" (degrees) framing the scene (its
+    ``points`` when given, else the box's corners), or "eye=x,y,z;target=x,y,z[;fov=deg]"."""
     text = (text or "").strip()
     try:
         if "=" in text:
@@ -160,7 +172,7 @@ def parse_camera(text: str, lo, hi, aspect: float) -> Camera:
         if len(vals) > 4:
             raise ValueError("too many numbers")
         keys = ("azimuth", "elevation", "distance_scale", "fov_y")
-        return Camera.framing(lo, hi, aspect=aspect, **dict(zip(keys, vals)))
+        return Camera.framing(lo, hi, aspect=aspect, points=points, **dict(zip(keys, vals)))
     except (ValueError, KeyError) as exc:
         raise UsageError(f"bad --camera {text!r} ({exc}); use AZ,EL[,DIST_SCALE[,FOV]] or "
                          "eye=x,y,z;target=x,y,z[;fov=deg]") from None

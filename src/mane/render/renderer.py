@@ -86,6 +86,10 @@ class FramesPass(Pass):
         self.renderer._frames_dirty = not self.renderer.strands.owns_positions
 
 
+DEFAULT_HEAD_FRAME_FLOOR = -0.30
+"""Lowest height (m) the default camera frames on the default bust (mid-chest)."""
+
+
 class Renderer:
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
@@ -335,7 +339,8 @@ class Renderer:
         return 0.5 * (lo + hi)
 
     def framing_bbox(self) -> tuple[np.ndarray, np.ndarray]:
-        """What the default camera frames: the hair, and the head down to a little below it."""
+        """What the default camera frames: the hair, and the head down to a little below it (on
+        the default bust no lower than mid-chest: a head-and-shoulders frame)."""
         if self.strands is None:
             return self.scene_bbox()
         lo, hi = self.strands.bbox()
@@ -344,14 +349,35 @@ class Renderer:
         if self.head is not None and self.settings.draw_head:
             v = self.head.vertices
             floor = lo[1] - 0.04 * (hi[1] - lo[1])
+            if str(getattr(self.head, "metadata", {}).get("source", "")).endswith("default_head"):
+                # the default bust: head and shoulders, down to the middle of the chest
+                floor = max(floor, DEFAULT_HEAD_FRAME_FLOOR)
+                lo[1] = max(lo[1], floor)
             v = v[v[:, 1] >= floor]
             if len(v):
                 lo, hi = np.minimum(lo, v.min(axis=0)), np.maximum(hi, v.max(axis=0))
         return lo.astype(float), hi.astype(float)
 
+    def framing_points(self, max_points: int = 20000) -> np.ndarray | None:
+        """What the default camera fits: points of the hair (at most ``max_points``) and the
+        head's vertices inside ``framing_bbox`` (head and shoulders down to the hair's ends)."""
+        if self.strands is None:
+            return None
+        p = self.strands.read_positions()[..., :3].reshape(-1, 3).astype(np.float64)
+        if len(p) > max_points:
+            p = p[np.linspace(0, len(p) - 1, max_points).astype(np.int64)]
+        lo, hi = self.framing_bbox()
+        p = p[p[:, 1] >= lo[1]]
+        if self.head is not None and self.settings.draw_head:
+            v = self.head.vertices.astype(np.float64)
+            v = v[np.all((v >= lo) & (v <= hi), axis=1)]
+            p = np.concatenate([p, v])
+        return p
+
     def default_camera(self, azimuth: float = 25.0, elevation: float = 12.0, **kw) -> Camera:
         lo, hi = self.framing_bbox()
         w, h = self.settings.size
+        kw.setdefault("points", self.framing_points())
         return Camera.framing(lo, hi, azimuth=azimuth, elevation=elevation, aspect=w / h, **kw)
 
     # ------------------------------------------------------------------ targets

@@ -15,8 +15,9 @@ def _head(subdivisions: int):
     return default_head(subdivisions)
 
 
-def default_head(subdivisions: int = 4):
-    """The default bust (cached per subdivision level; 4 gives 5,120 triangles)."""
+def default_head(subdivisions: int = 5):
+    """The default bust (cached per subdivision level; 5 gives 20,480 triangles: enough for the
+    lips, nose and eyes)."""
     return _head(int(subdivisions))
 
 
@@ -29,7 +30,45 @@ def default_groom(head=None, num_guides: int = 600, points: int = 16, style: str
     return grow(head, num_strands=num_guides, style=style, points_per_strand=points, seed=seed)
 
 
-def default_scene(num_guides: int = 600, points: int = 16, subdivisions: int = 4):
+def default_scene(num_guides: int = 600, points: int = 16, subdivisions: int = 5):
     """(groom, head) of the procedural default."""
     head = default_head(subdivisions)
     return default_groom(head, num_guides, points), head
+
+
+SINTEL_CREDIT = "Sintel: (c) Blender Foundation, CC BY 3.0"
+SINTEL_STRANDS_PER_GUIDE = 64
+"""Sintel's 228 strands are guides: 64 rendered strands each (14,592) fill her hair out."""
+
+
+def sintel_scene(data_dir):
+    """(groom, head) of Sintel's TressFX groom on her bust from ``data_dir`` (a folder holding
+    ``tressfx/sintel_hair.tfx`` and ``heads/sintel.obj``, in centimetres: scaled to metres).
+
+    The files are not part of mane (CC BY 3.0, Blender Foundation); a missing file is a
+    ``GroomError`` that names it."""
+    from pathlib import Path
+
+    import numpy as np
+
+    from ..errors import GroomError
+    from ..io import load, load_mesh
+
+    root = Path(data_dir)
+    hair, bust = root / "tressfx" / "sintel_hair.tfx", root / "heads" / "sintel.obj"
+    for f in (hair, bust):
+        if not f.is_file():
+            raise GroomError(f"Sintel's scene needs {f}, which is not there")
+    groom = load(hair).scaled(0.01)
+    head = load_mesh(bust).transformed(np.diag([0.01, 0.01, 0.01, 1.0]))
+    return groom, head
+
+
+def sintel_render_settings(**changes):
+    """RenderSettings for Sintel at full density: clumps sized for her 228 guides."""
+    from .settings import RenderSettings
+
+    base = dict(strands_per_guide=SINTEL_STRANDS_PER_GUIDE, clump_radius=0.012, clump_tip=0.6,
+                width=0.0004)
+    base.update(changes)
+    return RenderSettings(**base)

@@ -328,7 +328,9 @@ class Viewer:
         if self.renderer is None:
             self.render_settings = q.render_settings(size=self.render_size())
         self._rebuild_renderer(force=True)
-        self.orbit = OrbitControl.from_camera(self.renderer.default_camera(25.0, 10.0),
+        # the box's framing, not the points': it leaves room around the hair for the panel and
+        # the lights' handles
+        self.orbit = OrbitControl.from_camera(self.renderer.default_camera(25.0, 10.0, points=None),
                                               radius=0.5 * float(np.linalg.norm(hi - lo)))
         if self.show_panel:    # the panel covers the left: centre the scene in what is left
             self.orbit.pan(min(PANEL_WIDTH, self.wnd.size[0] // 3) / 2, 0, self.wnd.size[1])
