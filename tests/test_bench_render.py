@@ -204,3 +204,17 @@ def test_gapless_gpu_phase_runs_with_timer_queries(gl):
     assert row["gpu_ms"]["n"] == row["frames_timed"] >= 2 and row["gpu_ms"]["mean"] >= 0
     assert ("hair" in row["gpu_passes_ms"] or "hair_compute" in row["gpu_passes_ms"]) and row["gpu_preload_ms"] >= 4.0
     assert bench._preload is None            # released
+
+
+def test_a_spent_budget_skips_the_row_and_goes_on(gl):
+    """Once the mode's time budget is spent, a configuration becomes a skipped row naming the
+    budget (it once broke the whole bench: "generator didn't yield")."""
+    bench = render_bench.Bench(gl, "quick")
+    try:
+        bench.started -= bench.cfg["total_budget_s"] + 1.0
+        bench.measure("target", "after the budget", guides=4, points=8, settings={"size": (32, 32)})
+        bench.measure("target", "and the next", guides=4, points=8, settings={"size": (32, 32)})
+    finally:
+        bench.release()
+    assert [r["status"] for r in bench.rows] == ["skipped", "skipped"]
+    assert all("time budget" in r["reason"] for r in bench.rows)

@@ -133,14 +133,14 @@ class BenchRows:
         return row
 
     def _before_config(self) -> None:
-        """Called inside the guard before a configuration runs (raise Skip to pass it over)."""
+        """Called first inside a configuration's guarded body (raise Skip to pass it over: a
+        guard cannot skip its body from before its yield, a generator that never yields breaks)."""
 
     @contextmanager
     def _guard(self, bench: str, name: str, **fields):
         """Run a configuration; on a known failure add a skipped row and go on."""
         self._log(f"{bench}: {name}")
         try:
-            self._before_config()
             yield
         except GPUMemoryError as exc:
             self._skip_row(bench, name, f"out of GPU memory: {exc}", **fields)

@@ -369,6 +369,7 @@ class Bench(BenchRows):
                       strands_per_guide=settings.get("strands_per_guide"),
                       segments_requested=settings.get("segments"), **fields)
         with self._guard(bench, name, **fields):
+            self._before_config()
             s, dropped = make_settings(settings, required)
             groom = self.work.groom(guides, points)
             timing = self._time(s, groom, lights, camera, budget_scale, raster_stats)
