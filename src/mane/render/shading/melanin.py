@@ -34,7 +34,9 @@ eumelanin 1.3 / pheomelanin 0.2 for brown. Red and auburn hair are pheomelanin-r
 et al. 2011; Ito and Wakamatsu 2011 measure pheomelanin-dominant red hair and mixed
 eu/pheo auburn), platinum blond is nearly pigment-free. Grey hair is, in a real head, a mix
 of unpigmented (white) and pigmented fibres (canities); with one material per groom mane
-approximates its average by little eumelanin and no pheomelanin (no yellow cast).
+approximates its average by little eumelanin and no pheomelanin (the least yellow cast melanin
+allows: eumelanin itself absorbs blue 3.3x more than red, so a neutral grey is out of its reach;
+a salt-and-pepper head needs two grooms, white and dark).
 """
 from __future__ import annotations
 
@@ -44,8 +46,8 @@ PRESETS: dict[str, tuple[float, float]] = {
     "black": (8.0, 0.0),
     "dark_brown": (3.0, 0.3),
     "brown": (1.3, 0.2),
-    "auburn": (0.9, 1.2),
-    "red": (0.3, 2.5),
+    "auburn": (0.8, 1.0),
+    "red": (0.2, 1.6),
     "blond": (0.3, 0.1),
     "platinum": (0.06, 0.02),
     "grey": (0.12, 0.0),
