@@ -103,14 +103,10 @@ def _prepare(groom, *, head, camera, lights, settings, size, strands, ctx):
 def _write_curves(path: Path, ctrl: np.ndarray, radii: np.ndarray) -> None:
     """Mitsuba's curve text file: "x y z radius" per control point, an empty line between curves."""
     S, M, _ = ctrl.shape
-    rows = np.concatenate([ctrl, radii[..., None]], axis=2).reshape(-1, 4)
-    lines = np.char.mod("%.9g", rows)
-    text = np.char.add(np.char.add(np.char.add(np.char.add(lines[:, 0], " "), np.char.add(lines[:, 1], " ")),
-                                   np.char.add(lines[:, 2], " ")), lines[:, 3]).reshape(S, M)
+    rows = np.concatenate([ctrl, radii[..., None]], axis=2).reshape(S, M * 4).tolist()
+    fmt = "%.9g %.9g %.9g %.9g\n" * M + "\n"
     with open(path, "w") as f:
-        for s in range(S):
-            f.write("\n".join(text[s]))
-            f.write("\n\n")
+        f.writelines(fmt % tuple(r) for r in rows)
 
 
 def _write_ply(path: Path, mesh) -> None:
