@@ -79,7 +79,9 @@ def test_material_from_settings_takes_melanin_width_tilt_and_ior():
     m = HairMaterial.from_settings(s)
     assert (m.eumelanin, m.pheomelanin, m.sigma_a) == (1.3, 0.2, None)
     assert m.tilt == pytest.approx(-5.0) and m.eta == 1.6
-    assert m.longitudinal_roughness == pytest.approx(ref.lobe_width_to_beta_m(math.radians(7.5)))
+    # beta_R is a width in theta_h, the R lobe's standard deviation in theta_o is twice it
+    assert m.longitudinal_roughness == pytest.approx(ref.lobe_width_to_beta_m(2 * math.radians(7.5)))
+    assert m.azimuthal_roughness == 0.3
     np.testing.assert_allclose(m.resolved_sigma_a(), 1.3 * np.array([0.419, 0.697, 1.37]) + 0.2 * np.array([0.187, 0.4, 1.05]))
     # an RGB colour (no melanin): Chiang's inversion, as the real-time models use
     from mane.render.shading import color_to_sigma_a

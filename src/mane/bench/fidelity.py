@@ -173,7 +173,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
     shadow_list = list(shadows) if shadows else list(cfg["shadows"] or shadow_methods())
     grid = cfg["grid"] if grid is None else bool(grid)
     defaults = RenderSettings()
-    default_model = "marschner" if "marschner" in model_list else model_list[0]
+    default_model = defaults.shading if defaults.shading in model_list else model_list[0]
     default_shadow = defaults.shadows if defaults.shadows in shadow_list else shadow_list[0]
     combos = [(m, s) for m in model_list for s in shadow_list
               if grid or s == default_shadow or m == default_model]

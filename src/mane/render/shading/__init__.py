@@ -96,7 +96,8 @@ class ShadingSettings:
     """Hair shading model and material. Colour from ``melanin`` (default) or an RGB ``color``.
 
     model           one of MODELS (default "chiang")
-    color           None, or linear RGB: an explicit opt-in that replaces melanin. For the
+    color           None, or linear RGB: an explicit opt-in that replaces melanin (``melanin``
+                    becomes None). For the
                     colour-driven models (Kajiya-Kay, Sadeghi, Scheuermann, Karis) the fibre
                     colour itself; for the fibre models the multiple-scattered volume colour
                     (sigma_a by Chiang's eq. 9 inversion).
@@ -173,8 +174,10 @@ class ShadingSettings:
             raise ValueError("beta_n (Chiang's azimuthal roughness) must be in (0, 1]")
         if int(self.chiang_size) < 8:
             raise ValueError("chiang_size must be >= 8")
-        if self.color is not None and len(tuple(self.color)) != 3:
-            raise ValueError("color must be linear R, G, B")
+        if self.color is not None:
+            if len(tuple(self.color)) != 3:
+                raise ValueError("color must be linear R, G, B")
+            object.__setattr__(self, "melanin", None)    # the RGB opt-in replaces melanin
         if self.melanin is not None and len(tuple(self.melanin)) != 2:
             raise ValueError("melanin must be (eumelanin, pheomelanin)")
 
@@ -274,10 +277,20 @@ class ShadingSettings:
 
     @property
     def beta_m(self) -> float:
-        """Chiang's / Mitsuba's longitudinal roughness equivalent to ``roughness``."""
+        """Chiang's / Mitsuba's longitudinal roughness equivalent to ``roughness``: the R lobe's
+        standard deviation in theta_o, sqrt(v_0) = 0.726 beta_m + 0.812 beta_m^2 + 3.7 beta_m^20
+        (Chiang eq. 7), is twice ``roughness`` (Marschner's beta_R is a width in theta_h =
+        (theta_i + theta_o) / 2); tests/test_chiang.py checks it against Mitsuba's own lobe."""
         from .chiang import beta_m_from_roughness
 
         return beta_m_from_roughness(self.roughness)
+
+    # the names mane.reference.HairMaterial.from_shading reads (Mitsuba's parameter names)
+    longitudinal_roughness = beta_m
+
+    @property
+    def azimuthal_roughness(self) -> float:
+        return float(self.beta_n)
 
     def dual_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
