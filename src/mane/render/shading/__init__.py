@@ -121,7 +121,10 @@ class ShadingSettings:
     chiang_size     Chiang table resolution: theta_o texels (phi: twice as many)
     multiple_scattering  "auto", "none", "karis" or "dual"
     lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
-    dual_density_front  Zinke's d_f (forward-scattering density factor, 0.6-0.8 for hair)
+    dual_density_front  Zinke's d_f (forward-scattering density factor; the paper's 0.6-0.8
+                    discounted counting every occluder as a fibre met; with the Poisson count
+                    from the deep opacity map's own transmittance the packing is already in n,
+                    so 1: measured against the path tracer, docs/quality.md)
     dual_density_back   Zinke's d_b (back-scattering density factor)
     dual_max_hairs  cap on the number of fibres met towards the light, -log t (transmittance
                     0, e.g. the head's shadow, gives this many)
@@ -148,7 +151,7 @@ class ShadingSettings:
     chiang_size: int = 64
     multiple_scattering: str = "auto"
     lut_size: int = 256
-    dual_density_front: float = 0.7
+    dual_density_front: float = 1.0
     dual_density_back: float = 0.7
     dual_max_hairs: float = 64.0
     dual_size: int = 64

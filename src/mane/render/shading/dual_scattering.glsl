@@ -52,7 +52,7 @@
 #define MANE_HAIR_DUAL_SCATTERING_GLSL
 
 #ifndef HAIR_DUAL_DF
-#define HAIR_DUAL_DF 0.7
+#define HAIR_DUAL_DF 1.0
 #endif
 #ifndef HAIR_DUAL_DB
 #define HAIR_DUAL_DB 0.7

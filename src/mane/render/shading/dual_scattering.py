@@ -92,7 +92,7 @@ LUT_ROWS = 8
 ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1, ROW_NG3 = range(LUT_ROWS)
 
 # Zinke 2008 sec. 4: density factors d_f, d_b of human hair are ~0.6-0.8; 0.7 in the paper.
-DENSITY_FRONT = 0.7
+DENSITY_FRONT = 1.0   # mane's default (ShadingSettings.dual_density_front says why)
 DENSITY_BACK = 0.7
 
 
