@@ -185,8 +185,10 @@ def karis(T, V, L, m):
     ok = _dot(lp, lp) * _dot(vp, vp) > 1e-24
     chp = np.where(ok, np.minimum(0.5 * _norm(safe_normalize(lp) + safe_normalize(vp)), 1.0), math.sqrt(0.5))
     f0 = ((m["eta"] - 1) / (m["eta"] + 1)) ** 2
-    alpha = m["shift"] * np.array([1, -0.5, -2])
-    beta = max(m["roughness"], 1e-3) * np.array([1, 0.5, 2])
+    # Karis's Gaussian runs over sin(theta_i) + sin(theta_o) ~ 2 theta_h: mane's theta_h width
+    # and shift (Marschner's beta_R, alpha_R) enter doubled
+    alpha = 2 * m["shift"] * np.array([1, -0.5, -2])
+    beta = 2 * max(m["roughness"], 1e-3) * np.array([1, 0.5, 2])
     M = gaussian(beta, (si + so)[:, None] - alpha)
     C = np.maximum(m["color"], 1e-4)
     nr = 0.25 * chp * _schlick(f0, np.sqrt(np.clip(0.5 + 0.5 * _dot(V, L), 0, 1)))
