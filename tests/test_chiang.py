@@ -202,7 +202,8 @@ def test_defaults():
     s = ShadingSettings()
     assert s.model == "chiang" and s.melanin == PRESETS["brown"] and s.color is None
     assert s.resolved_multiple_scattering == "dual"
-    assert ShadingSettings(model="karis").resolved_multiple_scattering == "karis"
+    assert ShadingSettings(model="karis").resolved_multiple_scattering == "dual"
+    assert ShadingSettings(model="karis", multiple_scattering="karis").ms_mode == 1
     assert ShadingSettings(model="marschner_lut").resolved_multiple_scattering == "dual"
     for bad in (dict(beta_n=0.0), dict(beta_n=1.5), dict(chiang_size=4), dict(color=(1, 2))):
         with pytest.raises(ValueError):

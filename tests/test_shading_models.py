@@ -64,7 +64,7 @@ def test_marschner_glsl_matches_numpy_without_energy_clamp(gl, dirs):
 
 def test_karis_multiple_scattering_matches_numpy(gl, dirs):
     T, V, L, rand = dirs
-    s = ShadingSettings(model="karis", color=(0.4, 0.25, 0.1))
+    s = ShadingSettings(model="karis", color=(0.4, 0.25, 0.1), multiple_scattering="karis")
     trans = np.linspace(0, 1, N).astype(np.float32)
     g = evaluate_glsl(gl, s, T, V, L, transmittance=trans, multiple=True)
     r = R.ms_karis(T.astype(float), V.astype(float), L.astype(float), R.material(s), trans.astype(float))
@@ -241,7 +241,7 @@ void main() {
 
 
 @pytest.mark.parametrize("model,multiple", [(m, "auto") for m in MODELS]
-                         + [(m, "dual") for m in ("marschner", "marschner_lut", "kajiya_kay")])
+                         + [(m, "karis") for m in ("chiang", "marschner_lut", "kajiya_kay")])
 def test_fragment_stage_compiles_and_binds(gl, tmp_path, model, multiple):
     from mane.gpu.glsl import program
     from mane.render.shading import LUT_UNIT_DUAL, SHADER_DIR
@@ -254,8 +254,12 @@ def test_fragment_stage_compiles_and_binds(gl, tmp_path, model, multiple):
     s.bind(prog, gl)
     # a driver drops the fields a model does not read (dual scattering: no colour on NVIDIA)
     assert any(f"u_material.{f}" in prog for f in ("color", "sigma_a", "roughness", "specular"))
-    if multiple == "dual":
+    if s.resolved_multiple_scattering == "dual":
         assert "hair_dual_lut" in prog and prog["hair_dual_lut"].value == LUT_UNIT_DUAL
+    if model == "chiang":
+        from mane.render.shading import LUT_UNIT_CHIANG
+
+        assert "hair_chiang_n" in prog and prog["hair_chiang_n"].value == LUT_UNIT_CHIANG
 
 
 def test_karis_r_lobe_as_wide_and_shifted_as_marschners():

@@ -82,8 +82,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--melanin", default=None, help="hair colour as EUMELANIN,PHEOMELANIN concentrations "
                                                        "(Chiang 2016; brown 1.3,0.2, blond 0.3,0.1, black 8,0)")
     parser.add_argument("--multiple-scattering", default=None,
-                        help="auto (default: dual for chiang/marschner, karis for the colour models), "
-                             "dual, karis, none")
+                        help="auto (default: dual), dual (Zinke 2008 from the fibre model), "
+                             "karis (Karis 2016's approximation), none")
     parser.add_argument("--shadows", default="deep_opacity", choices=SHADOWS)
     parser.add_argument("--aa", default="msaa4", help="none, coverage, msaa2, msaa4, msaa8, ssaa2, msaa4+ssaa2")
     parser.add_argument("--interpolation", default="catmull_rom", choices=INTERPOLATIONS)
