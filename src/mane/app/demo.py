@@ -41,6 +41,8 @@ class Quality:
     """the hair colour preset (mane.render.shading.PRESETS): melanin drives the colour."""
     specular: float = 1.0
     """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
+    multiple_scattering: str = "auto"
+    """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
 
     def render_settings(self, **changes):
         from ..render import RenderSettings
@@ -50,7 +52,8 @@ class Quality:
         base = dict(size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
                     shadow_map_size=self.shadow_map_size, pcf=self.pcf,
-                    shading_options={"melanin": hair_preset(self.hair), "specular": self.specular})
+                    shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
+                                     "multiple_scattering": self.multiple_scattering})
         base.update(changes)
         return RenderSettings(**base)
 
@@ -64,7 +67,8 @@ class Quality:
 # (SOFTWARE_LADDER) on a machine slower than that.
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=3,
-                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, specular=0.25)
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, specular=0.25,
+                   multiple_scattering="none")   # Kajiya-Kay's diffuse term stands for it; 15 fps
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
 # guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
@@ -220,6 +224,10 @@ def _calibrate(q: Quality, make_renderer, sim, camera, lights):
 
 
 def run(args) -> int:
+    if getattr(args, "hair", None):
+        from ..render.shading import hair_preset
+
+        hair_preset(args.hair)                       # a clear error for an unknown name, first
     if _want_window(args):
         from ..errors import ManeError
 
@@ -248,9 +256,6 @@ def _run_headless(args) -> int:
     software = is_software_renderer(ctx)
     q = {"software": SOFTWARE, "gpu": GPU}.get(args.quality) or (SOFTWARE if software else GPU)
     if getattr(args, "hair", None):
-        from ..render.shading import hair_preset
-
-        hair_preset(args.hair)                       # a clear error for an unknown name
         q = dataclasses.replace(q, hair=args.hair)
     seconds = args.seconds if args.seconds is not None else q.seconds
     print(f"mane demo on {renderer_name(ctx)}: quality {q.name}")
