@@ -175,6 +175,10 @@ def _run_viewer(args) -> int:
     from ..viewer import Viewer
 
     viewer = Viewer(demo=True, quality=args.quality, out_dir=Path(args.out), title="mane demo")
+    if getattr(args, "hair", None):
+        from ..render.shading import hair_preset
+
+        viewer.color_mode, viewer.melanin = "melanin", hair_preset(args.hair)
     print(f"mane demo: the viewer on {viewer.gl_name}, quality {viewer.quality.name}; "
           "close the window to quit (--headless renders files instead)")
     try:
