@@ -661,7 +661,10 @@ class Bench(BenchRows):
                 self.measure("woodhouse_msaa", name, guides=242, points=16,
                              settings=dict(size=tuple(self.cfg["woodhouse_size"]), segments=15,
                                            strands_per_guide=spg, shading="sadeghi", shadows=method,
-                                           msaa=msaa, supersample=1, geometry="ribbons"),
+                                           msaa=msaa, supersample=1, geometry="ribbons",
+                                           # the shadow methods' comparison: Karis's cheap term, as
+                                           # before "auto" became dual scattering
+                                           shading_options={"multiple_scattering": "karis"}),
                              required=("msaa", "shadows"), **fields)
 
     def run_all(self) -> None:
