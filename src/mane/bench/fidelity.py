@@ -56,8 +56,8 @@ SCENES = {
 MODE_CONFIG = {
     # quick: a CI-sized run (seconds); default: the scenes, every model at the default
     # shadows and the default model with every shadow method; full: every model x every method
-    "quick": dict(size=(48, 48), spp=8, scenes=("sintel_brown",), models=("marschner",), shadows=("deep_opacity",),
-                  grid=False, curly_guides=60),
+    "quick": dict(size=(48, 48), spp=8, scenes=("curly_head",), models=("marschner",), shadows=("deep_opacity",),
+                  grid=False, curly_guides=24),
     "default": dict(size=(320, 320), spp=64, scenes=tuple(SCENES), models=None, shadows=None, grid=False,
                     curly_guides=300),
     "full": dict(size=(320, 320), spp=256, scenes=tuple(SCENES), models=None, shadows=None, grid=True,
@@ -229,9 +229,11 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
             finally:
                 r.release()
             img = rgba[..., :3]
-            hair = fm.all_metrics(img, ref, mask)
-            whole = fm.all_metrics(img, ref, None)
-            flip_mean, flip_map = fm.flip(img, ref, None)
+            flip_whole, flip_map = fm.flip(img, ref, None)      # one FLIP map for both means
+            hair = fm.all_metrics(img, ref, mask, with_flip=False)
+            hair["flip"] = float(flip_map[mask].mean()) if mask.any() else float("nan")
+            whole = fm.all_metrics(img, ref, None, with_flip=False)
+            whole["flip"] = flip_whole
             row = {"scene": name, "model": model, "shadows": shadow, "rasterizer": raster, "hair": hair,
                    "image": {k: whole[k] for k in ("mae", "p95", "relative_mae", "luminance_ratio", "flip")},
                    "coverage_ratio": float(rgba[..., 3][mask].mean() / max(cov[mask].mean(), 1e-9)) if mask.any() else None}
