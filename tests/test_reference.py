@@ -251,3 +251,23 @@ def test_render_png_writes_srgb(mi, tmp_path):
     assert png.shape == (12, 16, 3) and img.shape == (12, 16, 3) and img.dtype == np.float32
     np.testing.assert_array_equal(png, ref.to_srgb8(img))
     assert ref.to_srgb8(np.array([[[0.0, 0.0031308, 1.0]]]))[0, 0].tolist() == [0, 10, 255]
+
+
+def test_cli_reference_renders_a_groom_file(mi, gl, tmp_path, capsys):
+    from PIL import Image
+
+    from mane.app.cli import main
+    from mane.groom import Groom
+    from mane.io import save
+
+    P = np.stack([_line((x, 0.05, 0), (x, -0.05, 0.01), 8) for x in np.linspace(-0.02, 0.02, 5)])
+    save(Groom(points=P.reshape(-1, 3).astype(np.float32), counts=np.full(5, 8, np.int32)), tmp_path / "g.hair")
+    out = tmp_path / "ref.png"
+    rc = main(["reference", str(tmp_path / "g.hair"), "--out", str(out), "--size", "24x16", "--spp", "2",
+               "--strands-per-guide", "2", "--melanin", "0.3,0.1", "--light", "dir:0,0.5,1:3", "--cache",
+               str(tmp_path / "cache")])
+    assert rc == 0
+    assert Image.open(out).size == (24, 16)
+    assert "24x16, 2 spp, 10 strands" in capsys.readouterr().out
+    assert main(["reference", str(tmp_path / "g.hair"), "--out", str(tmp_path / "x.jpg")]) == 2
+    assert main(["reference", str(tmp_path / "g.hair"), "--melanin", "a,b"]) == 2

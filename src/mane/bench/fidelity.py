@@ -17,7 +17,8 @@ Numbers per (scene, model, shadow method), over the hair pixels (reference hair 
 luminance), luminance ratio (mean mane / mean reference luminance), RGB balance (each
 channel's share of R + G + B, mane minus reference), crown / lower falloff (mean luminance of
 the upper over the lower half of the hair's screen box; mane's over the reference's) and the
-mean NVIDIA FLIP error (HDR). Pictures: reference | mane | FLIP error (magma), both sides at
+mean NVIDIA FLIP error (HDR); with the compute rasteriser also the hair coverage (mean HDR
+alpha over the reference's coverage on the hair pixels). Pictures: reference | mane | FLIP error (magma), both sides at
 one exposure (the reference hair's 99th luminance percentile to 0.9), sRGB.
 
 Reference images are cached (``mane.reference.cache``: ``--cache DIR``, else
@@ -236,7 +237,10 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
             whole["flip"] = flip_whole
             row = {"scene": name, "model": model, "shadows": shadow, "rasterizer": raster, "hair": hair,
                    "image": {k: whole[k] for k in ("mae", "p95", "relative_mae", "luminance_ratio", "flip")},
-                   "coverage_ratio": float(rgba[..., 3][mask].mean() / max(cov[mask].mean(), 1e-9)) if mask.any() else None}
+                   # the HDR alpha is the hair's coverage with the compute rasteriser only (alpha to
+                   # coverage stores alpha in each covered sample: it counts alpha twice)
+                   "coverage_ratio": (float(rgba[..., 3][mask].mean() / max(cov[mask].mean(), 1e-9))
+                                      if mask.any() and raster == "compute" else None)}
             if image_dir is not None:
                 row["picture"] = _save_png(side_by_side(ref, img, flip_map, exposure),
                                            image_dir / f"{name}_{model}_{shadow}.png")
