@@ -111,6 +111,8 @@ def test_bench_fidelity_tiny_run_writes_numbers_pictures_and_cache(gl, tmp_path,
     json.dumps(res, default=float)
     text = fidelity.format_text(res)
     assert "curly_head" in text and "marschner" in text
+    md = fidelity.format_markdown(res).splitlines()
+    assert len(md) == 3 and md[2].startswith("| curly_head | marschner | deep_opacity |")
 
 
 def test_cli_bench_fidelity_rejects_an_unknown_scene(gl, capsys):

@@ -284,6 +284,22 @@ def format_text(result: dict) -> str:
     return head + "\n" + table(result["results"], cols)
 
 
+def format_markdown(result: dict) -> str:
+    """The results as a Markdown table (hair pixels; the whole image's FLIP beside), for docs."""
+    head = ("| scene | model | shadows | raster | luminance ratio | relative MAE | MAE | p95 | RGB balance (R, G, B) "
+            "| falloff (ref) | FLIP hair | FLIP image |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n")
+    lines = []
+    for r in result["results"]:
+        h = r["hair"]
+        bal = ", ".join(fmt(x, "{:+.3f}") for x in h["rgb_balance"])
+        lines.append(f"| {r['scene']} | {r['model']} | {r['shadows']} | {r['rasterizer']} | "
+                     f"{fmt(h['luminance_ratio'], '{:.2f}')} | {fmt(h['relative_mae'], '{:.2f}')} | "
+                     f"{fmt(h['mae'], '{:.4f}')} | {fmt(h['p95'], '{:.4f}')} | {bal} | "
+                     f"{fmt(h.get('falloff'), '{:.2f}')} ({fmt(h.get('falloff_ref'), '{:.2f}')}) | "
+                     f"{fmt(h['flip'], '{:.3f}')} | {fmt(r['image']['flip'], '{:.3f}')} |")
+    return head + "\n".join(lines) + "\n"
+
+
 def run_cli(args) -> int:
     """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png."""
     from ..app.bench import _sanitise, to_json
@@ -312,5 +328,5 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["run", "run_cli", "format_text", "realtime_linear", "base_settings", "load_scene", "side_by_side",
+__all__ = ["run", "run_cli", "format_text", "format_markdown", "realtime_linear", "base_settings", "load_scene", "side_by_side",
            "SCENES", "MODE_CONFIG", "Scene", "fmt"]
