@@ -271,3 +271,26 @@ def test_cli_reference_renders_a_groom_file(mi, gl, tmp_path, capsys):
     assert "24x16, 2 spp, 10 strands" in capsys.readouterr().out
     assert main(["reference", str(tmp_path / "g.hair"), "--out", str(tmp_path / "x.jpg")]) == 2
     assert main(["reference", str(tmp_path / "g.hair"), "--melanin", "a,b"]) == 2
+
+
+def test_hair_coverage_separates_the_hair_from_the_head_behind_and_in_front(mi, tmp_path):
+    from mane.mesh import Mesh
+
+    # a square "head" at z = 0 (x, y in +-0.05) and a wide strand across it at z = 0.01 (in
+    # front, y = 0) plus one at z = -0.01 behind it (y = 0.03: hidden by the head)
+    v = np.array([[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]], np.float32)
+    head = Mesh(vertices=v, faces=np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+    P = np.stack([_line((-0.08, 0.0, 0.01), (0.08, 0.0, 0.01), 8), _line((-0.08, 0.03, -0.01), (0.08, 0.03, -0.01), 8)])
+    st = ExpandedStrands(P, np.full(P.shape[:2], 0.01))
+    cam = Camera(eye=(0, 0, 0.4), target=(0, 0, 0), fov_y=30.0)
+    s = RenderSettings(size=(40, 40))
+    hair = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    both = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path,
+                             include_head=True)
+    alone = ref.hair_coverage(strands=st, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    row = lambda y: int(round((1 - (y / (0.4 * math.tan(math.radians(15))) + 1) / 2) * 40 - 0.5))  # noqa: E731
+    assert hair[row(0.0), 20] == pytest.approx(1.0) and both[row(0.0), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 20] == 0.0 and alone[row(0.03), 20] == pytest.approx(1.0)   # behind the head
+    assert both[row(0.03), 20] == pytest.approx(1.0) and both[row(-0.03), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 8] == pytest.approx(1.0)          # beside the head (x = -0.066) it shows
+    assert both[1, 1] == 0.0
