@@ -99,11 +99,13 @@ def load_scene(scene: Scene, curly_guides: int = 300):
 
 
 def base_settings(scene: Scene, size, **overrides):
-    """The real-time settings of a fixed scene: melanin colour, no ambient, black background,
-    linear output (tone mapping off, exposure 1), 16 strands per guide."""
+    """The real-time settings of a fixed scene: RenderSettings' defaults (its shading_options
+    too) with the scene's melanin (no RGB hair_color), no ambient, black background, linear output
+    (tone mapping off, exposure 1), 16 strands per guide."""
     from ..render import RenderSettings
 
-    kw = dict(size=tuple(size), strands_per_guide=16, hair_color=None, shading_options={"melanin": tuple(scene.melanin)},
+    options = {**RenderSettings().shading_options, "melanin": tuple(scene.melanin)}   # the user's defaults + melanin
+    kw = dict(size=tuple(size), strands_per_guide=16, hair_color=None, shading_options=options,
               ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none", exposure=1.0, supersample=1)
     kw.update(overrides)
     return RenderSettings(**kw)
