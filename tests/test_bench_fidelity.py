@@ -121,3 +121,12 @@ def test_cli_bench_fidelity_rejects_an_unknown_scene(gl, capsys):
 
     assert main(["bench", "fidelity", "--quick", "--scenes", "nowhere"]) == 2
     assert "unknown fidelity scene" in capsys.readouterr().err
+
+
+def test_bench_fidelity_skips_sintel_without_the_shared_data(gl, monkeypatch):
+    pytest.importorskip("mitsuba")
+    from mane.bench import fidelity
+
+    monkeypatch.setattr(fidelity, "data_dir", lambda: None)
+    res = fidelity.run(gl, "quick", scenes=["sintel_brown"], size=(16, 16), spp=1)
+    assert res["results"] == [] and "not found" in res["scenes"]["sintel_brown"]["skipped"]
