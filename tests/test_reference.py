@@ -253,3 +253,46 @@ def test_render_png_writes_srgb(mi, tmp_path):
     assert png.shape == (12, 16, 3) and img.shape == (12, 16, 3) and img.dtype == np.float32
     np.testing.assert_array_equal(png, ref.to_srgb8(img))
     assert ref.to_srgb8(np.array([[[0.0, 0.0031308, 1.0]]]))[0, 0].tolist() == [0, 10, 255]
+
+
+def test_cli_reference_renders_a_groom_file(mi, gl, tmp_path, capsys):
+    from PIL import Image
+
+    from mane.app.cli import main
+    from mane.groom import Groom
+    from mane.io import save
+
+    P = np.stack([_line((x, 0.05, 0), (x, -0.05, 0.01), 8) for x in np.linspace(-0.02, 0.02, 5)])
+    save(Groom(points=P.reshape(-1, 3).astype(np.float32), counts=np.full(5, 8, np.int32)), tmp_path / "g.hair")
+    out = tmp_path / "ref.png"
+    rc = main(["reference", str(tmp_path / "g.hair"), "--out", str(out), "--size", "24x16", "--spp", "2",
+               "--strands-per-guide", "2", "--melanin", "0.3,0.1", "--light", "dir:0,0.5,1:3", "--cache",
+               str(tmp_path / "cache")])
+    assert rc == 0
+    assert Image.open(out).size == (24, 16)
+    assert "24x16, 2 spp, 10 strands" in capsys.readouterr().out
+    assert main(["reference", str(tmp_path / "g.hair"), "--out", str(tmp_path / "x.jpg")]) == 2
+    assert main(["reference", str(tmp_path / "g.hair"), "--melanin", "a,b"]) == 2
+
+
+def test_hair_coverage_separates_the_hair_from_the_head_behind_and_in_front(mi, tmp_path):
+    from mane.mesh import Mesh
+
+    # a square "head" at z = 0 (x, y in +-0.05) and a wide strand across it at z = 0.01 (in
+    # front, y = 0) plus one at z = -0.01 behind it (y = 0.03: hidden by the head)
+    v = np.array([[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]], np.float32)
+    head = Mesh(vertices=v, faces=np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+    P = np.stack([_line((-0.08, 0.0, 0.01), (0.08, 0.0, 0.01), 8), _line((-0.08, 0.03, -0.01), (0.08, 0.03, -0.01), 8)])
+    st = ExpandedStrands(P, np.full(P.shape[:2], 0.01))
+    cam = Camera(eye=(0, 0, 0.4), target=(0, 0, 0), fov_y=30.0)
+    s = RenderSettings(size=(40, 40))
+    hair = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    both = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path,
+                             include_head=True)
+    alone = ref.hair_coverage(strands=st, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    row = lambda y: int(round((1 - (y / (0.4 * math.tan(math.radians(15))) + 1) / 2) * 40 - 0.5))  # noqa: E731
+    assert hair[row(0.0), 20] == pytest.approx(1.0) and both[row(0.0), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 20] == 0.0 and alone[row(0.03), 20] == pytest.approx(1.0)   # behind the head
+    assert both[row(0.03), 20] == pytest.approx(1.0) and both[row(-0.03), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 8] == pytest.approx(1.0)          # beside the head (x = -0.066) it shows
+    assert both[1, 1] == 0.0

@@ -19,6 +19,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "convert": ("mane.app.convert", "convert a hair file to another format (with --up and --scale)"),
     "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
     "render": ("mane.app.render", "render a groom (or the default head and hair) to a PNG or an MP4"),
+    "reference": ("mane.app.reference", "path trace what mane render draws with Mitsuba 3's hair BSDF (pip install mane[reference])"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
     "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
     "bench": ("mane.app.bench", "run benchmarks (sim, render, oit, quality, limits, all) and print or write JSON"),

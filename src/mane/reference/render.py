@@ -177,9 +177,13 @@ def _scene_dict(mi, folder: Path, strands, head, camera, lights, settings, mater
         shapes["head"] = {"type": "ply", "filename": str(ply), "face_normals": False,
                           "bsdf": {"type": "diffuse",
                                    "reflectance": {"type": "rgb", "value": list(map(float, settings.skin_color))}}}
-    for name in order:
-        if name in shapes:
-            scene[name] = shapes[name]
+    if "dummy" in order:    # a tiny curve behind the camera: it moves the other shapes' indices
+        dummy = folder / "dummy.txt"
+        back = np.asarray(camera.eye, float) - 10.0 * camera.forward
+        dummy.write_text("".join(f"{back[0] + 0.01 * k:.6g} {back[1]:.6g} {back[2]:.6g} 0.001\n" for k in range(4)))
+        shapes["dummy"] = {"type": "bsplinecurve", "filename": str(dummy)}
+    for i, name in enumerate(n for n in order if n in shapes):   # Mitsuba orders shapes by key
+        scene[f"{chr(ord('a') + i)}_{name}"] = shapes[name]
     for i, light in enumerate(lights):
         scene[f"light{i}"] = _emitter(light)
     return scene
@@ -273,8 +277,11 @@ def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=Non
                   ctx=None) -> np.ndarray:
     """(H, W) float32: the fraction of each pixel where the camera sees hair (the head, when
     given, hides what is behind it); with ``include_head`` hair or head. From Mitsuba's
-    ``shape_index`` AOV (box filter, ``spp`` samples): with the hair first and the head second
-    a pixel averages h + 2 d, with the order swapped d + 2 h, so h = (2 v_b - v_a) / 3."""
+    ``shape_index`` AOV (box filter, ``spp`` samples), which averages each shape's index (its
+    place in ``scene.shapes()``, from 1) over the pixel: with the hair's and the head's indices
+    (i, j) in one render and (k, l) in a second with a dummy curve added out of view (Mitsuba
+    lists curves before meshes, so swapping the keys does not swap them), the two averages give
+    the two coverages (a 2 x 2 system; the same seed, the same samples)."""
     mi = mitsuba()
     settings, strands, head, camera, _ = _prepare(groom, head=head, camera=camera, lights=[],
                                                  settings=settings, size=size, strands=strands, ctx=ctx)
@@ -282,22 +289,26 @@ def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=Non
 
     material = HairMaterial()
     parts = _hash_parts(strands, head, camera, [], settings, material, spp, seed, 0,
-                        "coverage+head" if include_head else "coverage")
+                        "hair+head coverage" if include_head else "hair coverage")
     aov = {"type": "aov", "aovs": "si:shape_index"}
 
     def one(order):
         with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
             d = _scene_dict(mi, Path(tmp), strands, head, camera, [Light()], settings, material, spp, 1,
                             integrator=aov, order=order)
-            return np.array(mi.render(mi.load_dict(d), seed=int(seed), spp=int(spp)))[..., 0]
+            scene = mi.load_dict(d)
+            index = {s.id().split("_", 1)[-1]: i + 1 for i, s in enumerate(scene.shapes())}
+            return np.array(mi.render(scene, seed=int(seed), spp=int(spp)))[..., 0], index
 
     def make():
-        va = one(("hair", "head"))
+        va, ia = one(("hair", "head"))
         if head is None:
-            return va
-        vb = one(("head", "hair"))
-        h = (2.0 * vb - va) / 3.0
-        d = (2.0 * va - vb) / 3.0
+            return np.clip(va / ia["hair"], 0.0, 1.0)
+        vb, ib = one(("dummy", "head", "hair"))
+        m = np.array([[ia["hair"], ia["head"]], [ib["hair"], ib["head"]]], float)
+        if abs(np.linalg.det(m)) < 1e-9:
+            raise ManeError(f"Mitsuba gave the hair and the head the same shape indices in both orders ({ia}, {ib})")
+        h, d = np.einsum("ij,jyx->iyx", np.linalg.inv(m), np.stack([va, vb]))
         return np.clip(h + d if include_head else h, 0.0, 1.0)
 
     return _cached_render(parts, cache, cache_dir, make)
