@@ -175,6 +175,7 @@ def test_presets_order_and_hues():
         assert p > e
     assert PRESETS["grey"][1] == 0.0
     assert hair_preset("Dark Brown") == PRESETS["dark_brown"]
+    assert ShadingSettings(melanin="auburn").melanin == PRESETS["auburn"]
     from mane.errors import UsageError
 
     with pytest.raises(UsageError):

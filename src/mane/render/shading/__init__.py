@@ -100,8 +100,8 @@ class ShadingSettings:
                     colour-driven models (Kajiya-Kay, Sadeghi, Scheuermann, Karis) the fibre
                     colour itself; for the fibre models the multiple-scattered volume colour
                     (sigma_a by Chiang's eq. 9 inversion).
-    melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8); default the
-                    "brown" preset (melanin.PRESETS); None with no color: the brown preset
+    melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8) or a preset's
+                    name (melanin.PRESETS); default the "brown" preset; None with no color: brown
     sigma_a         explicit absorption per unit radius (overrides both)
     specular        R-lobe (primary highlight) scale; 1 = physical
     roughness       beta_R, longitudinal width in radians (7.5 deg)
@@ -180,6 +180,8 @@ class ShadingSettings:
             if len(tuple(self.color)) != 3:
                 raise ValueError("color must be linear R, G, B")
             object.__setattr__(self, "melanin", None)    # the RGB opt-in replaces melanin
+        if isinstance(self.melanin, str):
+            object.__setattr__(self, "melanin", hair_preset(self.melanin))   # a preset's name
         if self.melanin is not None and len(tuple(self.melanin)) != 2:
             raise ValueError("melanin must be (eumelanin, pheomelanin)")
 
