@@ -141,7 +141,7 @@ def test_targets(quick):
     row = _rows(quick[0], "target", "ok")[0]
     s = row["settings"]
     assert (s["shading"], s["shadows"], s["shadow_map_size"], s["msaa"], s["segments"]) == \
-        ("marschner_lut", "deep_opacity", 512, 4, 32)
+        (render_bench.TARGET_SHADING, "deep_opacity", 512, 4, 32)
     assert row["rendered_segments"] == row["rendered_strands"] * 32
 
 

@@ -9,7 +9,8 @@ from mane.app.cli import main
 
 def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     out = tmp_path / "demo"
-    assert main(["demo", "--out", str(out), "--seconds", "0.25", "--quality", "software", "--headless"]) == 0
+    assert main(["demo", "--out", str(out), "--seconds", "0.25", "--quality", "software", "--headless",
+                 "--hair", "blond"]) == 0
     text = capsys.readouterr().out
     assert "points identical" in text and " NO" not in text
     assert "frames per second simulated and rendered at 960x540" in text
@@ -28,3 +29,17 @@ def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     assert anim.metadata["usd"]["num_time_samples"] == 6
     assert np.all(np.isfinite(anim.points))
     assert timings["invariants"]["nan_recoveries"] == 0
+
+
+def test_demo_hair_preset_reaches_the_renderer():
+    import dataclasses
+
+    from mane.app.demo import GPU, SOFTWARE
+    from mane.render.shading import PRESETS
+
+    s = dataclasses.replace(SOFTWARE, hair="auburn").render_settings()
+    assert s.shading_options["melanin"] == PRESETS["auburn"] and s.hair_color is None
+    g = GPU.render_settings()
+    assert g.shading == "chiang" and g.shading_options["melanin"] == PRESETS["brown"]
+    assert g.shading_options["multiple_scattering"] == "auto"
+    assert main(["demo", "--hair", "green", "--headless", "--out", "/nonexistent/never"]) == 2

@@ -93,3 +93,32 @@ def test_bad_arguments(groom_file, tmp_path, capsys):
     assert main(["render", str(groom_file), "--out", str(tmp_path / "a.gif")]) == 2
     assert main(["render", str(groom_file), "--out", str(tmp_path / "a.png"), "--light", "sun:1"]) == 2
     assert "error" in capsys.readouterr().err
+
+
+def test_hair_presets_melanin_and_multiple_scattering(groom_file, tmp_path, capsys):
+    """--hair PRESET / --melanin EU,PHEO drive the colour (blond renders lighter and redder than
+    blue where black is near the background's darkness), --multiple-scattering picks the term;
+    bad values are one-line errors."""
+    import argparse
+
+    from PIL import Image
+
+    from mane.app.render import hair_options
+
+    imgs = {}
+    for name, extra in (("black", ["--hair", "black"]), ("blond", ["--melanin", "0.3,0.1"])):
+        out = tmp_path / f"{name}.png"
+        assert main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--aa", "none",
+                     "--shadows", "none", "--head", "none", "--turntable", "0", *extra]) == 0
+        imgs[name] = np.asarray(Image.open(out), np.float64)[..., :3]
+    hair = np.abs(imgs["blond"] - imgs["black"]).max(-1) > 8
+    assert hair.sum() > 20
+    blond, black = imgs["blond"][hair].mean(0), imgs["black"][hair].mean(0)
+    assert blond.sum() > 1.5 * black.sum() and blond[0] > blond[2], (blond, black)
+    ns = argparse.Namespace(hair="dark brown", melanin=None, multiple_scattering="none", color=None)
+    assert hair_options(ns) == {"melanin": (3.0, 0.3), "multiple_scattering": "none"}
+    for bad in (["--hair", "green"], ["--melanin", "1.3"], ["--melanin=-1,0"], ["--multiple-scattering", "zinke"],
+                ["--hair", "blond", "--melanin", "1,0"], ["--hair", "blond", "--color", "0.3,0.2,0.1"]):
+        assert main(["render", str(groom_file), "--out", str(tmp_path / "x.png"), "--size", "32x24", *bad]) == 2
+        err = capsys.readouterr().err
+        assert "error" in err and len(err.strip().splitlines()) == 1, err

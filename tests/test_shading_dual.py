@@ -27,8 +27,8 @@ MATERIALS = {
 }
 
 
-def _settings(name, **kw):
-    return ShadingSettings(model="marschner", multiple_scattering="dual", **{**MATERIALS[name], **kw})
+def _settings(name, model="marschner", **kw):
+    return ShadingSettings(model=model, multiple_scattering="dual", **{**MATERIALS[name], **kw})
 
 
 def _unit(rng, n):
@@ -49,7 +49,7 @@ def dirs():
 def _twin(s, T, V, L, t):
     return R.ms_dual(T.astype(float), V.astype(float), L.astype(float), R.material(s), t.astype(float),
                      s.dual_lut(), d_f=s.dual_density_front, d_b=s.dual_density_back,
-                     hair_opacity=s.dual_hair_opacity, max_hairs=s.dual_max_hairs)
+                     max_hairs=s.dual_max_hairs, model="chiang" if s.model == "chiang" else "marschner")
 
 
 def _close(g, r, rel=1e-3, floor=1e-3):
@@ -60,11 +60,12 @@ def _close(g, r, rel=1e-3, floor=1e-3):
 # ------------------------------------------------------------------------------ GLSL vs NumPy
 
 @pytest.mark.gpu
-@pytest.mark.parametrize("material", list(MATERIALS))
-def test_dual_glsl_matches_numpy(gl, dirs, material):
+@pytest.mark.parametrize("material,model", [(m, "marschner") for m in MATERIALS]
+                         + [("brown", "chiang"), ("white", "chiang")])
+def test_dual_glsl_matches_numpy(gl, dirs, material, model):
     T, V, L, n = dirs
-    s = _settings(material)
-    t = np.power(np.float64(1 - s.dual_hair_opacity), n).astype(np.float32)
+    s = _settings(material, model)
+    t = np.exp(-n).astype(np.float32)
     g = evaluate_glsl(gl, s, T, V, L, transmittance=t, multiple=True)
     r = _twin(s, T, V, L, t)
     assert np.isfinite(g).all() and (g >= 0).all()
@@ -75,9 +76,9 @@ def test_dual_glsl_matches_numpy(gl, dirs, material):
 @pytest.mark.gpu
 def test_dual_glsl_matches_numpy_other_constants(gl, dirs):
     T, V, L, n = dirs
-    s = _settings("blond", dual_hair_opacity=0.3, dual_density_front=0.6, dual_density_back=0.8,
+    s = _settings("blond", dual_density_front=0.6, dual_density_back=0.8,
                   dual_max_hairs=20.0, specular=0.5, dual_size=32)
-    t = np.power(np.float64(1 - s.dual_hair_opacity), n).astype(np.float32)
+    t = np.exp(-n).astype(np.float32)
     g = evaluate_glsl(gl, s, T, V, L, transmittance=t, multiple=True)
     assert _close(g, _twin(s, T, V, L, t)) <= 1e-3
 
@@ -147,8 +148,9 @@ def test_back_scattering_formulas_limits():
 def test_lut_layout_and_integration_converged():
     s = _settings("blond", dual_size=16)
     lut = s.dual_lut()
-    assert lut.shape == (7, 16, 4) and lut.dtype == np.float32
-    assert (lut[:5, :, 3] == 0).all() and (lut[6, :, 3] == 0).all()
+    assert lut.shape == (8, 16, 4) and lut.dtype == np.float32
+    assert (lut[:5, :, 3] == 0).all() and (lut[6:, :, 3] == 0).all()
+    assert (lut[7] == 0).all()                       # Marschner has no TRRT+ lobe
     assert (lut[3, :, :3] <= 1).all()
     tb = s.dual_tables()
     fine = precompute_dual(s.resolved_sigma_a(), beta_r=s.roughness, alpha_r=s.shift, size=8,
@@ -163,13 +165,40 @@ def test_lut_layout_and_integration_converged():
 # ------------------------------------------------------------------------------ model behaviour
 
 def test_forward_transmittance_never_grows_with_hairs():
-    for material in MATERIALS:
-        lut = _settings(material).dual_lut()
-        a_f = lut[3, :, :3].astype(np.float64)
-        n = np.linspace(0, 64, 257)
-        T_f = np.clip(a_f, 1e-30, 1)[None] ** n[:, None, None]
-        assert (np.diff(T_f, axis=0) <= 0).all()
-        assert (T_f[0] == 1).all()
+    """T_f = exp(-n (1 - a_f)) (Poisson count of fibres met, mean n = -ln t): 1 with no fibre,
+    never below the direct light t = exp(-n), never growing with n."""
+    for model in ("marschner", "chiang"):
+        for material in MATERIALS:
+            lut = _settings(material, model).dual_lut()
+            a_f = lut[3, :, :3].astype(np.float64)
+            n = np.linspace(0, 64, 257)
+            T_f = np.exp(-n[:, None, None] * (1 - np.clip(a_f, 0, 1))[None])
+            assert (np.diff(T_f, axis=0) <= 0).all()
+            assert (T_f[0] == 1).all()
+            assert (T_f >= np.exp(-n)[:, None, None] - 1e-15).all()
+
+
+def test_poisson_forward_transmittance_from_the_count_distribution():
+    """exp(-n (1 - a)) is E[a^k] for k ~ Poisson(n): summed term by term."""
+    from scipy.stats import poisson
+
+    for n in (0.3, 1.0, 4.0, 12.0):
+        for a in (0.0, 0.2, 0.7, 1.0):
+            k = np.arange(200)
+            assert abs((poisson.pmf(k, n) * a**k).sum() - math.exp(-n * (1 - a))) <= 1e-12
+
+
+def test_chiang_tables_are_the_white_furnace_split():
+    """Chiang's a_f + a_b is pbrt's white-furnace integral: 1 without absorption at every
+    theta (to the h and phi quadrature), split ~ evenly only for the R lobe."""
+    s = _settings("white", "chiang", dual_size=16)
+    tb = s.dual_tables()
+    total = tb.a_f + tb.a_b
+    assert np.abs(total - 1.0).max() <= 5e-3, total
+    brown = _settings("brown", "chiang", dual_size=16).dual_tables()
+    blond = _settings("blond", "chiang", dual_size=16).dual_tables()
+    assert (brown.a_f < blond.a_f).all() and (blond.a_f[:, 0] > blond.a_f[:, 2]).all()
+    assert tb.lobe_f.shape == (16, 4, 3)
 
 
 def test_direct_back_scattering_normalisation():
@@ -269,10 +298,9 @@ def test_dual_settings():
     assert s.ms_mode == MULTIPLE_SCATTERING["dual"] == 2
     d = s.defines()
     assert d["HAIR_MULTIPLE_SCATTERING"] == 2
-    assert float(d["HAIR_DUAL_HAIR_OPACITY"]) == 0.65
-    assert float(d["HAIR_DUAL_DF"]) == float(d["HAIR_DUAL_DB"]) == 0.7
+    assert float(d["HAIR_DUAL_DF"]) == 1.0 and float(d["HAIR_DUAL_DB"]) == 0.7
     assert s.dual_tables() is s.dual_tables()       # cached per material
-    for bad in (dict(dual_hair_opacity=0.0), dict(dual_hair_opacity=1.0), dict(dual_density_front=1.5),
+    for bad in (dict(dual_density_front=1.5),
                 dict(dual_max_hairs=0.0), dict(dual_size=4)):
         with pytest.raises(ValueError):
             _settings("blond", **bad)

@@ -64,7 +64,7 @@ def test_marschner_glsl_matches_numpy_without_energy_clamp(gl, dirs):
 
 def test_karis_multiple_scattering_matches_numpy(gl, dirs):
     T, V, L, rand = dirs
-    s = ShadingSettings(model="karis", color=(0.4, 0.25, 0.1))
+    s = ShadingSettings(model="karis", color=(0.4, 0.25, 0.1), multiple_scattering="karis")
     trans = np.linspace(0, 1, N).astype(np.float32)
     g = evaluate_glsl(gl, s, T, V, L, transmittance=trans, multiple=True)
     r = R.ms_karis(T.astype(float), V.astype(float), L.astype(float), R.material(s), trans.astype(float))
@@ -241,7 +241,7 @@ void main() {
 
 
 @pytest.mark.parametrize("model,multiple", [(m, "auto") for m in MODELS]
-                         + [(m, "dual") for m in ("marschner", "marschner_lut", "kajiya_kay")])
+                         + [(m, "karis") for m in ("chiang", "marschner_lut", "kajiya_kay")])
 def test_fragment_stage_compiles_and_binds(gl, tmp_path, model, multiple):
     from mane.gpu.glsl import program
     from mane.render.shading import LUT_UNIT_DUAL, SHADER_DIR
@@ -254,5 +254,30 @@ def test_fragment_stage_compiles_and_binds(gl, tmp_path, model, multiple):
     s.bind(prog, gl)
     # a driver drops the fields a model does not read (dual scattering: no colour on NVIDIA)
     assert any(f"u_material.{f}" in prog for f in ("color", "sigma_a", "roughness", "specular"))
-    if multiple == "dual":
+    if s.resolved_multiple_scattering == "dual":
         assert "hair_dual_lut" in prog and prog["hair_dual_lut"].value == LUT_UNIT_DUAL
+    if model == "chiang":
+        from mane.render.shading import LUT_UNIT_CHIANG
+
+        assert "hair_chiang_n" in prog and prog["hair_chiang_n"].value == LUT_UNIT_CHIANG
+
+
+def test_karis_r_lobe_as_wide_and_shifted_as_marschners():
+    """Karis's Gaussian runs over sin(theta_i) + sin(theta_o) ~ 2 theta_h: with the same
+    roughness (beta_R, a width in theta_h) and shift its R lobe peaks where Marschner's does,
+    theta_o = 2 alpha_R - theta_i (5 %), with the same width in theta_o, 2 beta_R (10 %: the
+    Gaussian is over sines and times N_R's Fresnel)."""
+    s = ShadingSettings(model="karis", color=(1e-4, 1e-4, 1e-4), roughness=math.radians(6), shift=math.radians(-5))
+    m = R.material(s)
+    to = np.radians(np.linspace(-60, 60, 4801))
+    T = np.tile([0.0, 0.0, 1.0], (to.size, 1))
+    L = np.tile([1.0, 0.0, 0.0], (to.size, 1))                    # theta_i = 0
+    V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1)  # phi = 0: the R lobe's azimuth
+    f = R.karis(T, V, L, m)[:, 0]
+    w = f / f.sum()
+    mean = (w * to).sum()
+    std = math.sqrt((w * (to - mean) ** 2).sum())
+    peak = to[np.argmax(f)]
+    assert abs(peak - 2 * s.shift) <= 0.05 * abs(2 * s.shift), (math.degrees(peak), math.degrees(2 * s.shift))
+    assert abs(std - 2 * s.roughness) <= 0.1 * 2 * s.roughness, (math.degrees(std), math.degrees(2 * s.roughness))
+    assert abs(mean - 2 * s.shift) <= 0.1 * abs(2 * s.shift)

@@ -25,7 +25,7 @@ def test_every_setting_gets_a_widget_from_its_dataclass():
     assert r["shading"].kind == "combo" and "marschner" in r["shading"].choices
     assert r["tone_mapping"].choices == ("aces", "reinhard", "none")
     assert r["msaa"].kind == "combo" and r["msaa"].choices == (1, 2, 4, 8)
-    assert r["hair_color"].kind == "color" and r["background"].kind == "color"
+    assert r["hair_color"].kind == "optional_color" and r["background"].kind == "color"   # None: melanin
     assert r["draw_head"].kind == "checkbox" and r["segments"].kind == "slider_int"
     assert r["dom_layers"].kind == "drag3" and r["shading_options"].kind == "dict"
     if "oit" in r:    # order-independent transparency: the methods' constant gives the combo

@@ -185,8 +185,10 @@ def karis(T, V, L, m):
     ok = _dot(lp, lp) * _dot(vp, vp) > 1e-24
     chp = np.where(ok, np.minimum(0.5 * _norm(safe_normalize(lp) + safe_normalize(vp)), 1.0), math.sqrt(0.5))
     f0 = ((m["eta"] - 1) / (m["eta"] + 1)) ** 2
-    alpha = m["shift"] * np.array([1, -0.5, -2])
-    beta = max(m["roughness"], 1e-3) * np.array([1, 0.5, 2])
+    # Karis's Gaussian runs over sin(theta_i) + sin(theta_o) ~ 2 theta_h: mane's theta_h width
+    # and shift (Marschner's beta_R, alpha_R) enter doubled
+    alpha = 2 * m["shift"] * np.array([1, -0.5, -2])
+    beta = 2 * max(m["roughness"], 1e-3) * np.array([1, 0.5, 2])
     M = gaussian(beta, (si + so)[:, None] - alpha)
     C = np.maximum(m["color"], 1e-4)
     nr = 0.25 * chp * _schlick(f0, np.sqrt(np.clip(0.5 + 0.5 * _dot(V, L), 0, 1)))
@@ -203,7 +205,7 @@ def karis(T, V, L, m):
 # ------------------------------------------------------------------------------ Zinke 2008 dual scattering
 
 def dual_sample(lut, row, x):
-    """GL_LINEAR sampling of row ``row`` of the (7, size, 4) dual table at texel coordinate
+    """GL_LINEAR sampling of row ``row`` of the (8, size, 4) dual table at texel coordinate
     x in [0, size - 1] (grid point j at x = j; texel centres), float64 weights."""
     n = lut.shape[1]
     x = np.clip(x, 0.0, n - 1)
@@ -218,16 +220,21 @@ def _g_var(v, x):
     return np.exp(-0.5 * x * x / v) / np.sqrt(2 * math.pi * v)
 
 
-def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, hair_opacity=0.65, max_hairs=64.0):
+def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, max_hairs=64.0, model="marschner"):
     """dual_scattering.glsl hair_ms_dual (Zinke 2008 Algorithm 1, mane's normalisation), from
-    the table data ``lut`` (ShadingSettings.dual_lut()). Returns (N, 3)."""
+    the table data ``lut`` (ShadingSettings.dual_lut()). Returns (N, 3).
+
+    The forward transmittance: n = -ln t fibres met on average (Poisson, so that none is met
+    with probability t), T_f = E[a_f^k] = exp(-n (1 - a_f)). ``model="chiang"``: four lobes,
+    TRT shifted by -2 alpha, TRRT+ unshifted with TRT's width, N^G read at |theta_o|."""
     a = angles(T, V, L)
     th = 0.5 * (a["theta_i"] + a["theta_o"])
     td = 0.5 * (a["theta_o"] - a["theta_i"])
     inv_cd2 = 1.0 / np.maximum(np.cos(td), 1e-2) ** 2
     size = lut.shape[1]
     xi = np.clip((a["theta_i"] + math.pi / 2) / math.pi, 0, 1) * (size - 1)
-    xd = np.clip(np.abs(td) / (math.pi / 2), 0, 1) * (size - 1)
+    chiang = model == "chiang"
+    xd = np.clip(np.abs(a["theta_o"] if chiang else td) / (math.pi / 2), 0, 1) * (size - 1)
     A_b = dual_sample(lut, 0, xi)[:, :3]
     delta_b = dual_sample(lut, 1, xi)[:, :3]
     sigma_b2 = dual_sample(lut, 2, xi)[:, :3]
@@ -235,16 +242,18 @@ def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, hair_opacity=0.
     beta_f2 = dual_sample(lut, 4, xi)[:, :3]
     ng0 = dual_sample(lut, 5, xd)
     ng_trt = dual_sample(lut, 6, xd)[:, :3]
+    ng_trrt = dual_sample(lut, 7, xd)[:, :3]
     t = np.clip(np.broadcast_to(np.asarray(transmittance, np.float64), th.shape), 0, 1)
-    n = np.where(t < 1, np.minimum(np.log(np.maximum(t, 1e-30)) / math.log(1 - hair_opacity), max_hairs), 0.0)
+    n = np.where(t < 1, np.minimum(-np.log(np.maximum(t, 1e-30)), max_hairs), 0.0)
     back_norm = (inv_cd2 / (4 * math.pi))[:, None]
     f_direct_back = back_norm * A_b * _g_var(sigma_b2, th[:, None] - delta_b)
-    T_f = np.clip(a_f, 1e-30, 1.0) ** n[:, None]
+    T_f = np.exp(-n[:, None] * (1.0 - np.clip(a_f, 0.0, 1.0)))
     sigma_f2 = n[:, None] * beta_f2
-    alpha = m["shift"] * np.array([1.0, -0.5, -1.5])
-    beta2 = (m["roughness"] * np.array([1.0, 0.5, 2.0])) ** 2
-    mg = [0.5 * _g_var(beta2[p] + sigma_f2, (th - alpha[p])[:, None]) for p in range(3)]
-    f_scatter_s = (m["specular"] * ng0[:, 3:4] * mg[0] + ng0[:, :3] * mg[1] + ng_trt * mg[2]) * inv_cd2[:, None]
+    alpha = m["shift"] * np.array([1.0, -0.5, -2.0 if chiang else -1.5, 0.0])
+    beta2 = (m["roughness"] * np.array([1.0, 0.5, 2.0, 2.0])) ** 2
+    mg = [0.5 * _g_var(beta2[p] + sigma_f2, (th - alpha[p])[:, None]) for p in range(4)]
+    f_scatter_s = (m["specular"] * ng0[:, 3:4] * mg[0] + ng0[:, :3] * mg[1] + ng_trt * mg[2]
+                   + ng_trrt * mg[3]) * inv_cd2[:, None]
     f_scatter_back = back_norm * A_b * _g_var(sigma_b2 + sigma_f2, th[:, None] - delta_b)
     scattered = np.maximum(T_f - t[:, None], 0.0) * (t < 1)[:, None]
     f = t[:, None] * d_b * f_direct_back + scattered * d_f * (f_scatter_s + d_b * f_scatter_back)

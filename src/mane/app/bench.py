@@ -18,7 +18,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 
-HELP = "run benchmarks (sim, render, oit, quality, limits, dataset, all) and print or write JSON"
+HELP = "run benchmarks (sim, render, oit, quality, limits, fidelity, dataset, all) and print or write JSON"
 
 # target -> (module, one-line help)
 TARGETS: dict[str, tuple[str, str]] = {
@@ -31,6 +31,9 @@ TARGETS: dict[str, tuple[str, str]] = {
                                       "OIT vs the exact sort, simulation invariants (--out DIR: quality.json + images)"),
     "limits": ("mane.bench.limits", "the GPU's measured limits: DRAM copy bandwidth, raster units' peak (triangles "
                                     "and samples per second, 1x and 4x MSAA), atomicMin throughput (32/64-bit)"),
+    "fidelity": ("mane.bench.fidelity", "every shading model and shadow method against a path-traced reference "
+                                        "(Mitsuba 3, the reference extra): luminance, colour, falloff, MAE, FLIP "
+                                        "(--out DIR: fidelity.json + side-by-side images)"),
     "dataset": ("mane.bench.dataset_bench", "mane dataset's pipeline: samples per second (default 512x512, every map, "
                                             "50k strands) and where the time goes (GPU, read-back, encoding, writing)"),
     "all": ("mane.bench.all_bench", "every target in turn (--out DIR: JSON, CSV per table, plots/*.png beside the "
@@ -51,6 +54,23 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--only", metavar="TARGETS", help="all: only these targets, comma-separated (e.g. sim,render)")
     parser.add_argument("--baseline", metavar="DIR", help="all: another run's --out folder (e.g. --quick on a CPU) "
                                                           "whose times go beside this run's in summary.md")
+    # fidelity
+    parser.add_argument("--size", type=_size, default=None, help="fidelity: image WxH (default 320x320; --quick 48x48)")
+    parser.add_argument("--spp", type=int, default=None, help="fidelity: reference samples per pixel (default 64)")
+    parser.add_argument("--scenes", default=None, help="fidelity: scenes, comma-separated (sintel_brown, "
+                                                       "sintel_blond, curly_head)")
+    parser.add_argument("--models", default=None, help="fidelity: shading models, comma-separated (default all)")
+    parser.add_argument("--shadows", default=None, help="fidelity: shadow methods, comma-separated (default all)")
+    parser.add_argument("--grid", action="store_true", help="fidelity: every model x every shadow method")
+    parser.add_argument("--rasterizer", default=None, help="fidelity: auto, hardware or compute (default auto)")
+    parser.add_argument("--cache", default=None, help="fidelity: reference image cache folder "
+                                                      "(default $MANE_REFERENCE_CACHE or ~/.cache/mane/reference)")
+
+
+def _size(text: str):
+    from .render import _size as size
+
+    return size(text)
 
 
 def _json_default(obj):

@@ -21,6 +21,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
     "convert": ("mane.app.convert", "convert a hair or mesh file to another format (units, up axis, --points)"),
     "grow": ("mane.app.grow", "grow a procedural groom on the default head or a mesh"),
     "render": ("mane.app.render", "render a groom (or the default head and hair) to a PNG or an MP4"),
+    "reference": ("mane.app.reference", "path trace what mane render draws with Mitsuba 3's hair BSDF (pip install mane[reference])"),
     "doctor": ("mane.app.doctor", "report the OpenGL renderer, limits, extensions and available features"),
     "simulate": ("mane.app.simulate", "simulate a groom on the GPU while the head moves; write the animation and statistics"),
     "bench": ("mane.app.bench", "run benchmarks (sim, render, oit, quality, limits, dataset, all) and print or write JSON"),

@@ -11,6 +11,7 @@ from __future__ import annotations
 import json
 import math
 import time
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -28,7 +29,7 @@ class Quality:
     seconds: float
     fps: float
     msaa: int
-    shading: str = "marschner"
+    shading: str = "chiang"
     shadows: str = "deep_opacity"
     shadow_map_size: int = 512
     pcf: int = 2
@@ -38,13 +39,23 @@ class Quality:
     """the viewer's simulation step (None: ``sim_dt``): the viewer's frame rate, not the clip's."""
     head_subdivisions: int = 5
     """detail of the default bust (5: 20,480 triangles; 4: 5,120, a quarter of llvmpipe's head pass)."""
+    hair: str = "brown"
+    """the hair colour preset (mane.render.shading.PRESETS): melanin drives the colour."""
+    specular: float = 1.0
+    """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
+    multiple_scattering: str = "auto"
+    """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
 
     def render_settings(self, **changes):
         from ..render import RenderSettings
 
+        from ..render.shading import hair_preset
+
         base = dict(size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
-                    shadow_map_size=self.shadow_map_size, pcf=self.pcf)
+                    shadow_map_size=self.shadow_map_size, pcf=self.pcf,
+                    shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
+                                     "multiple_scattering": self.multiple_scattering})
         base.update(changes)
         return RenderSettings(**base)
 
@@ -58,7 +69,8 @@ class Quality:
 # (SOFTWARE_LADDER) on a machine slower than that.
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
-                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4)
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
+                   multiple_scattering="none")   # Kajiya-Kay's diffuse term stands for it; 15 fps
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
 # guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
@@ -103,6 +115,8 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="simulated seconds (default by quality)")
     parser.add_argument("--quality", choices=("auto", "software", "gpu"), default="auto",
                         help="workload preset (auto: by the renderer)")
+    parser.add_argument("--hair", default=None, help="hair colour preset: black, dark_brown, brown (default), "
+                                                    "auburn, red, blond, platinum, grey")
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--headless", action="store_true",
                       help="render the clip to files even when a display is available")
@@ -170,6 +184,10 @@ def _run_viewer(args) -> int:
     from ..viewer import Viewer
 
     viewer = Viewer(demo=True, quality=args.quality, out_dir=Path(args.out), title="mane demo")
+    if getattr(args, "hair", None):
+        from ..render.shading import hair_preset
+
+        viewer.color_mode, viewer.melanin = "melanin", hair_preset(args.hair)
     print(f"mane demo: the viewer on {viewer.gl_name}, quality {viewer.quality.name}; "
           "close the window to quit (--headless renders files instead)")
     try:
@@ -219,6 +237,10 @@ def _calibrate(q: Quality, make_renderer, sim, camera, lights):
 
 
 def run(args) -> int:
+    if getattr(args, "hair", None):
+        from ..render.shading import hair_preset
+
+        hair_preset(args.hair)                       # a clear error for an unknown name, first
     if _want_window(args):
         from ..errors import ManeError
 
@@ -246,9 +268,11 @@ def _run_headless(args) -> int:
     ctx = get_context()
     software = is_software_renderer(ctx)
     q = {"software": SOFTWARE, "gpu": GPU}.get(args.quality) or (SOFTWARE if software else GPU)
+    if getattr(args, "hair", None):
+        q = dataclasses.replace(q, hair=args.hair)
     seconds = args.seconds if args.seconds is not None else q.seconds
     print(f"mane demo on {renderer_name(ctx)}: quality {q.name}")
-    if software and q is SOFTWARE:
+    if software and q.name == SOFTWARE.name:
         drawn = (q.points - 1) * math.ceil(q.segments / (q.points - 1))   # whole guide segments
         print(f"  scaled down: {q.guides} guides x {q.strands_per_guide} strands, {drawn} segments, "
               f"{q.size[0]}x{q.size[1]}, no MSAA, {q.shading} shading, {q.shadows} {q.shadow_map_size}, "
@@ -283,7 +307,7 @@ def _run_headless(args) -> int:
     renderer = make_renderer(q.render_settings())
     camera = renderer.default_camera(25.0, 10.0)
     lights = default_lights()
-    if software and q is SOFTWARE:
+    if software and q.name == SOFTWARE.name:
         renderer.release()
         renderer, fps, taken = _calibrate(q, make_renderer, sim, camera, lights)
         if taken:

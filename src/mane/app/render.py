@@ -18,7 +18,37 @@ import numpy as np
 
 from ..errors import UsageError
 
-SHADINGS = ("kajiya_kay", "marschner", "marschner_lut", "sadeghi", "scheuermann", "karis")
+SHADINGS = ("chiang", "kajiya_kay", "marschner", "marschner_lut", "sadeghi", "scheuermann", "karis")
+MULTIPLE_SCATTERINGS = ("auto", "dual", "karis", "none")
+
+
+def hair_options(args) -> dict:
+    """ShadingSettings options from --hair PRESET, --melanin EU,PHEO and --multiple-scattering."""
+    from ..render.shading import hair_preset
+
+    opts = {}
+    hair = getattr(args, "hair", None)
+    melanin = getattr(args, "melanin", None)
+    if hair and melanin:
+        raise UsageError("give --hair PRESET or --melanin EU,PHEO, not both")
+    if hair:
+        opts["melanin"] = hair_preset(hair)
+    if melanin:
+        try:
+            e, p = (float(v) for v in melanin.split(","))
+        except ValueError:
+            raise UsageError(f"--melanin must be EUMELANIN,PHEOMELANIN (e.g. 1.3,0.2), got {melanin!r}") from None
+        if not (0 <= e <= 50 and 0 <= p <= 50):
+            raise UsageError(f"--melanin concentrations must be in [0, 50], got {melanin!r}")
+        opts["melanin"] = (e, p)
+    if (hair or melanin) and getattr(args, "color", None):
+        raise UsageError("--color replaces melanin: give --color or --hair/--melanin, not both")
+    ms = getattr(args, "multiple_scattering", None)
+    if ms:
+        if ms not in MULTIPLE_SCATTERINGS:
+            raise UsageError(f"--multiple-scattering must be one of {', '.join(MULTIPLE_SCATTERINGS)}; got {ms!r}")
+        opts["multiple_scattering"] = ms
+    return opts
 
 
 def _size(text: str) -> tuple[int, int]:
@@ -47,7 +77,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                      "box, or eye=x,y,z;target=x,y,z[;fov=deg]")
     parser.add_argument("--light", action="append", default=None,
                         help="dir:X,Y,Z[:INTENSITY[:R,G,B]] or point:...; repeat for up to 3 (first casts shadows)")
-    parser.add_argument("--shading", default="kajiya_kay", help=f"hair model: {', '.join(SHADINGS)}")
+    parser.add_argument("--shading", default="chiang", help=f"hair model: {', '.join(SHADINGS)} (default chiang)")
+    parser.add_argument("--hair", default=None, help="hair colour preset: black, dark_brown, brown (default), "
+                                                    "auburn, red, blond, platinum, grey")
+    parser.add_argument("--melanin", default=None, help="hair colour as EUMELANIN,PHEOMELANIN concentrations "
+                                                       "(Chiang 2016; brown 1.3,0.2, blond 0.3,0.1, black 8,0)")
+    parser.add_argument("--multiple-scattering", default=None,
+                        help="auto (default: dual), dual (Zinke 2008 from the fibre model), "
+                             "karis (Karis 2016's approximation), none")
     parser.add_argument("--shadows", default="deep_opacity", choices=SHADOWS)
     parser.add_argument("--aa", default="msaa4", help="none, coverage, msaa2, msaa4, msaa8, ssaa2, msaa4+ssaa2")
     parser.add_argument("--interpolation", default="catmull_rom", choices=INTERPOLATIONS)
@@ -56,7 +93,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="rendered strands per guide (default 16; a file: up to ~100,000 hairs in all)")
     parser.add_argument("--segments", type=int, default=None, help="rendered segments per strand (default 32)")
     parser.add_argument("--guides", type=int, default=1000, help="guides of the default groom (default 1000)")
-    parser.add_argument("--color", default=None, help="hair colour, linear R,G,B in [0,1]")
+    parser.add_argument("--color", default=None, help="hair colour, linear R,G,B in [0,1] (replaces melanin)")
     parser.add_argument("--stats", help="write per-pass timings and counts to this JSON file")
     parser.add_argument("--interpolation-mode", default="single", choices=("single", "multi", "hybrid"),
                         help="strand multiplication: single-strand clumps, 3-guide blend, or the blend "
@@ -76,7 +113,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="frame budget: refuse --frames beyond it (default 10000)")
     parser.add_argument("--file-colors", dest="file_colors", action=argparse.BooleanOptionalAction, default=True,
                         help="render a groom with the colours, widths and transparency its file carries "
-                             "(default; --no-file-colors: the scene's hair model; --color implies it)")
+                             "(default; --no-file-colors: the scene's hair model; --color, --hair or --melanin imply it)")
     from .options import add_frame_arguments, add_quiet_argument
 
     add_frame_arguments(parser)
@@ -191,12 +228,17 @@ def run(args) -> int:
             assert len(kw["hair_color"]) == 3 and all(math.isfinite(v) and v >= 0 for v in kw["hair_color"])
         except (ValueError, AssertionError):
             raise UsageError(f"--color must be R,G,B (finite, >= 0), got {args.color!r}") from None
+    opts = hair_options(args)
+    if opts:
+        kw["shading_options"] = opts
     kw["oit"] = getattr(args, "oit", "none") or "none"
     if getattr(args, "oit_k", None) is not None:
         kw["oit_k"] = args.oit_k
     if getattr(args, "oit_opacity", None) is not None:
         kw["oit_opacity"] = args.oit_opacity
-    kw["use_file_colors"] = bool(getattr(args, "file_colors", True)) and not args.color
+    # a colour asked for on the command line wins over the file's own
+    kw["use_file_colors"] = bool(getattr(args, "file_colors", True)) and not args.color and "melanin" not in kw.get(
+        "shading_options", {})
     settings = RenderSettings(**kw)
 
     t0 = time.perf_counter()

@@ -303,8 +303,8 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
                     progress(f"{name}: {msg}")
 
             kw = {}
-            if name == "quality" and out is not None:
-                kw["image_dir"] = out / "quality"
+            if name in ("quality", "fidelity") and out is not None:
+                kw["image_dir"] = out / name
             t0 = time.perf_counter()
             try:
                 res = _sanitise(module.run(ctx, mode, progress=cb, **kw))

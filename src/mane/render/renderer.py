@@ -27,27 +27,29 @@ from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
-from .passes.base import MAX_ISOLINES, Frame, Pass, View, set_uniform, subdivisions
+from .passes.base import MAX_ISOLINES, Frame, Pass, View, subdivisions
 from .passes.expand import ExpandPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .settings import RenderSettings
-from .shading import ShadingSettings
+from .shading import ShadingSettings, hair_preset
 from .strand_buffers import StrandBuffers
-
-DEFAULT_HAIR_COLOR = (0.23, 0.12, 0.06)
 
 
 class ShadingAdapter:
     """The renderer's hair material: ``mane.render.shading`` settings plus a colour override."""
 
-    def __init__(self, name: str = "kajiya_kay", hair_color=None, options=None):
+    def __init__(self, name: str = "chiang", hair_color=None, options=None):
         self.name = name
         self.options = dict(options or {})
         self.hair_color = tuple(hair_color) if hair_color is not None else None
         kwargs = {"model": name, **self.options}
         if self.hair_color is not None:
+            if self.options.get("melanin") is not None:
+                raise UsageError("give the hair colour as melanin or as an RGB hair_color, not both")
             kwargs["color"] = self.hair_color
+        if "melanin" in kwargs and isinstance(kwargs["melanin"], str):
+            kwargs["melanin"] = hair_preset(kwargs["melanin"])
         try:
             self.settings = ShadingSettings(**kwargs)
         except (TypeError, ValueError) as exc:
@@ -58,15 +60,11 @@ class ShadingAdapter:
 
     @property
     def color(self) -> tuple:
-        if self.hair_color is not None:
-            return self.hair_color
-        c = getattr(self.settings, "color", None)
-        return tuple(c) if c is not None else DEFAULT_HAIR_COLOR
+        """The model's colour (ShadingSettings.resolved_color: melanin's, or the RGB opt-in)."""
+        return tuple(float(x) for x in self.settings.resolved_color())
 
     def bind(self, prog, ctx, render_settings=None) -> None:
         self.settings.bind(prog, ctx)
-        if self.hair_color is not None:
-            set_uniform(prog, "u_material.color", tuple(self.hair_color))
 
 
 class FramesPass(Pass):

@@ -134,12 +134,16 @@ class RenderSettings:
     """Ribbons narrower than this (pixels) are drawn this wide with coverage alpha = true/shown
     width, so sub-pixel strands fade instead of flickering. 0 turns coverage alpha off."""
     # --- shading and lights
-    shading: str = "kajiya_kay"
-    """Hair shading model name (mane.render.shading.ShadingSettings)."""
-    shading_options: dict = field(default_factory=lambda: {"specular": 0.25})
-    """Other ShadingSettings fields (e.g. {"specular": 0.4, "roughness": 0.12})."""
-    hair_color: tuple[float, float, float] | None = (0.1, 0.05, 0.025)
-    """Linear RGB hair colour (medium brown); None keeps the shading settings' default."""
+    shading: str = "chiang"
+    """Hair shading model name (mane.render.shading.ShadingSettings): "chiang" (Chiang et al.
+    2016, pbrt's and Mitsuba's hair model, with dual scattering) by default."""
+    shading_options: dict = field(default_factory=dict)
+    """Other ShadingSettings fields (e.g. {"melanin": (0.3, 0.1), "multiple_scattering": "none",
+    "roughness": 0.12}). Colour comes from melanin (default the "brown" preset,
+    mane.render.shading.PRESETS)."""
+    hair_color: tuple[float, float, float] | None = None
+    """None (melanin drives the colour), or a linear RGB colour that replaces melanin: an
+    explicit opt-in (ShadingSettings.color)."""
     use_file_colors: bool = True
     """A groom that carries its own colours, widths or transparency (cyHair arrays, USD
     displayColor/widths, PLY properties...) renders with them (their mean colour, median root

@@ -530,6 +530,14 @@ def _hair_colour(v, imgui) -> None:
         if changed:
             v.render_settings = dataclasses.replace(v.render_settings, hair_color=tuple(float(x) for x in col))
     else:
+        from ..render.shading import PRESETS
+
+        names = list(PRESETS)
+        current = next((k for k, m in PRESETS.items() if tuple(m) == tuple(v.melanin)), None)
+        labels = names + ["custom"]
+        changed, i = imgui.combo("preset", labels.index(current) if current else len(names), labels)
+        if changed and i < len(names):
+            v.melanin = PRESETS[names[i]]
         _, e = imgui.slider_float("eumelanin", float(v.melanin[0]), 0.0, 8.0)
         _, p = imgui.slider_float("pheomelanin", float(v.melanin[1]), 0.0, 8.0)
         imgui.set_item_tooltip("Chiang et al. 2016 concentrations: black ~8, brown ~1.3, blond ~0.3, red: pheomelanin")

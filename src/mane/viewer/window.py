@@ -195,8 +195,10 @@ class Viewer:
         self.wind_on = bool(demo)
         self.wind_azimuth, self.wind_elevation = 27.0, 0.0   # degrees; demo: from the front-left
         self.wind_strength, self.wind_gust, self.wind_turbulence = 1.34, 1.0, 0.6
-        self.color_mode = "rgb"
-        self.melanin = (1.3, 0.3)
+        self.color_mode = "melanin"           # melanin drives the colour; RGB is an opt-in
+        from ..render.shading import PRESETS
+
+        self.melanin = PRESETS["brown"]
         self.style = next(iter(STYLE_PRESETS))
         self.frames = 0
         self.fps = 0.0

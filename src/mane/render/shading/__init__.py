@@ -19,10 +19,18 @@ Python side::
     s.bind(prog, ctx)            # u_material.* and (LUT model) the lookup textures
 
 Models (``MODELS``): kajiya_kay 0, marschner 1, marschner_lut 2, sadeghi 3,
-scheuermann 4, karis 5. Multiple scattering (``MULTIPLE_SCATTERING``): none 0, karis 1,
-dual 2 (Zinke et al. 2008 dual scattering from tables of this material's Marschner lobes,
-see dual_scattering.py / dual_scattering.glsl; bind() binds the ``hair_dual_lut`` texture to
-unit ``LUT_UNIT_DUAL``); "auto" = karis.
+scheuermann 4, karis 5, chiang 6 (the default: Chiang et al. 2016, the model of pbrt-v4 and
+Mitsuba 3's ``hair``, chiang.py / chiang.glsl; bind() binds its ``hair_chiang_n`` table to
+unit ``LUT_UNIT_CHIANG``). Multiple scattering (``MULTIPLE_SCATTERING``): none 0, karis 1,
+dual 2 (Zinke et al. 2008 dual scattering from tables of this material's fibre lobes,
+Chiang's for "chiang", Marschner's otherwise, see dual_scattering.py / dual_scattering.glsl;
+bind() binds the ``hair_dual_lut`` texture to unit ``LUT_UNIT_DUAL``); "auto" = dual.
+
+Colour: melanin drives it by default (``melanin``, the brown preset; ``melanin.PRESETS``);
+an RGB ``color`` is an explicit opt-in that replaces it. The colour-driven models (Kajiya-Kay,
+Sadeghi, Scheuermann, Karis) take from melanin one fibre's colour, Karis's C = exp(-4 sigma_a)
+(``melanin.fibre_color``); the fibre models use sigma_a itself and the multiple-scattered volume
+colour (Chiang eq. 9) only for the ambient term.
 
 Units: ``roughness`` is the longitudinal width beta_R in radians, ``shift`` the
 longitudinal shift alpha_R in radians (Marschner 2003 / Hunz 2016 Table 1: alpha_TT =
@@ -40,7 +48,11 @@ from pathlib import Path
 import numpy as np
 
 from .melanin import (  # noqa: F401
+    PRESETS,
     color_to_sigma_a,
+    fibre_color,
+    fibre_color_to_sigma_a,
+    hair_preset,
     melanin_to_sigma_a,
     sigma_a_to_color,
 )
@@ -56,7 +68,10 @@ MODELS: dict[str, int] = {
     "sadeghi": 3,
     "scheuermann": 4,
     "karis": 5,
+    "chiang": 6,
 }
+FIBRE_MODELS = ("chiang", "marschner", "marschner_lut")
+COLOUR_MODELS = ("kajiya_kay", "sadeghi", "scheuermann", "karis")
 MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
 
 # Texture units bind() uses. The renderer's: 0-2 shadow map and head, 3 deep opacity, 4 ADSM,
@@ -65,6 +80,7 @@ MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
 LUT_UNIT_M = 24
 LUT_UNIT_N = 25
 LUT_UNIT_DUAL = 7
+LUT_UNIT_CHIANG = 26
 
 
 def _glsl_float(x: float) -> str:
@@ -76,15 +92,17 @@ def _glsl_float(x: float) -> str:
 
 @dataclass(frozen=True)
 class ShadingSettings:
-    """Hair shading model and material. Colour from RGB (``color``) or ``melanin``.
+    """Hair shading model and material. Colour from ``melanin`` (default) or an RGB ``color``.
 
-    model           one of MODELS
-    color           linear RGB albedo; ignored when ``melanin`` is given (then the colour is
-                    sigma_a_to_color(sigma_a)). Used by Kajiya-Kay, Sadeghi, Scheuermann,
-                    Karis and the multiple-scattering terms.
-    melanin         None or (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8)
-    sigma_a         explicit absorption per unit radius (overrides both); by default from
-                    melanin, else Chiang's inversion of ``color``
+    model           one of MODELS (default "chiang")
+    color           None, or linear RGB: an explicit opt-in that replaces melanin (``melanin``
+                    becomes None). For the
+                    colour-driven models (Kajiya-Kay, Sadeghi, Scheuermann, Karis) the fibre
+                    colour itself; for the fibre models the multiple-scattered volume colour
+                    (sigma_a by Chiang's eq. 9 inversion).
+    melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8) or a preset's
+                    name (melanin.PRESETS); default the "brown" preset; None with no color: brown
+    sigma_a         explicit absorption per unit radius (overrides both)
     specular        R-lobe (primary highlight) scale; 1 = physical
     roughness       beta_R, longitudinal width in radians (7.5 deg)
     shift           alpha_R, longitudinal shift in radians (-5 deg)
@@ -98,21 +116,23 @@ class ShadingSettings:
     glint_width     Sadeghi azimuthal width of the glints (radians)
     noise           Scheuermann tangent-shift noise amplitude (radians) from strand_rand
     energy_clamp    Marschner: the shifted lobes never gain energy (see luts.py)
+    beta_n          Chiang's azimuthal roughness (0..1; pbrt's and Mitsuba's default 0.3)
+    chiang_size     Chiang table resolution: theta_o texels (phi: twice as many)
     multiple_scattering  "auto", "none", "karis" or "dual"
     lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
-    dual_hair_opacity   dual scattering: the fraction of light one hair in front blocks, so
-                    that a deep-opacity transmittance t means n = log t / log(1 - opacity)
-                    hairs towards the light. 0.65 = 1 - exp(-shadow_density * strand_opacity)
-                    for the RenderSettings defaults (3.0, 0.35); keep them in step.
-    dual_density_front  Zinke's d_f (forward-scattering density factor, 0.6-0.8 for hair)
+    dual_density_front  Zinke's d_f (forward-scattering density factor; the paper's 0.6-0.8
+                    discounted counting every occluder as a fibre met; with the Poisson count
+                    from the deep opacity map's own transmittance the packing is already in n,
+                    so 1: measured against the path tracer, docs/quality.md)
     dual_density_back   Zinke's d_b (back-scattering density factor)
-    dual_max_hairs  cap on n (transmittance 0, e.g. the head's shadow, gives this many)
+    dual_max_hairs  cap on the number of fibres met towards the light, -log t (transmittance
+                    0, e.g. the head's shadow, gives this many)
     dual_size       dual-scattering table resolution (texels per row, 7 rows)
     """
 
-    model: str = "marschner"
-    color: tuple = (0.30, 0.18, 0.10)
-    melanin: tuple | None = None
+    model: str = "chiang"
+    color: tuple | None = None
+    melanin: tuple | None = (1.3, 0.2)
     sigma_a: tuple | None = None
     specular: float = 1.0
     roughness: float = math.radians(7.5)
@@ -126,10 +146,11 @@ class ShadingSettings:
     glint_width: float = math.radians(5.0)
     noise: float = 0.1
     energy_clamp: bool = True
+    beta_n: float = 0.3
+    chiang_size: int = 64
     multiple_scattering: str = "auto"
     lut_size: int = 256
-    dual_hair_opacity: float = 0.65
-    dual_density_front: float = 0.7
+    dual_density_front: float = 1.0
     dual_density_back: float = 0.7
     dual_max_hairs: float = 64.0
     dual_size: int = 64
@@ -145,14 +166,24 @@ class ShadingSettings:
             raise ValueError("eta must be > 1")
         if int(self.lut_size) < 8:
             raise ValueError("lut_size must be >= 8")
-        if not 0 < self.dual_hair_opacity < 1:
-            raise ValueError("dual_hair_opacity must be in (0, 1)")
         if not (0 <= self.dual_density_front <= 1 and 0 <= self.dual_density_back <= 1):
             raise ValueError("dual_density_front / dual_density_back must be in [0, 1]")
         if not self.dual_max_hairs > 0:
             raise ValueError("dual_max_hairs must be > 0")
         if int(self.dual_size) < 8:
             raise ValueError("dual_size must be >= 8")
+        if not 0 < self.beta_n <= 1:
+            raise ValueError("beta_n (Chiang's azimuthal roughness) must be in (0, 1]")
+        if int(self.chiang_size) < 8:
+            raise ValueError("chiang_size must be >= 8")
+        if self.color is not None:
+            if len(tuple(self.color)) != 3:
+                raise ValueError("color must be linear R, G, B")
+            object.__setattr__(self, "melanin", None)    # the RGB opt-in replaces melanin
+        if isinstance(self.melanin, str):
+            object.__setattr__(self, "melanin", hair_preset(self.melanin))   # a preset's name
+        if self.melanin is not None and len(tuple(self.melanin)) != 2:
+            raise ValueError("melanin must be (eumelanin, pheomelanin)")
 
     # ---------------------------------------------------------------- derived values
     @property
@@ -160,22 +191,36 @@ class ShadingSettings:
         return MODELS[self.model]
 
     @property
-    def ms_mode(self) -> int:
+    def resolved_multiple_scattering(self) -> str:
+        """The multiple-scattering name "auto" stands for: "dual" (Zinke's dual scattering from
+        the material's fibre, Chiang's or Marschner's) for every model. Karis's approximation
+        measured 3.3-3.9x (and with one fibre's colour 9x) the path tracer's brightness."""
         if self.multiple_scattering == "auto":
-            return MULTIPLE_SCATTERING["karis"]
-        return MULTIPLE_SCATTERING[self.multiple_scattering]
+            return "dual"
+        return self.multiple_scattering
+
+    @property
+    def ms_mode(self) -> int:
+        return MULTIPLE_SCATTERING[self.resolved_multiple_scattering]
 
     def resolved_sigma_a(self) -> np.ndarray:
         if self.sigma_a is not None:
             return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
-        if self.melanin is not None:
-            return melanin_to_sigma_a(*self.melanin)
-        return color_to_sigma_a(self.color)
+        if self.color is not None:
+            if self.model in COLOUR_MODELS:
+                return fibre_color_to_sigma_a(self.color)
+            return color_to_sigma_a(self.color, self.beta_n)
+        return melanin_to_sigma_a(*(self.melanin if self.melanin is not None else PRESETS["brown"]))
 
     def resolved_color(self) -> np.ndarray:
-        if self.melanin is not None:
-            return sigma_a_to_color(self.resolved_sigma_a())
-        return np.asarray(self.color, dtype=np.float64).reshape(3)
+        """The ``color`` the model reads: the fibre colour (Karis's C = exp(-4 sigma_a)) for
+        the colour-driven models, the volume colour (Chiang eq. 9) for the fibre models (their
+        ambient term)."""
+        if self.color is not None and self.sigma_a is None:
+            return np.asarray(self.color, dtype=np.float64).reshape(3)
+        if self.model in COLOUR_MODELS:
+            return fibre_color(self.resolved_sigma_a())
+        return sigma_a_to_color(self.resolved_sigma_a(), self.beta_n)
 
     def defines(self) -> dict:
         """GLSL defines: the model, the multiple-scattering mode and the model constants."""
@@ -191,7 +236,6 @@ class ShadingSettings:
             "HAIR_ENERGY_CLAMP": int(bool(self.energy_clamp)),
             "HAIR_DUAL_DF": _glsl_float(self.dual_density_front),
             "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
-            "HAIR_DUAL_HAIR_OPACITY": _glsl_float(self.dual_hair_opacity),
             "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
         }
 
@@ -228,18 +272,44 @@ class ShadingSettings:
             glint=self.glint, caustic_width=self.caustic_width, caustic_fade=self.caustic_fade,
             caustic_limit=self.caustic_limit, size=self.lut_size)   # the energy clamp: in the shader
 
+    def chiang_key(self) -> tuple:
+        return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.beta_n),
+                int(self.chiang_size))
+
+    def chiang_table(self) -> np.ndarray:
+        """(chiang_size, 6 chiang_size, 4) float32 data of ``hair_chiang_n`` (chiang.py), cached."""
+        return _chiang_table(self.chiang_key())
+
+    @property
+    def beta_m(self) -> float:
+        """Chiang's / Mitsuba's longitudinal roughness equivalent to ``roughness``: the R lobe's
+        standard deviation in theta_o, sqrt(v_0) = 0.726 beta_m + 0.812 beta_m^2 + 3.7 beta_m^20
+        (Chiang eq. 7), is twice ``roughness`` (Marschner's beta_R is a width in theta_h =
+        (theta_i + theta_o) / 2); tests/test_chiang.py checks it against Mitsuba's own lobe."""
+        from .chiang import beta_m_from_roughness
+
+        return beta_m_from_roughness(self.roughness)
+
+    # the names mane.reference.HairMaterial.from_shading reads (Mitsuba's parameter names)
+    longitudinal_roughness = beta_m
+
+    @property
+    def azimuthal_roughness(self) -> float:
+        return float(self.beta_n)
+
     def dual_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
                 float(self.shift), float(self.glint), float(self.caustic_width),
                 float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
-                float(self.specular), float(self.dual_density_back), int(self.dual_size))
+                float(self.specular), float(self.dual_density_back), int(self.dual_size),
+                "chiang" if self.model == "chiang" else "marschner", float(self.beta_n))
 
     def dual_tables(self):
         """Zinke 2008 tables (dual_scattering.DualTables) of this material, cached."""
         return _dual_tables(self.dual_key())
 
     def dual_lut(self) -> np.ndarray:
-        """(7, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
+        """(8, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
         from .dual_scattering import build_dual_lut
 
         return build_dual_lut(self.dual_tables())
@@ -260,6 +330,10 @@ class ShadingSettings:
                 program["hair_lut_m"].value = unit_m
             if "hair_lut_n" in program:
                 program["hair_lut_n"].value = unit_n
+        if self.model == "chiang":
+            chiang_texture(ctx, self).use(LUT_UNIT_CHIANG)
+            if "hair_chiang_n" in program:
+                program["hair_chiang_n"].value = LUT_UNIT_CHIANG
         if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
             dual_lut_texture(ctx, self).use(unit_dual)
             if "hair_dual_lut" in program:
@@ -267,22 +341,50 @@ class ShadingSettings:
 
 
 @functools.lru_cache(maxsize=32)
+def _chiang_table(key: tuple) -> np.ndarray:
+    from .chiang import azimuthal_table
+
+    sigma_a, eta, beta_n, size = key
+    return azimuthal_table(np.asarray(sigma_a, np.float64), eta=eta, beta_n=beta_n, n_phi=2 * size, n_theta=size)
+
+
+_chiang_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+
+
+def chiang_texture(ctx, settings: ShadingSettings):
+    """The ``hair_chiang_n`` texture: (6 chiang_size x chiang_size) RGBA32F, linear filtering,
+    clamped; cached per context and ``settings.chiang_key()``."""
+    import moderngl
+
+    cache = _chiang_cache.setdefault(ctx, {})
+    key = settings.chiang_key()
+    if key not in cache:
+        data = settings.chiang_table()
+        tex = ctx.texture((data.shape[1], data.shape[0]), 4, np.ascontiguousarray(data, np.float32).tobytes(),
+                          dtype="f4")
+        tex.repeat_x = tex.repeat_y = False
+        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+        cache[key] = tex
+    return cache[key]
+
+
+@functools.lru_cache(maxsize=32)
 def _dual_tables(key: tuple):
     from .dual_scattering import precompute_dual
 
     (sigma_a, eta, roughness, shift, glint, caustic_width, caustic_fade, caustic_limit, energy_clamp,
-     specular, d_b, size) = key
+     specular, d_b, size, kind, beta_n) = key
     return precompute_dual(np.asarray(sigma_a, np.float64), eta=eta, beta_r=roughness, alpha_r=shift,
                            glint=glint, caustic_width=caustic_width, caustic_fade=caustic_fade,
                            caustic_limit=caustic_limit, energy_clamp=energy_clamp, specular=specular,
-                           d_b=d_b, size=size)
+                           d_b=d_b, size=size, model=kind, beta_n=beta_n)
 
 
 _dual_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def dual_lut_texture(ctx, settings: ShadingSettings):
-    """The ``hair_dual_lut`` moderngl texture: (dual_size x 7) RGBA32F, linear filtering,
+    """The ``hair_dual_lut`` moderngl texture: (dual_size x 8) RGBA32F, linear filtering,
     clamped; cached per context and ``settings.dual_key()``."""
     import moderngl
 
@@ -365,7 +467,8 @@ def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingS
 __all__ = [
     "MODELS", "MULTIPLE_SCATTERING", "ShadingSettings", "HAIR_SHADING_GLSL", "SHADER_DIR",
     "melanin_to_sigma_a", "color_to_sigma_a", "sigma_a_to_color", "build_marschner_luts",
-    "lut_textures", "evaluate_glsl", "dual_lut_texture", "LUT_UNIT_DUAL",
+    "lut_textures", "evaluate_glsl", "dual_lut_texture", "LUT_UNIT_DUAL", "LUT_UNIT_CHIANG",
+    "chiang_texture", "PRESETS", "hair_preset", "fibre_color", "FIBRE_MODELS", "COLOUR_MODELS",
 ]
 
 

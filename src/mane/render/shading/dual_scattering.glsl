@@ -7,10 +7,13 @@
 // f_direct_s), so this returns the rest of Algorithm 1's (F_direct + F_scatter) cos theta_i:
 //
 //   t  = directFraction = transmittance (deep opacity map, 1 at the lit surface)
-//   n  = log(t) / log(1 - HAIR_DUAL_HAIR_OPACITY), at most HAIR_DUAL_MAX_HAIRS: the number of
-//        hairs between the point and the light, each hair taken to pass (1 - opacity) of the
-//        light (the renderer's per-hair factor exp(-shadow_density * strand_opacity))
-//   T_f      = a_f(theta_i)^n                        Eq. 7 with identical hairs; d_f below
+//   n  = -log(t), at most HAIR_DUAL_MAX_HAIRS: the mean number of fibres a ray towards the
+//        light meets. Fibres lie at random, so the count k is Poisson with mean n and the
+//        light that meets none is exp(-n) = t, which is what the deep opacity map measures.
+//   T_f      = sum_k P(k) a_f^k = exp(-n (1 - a_f(theta_i)))   Eq. 7 (Zinke's product of a_f over
+//              the hairs in front) averaged over the Poisson count; it includes the direct t.
+//              (It replaces a_f^n with n = log t / log(1 - opacity), which counted every fibre
+//              as met: brown fibres, a_f < 1 - opacity, then lost the global term altogether.)
 //   sigma_f2 = n beta_f^2(theta_i)                   Eq. 9
 //   f_direct_back  = A_b G(theta_h - Delta_b, sigma_b^2)            / (4 pi cos^2 theta_d)  Eq. 15
 //   f_scatter_back = A_b G(theta_h - Delta_b, sigma_b^2 + sigma_f2) / (4 pi cos^2 theta_d)
@@ -29,13 +32,17 @@
 // theta_d: their half sum / half difference (Marschner), so the tables are read at the
 // light's inclination theta_i and N^G at |theta_d|.
 //
+// Chiang's fibre (HAIR_MODEL_CHIANG): four lobes (TRRT+ in row 7, alpha 0, width 2 roughness),
+// lobe shifts (1, -1/2, -2) alpha, and N^G read at the eye's |theta_o| (its table's variable);
+// cos theta_i / cos^2 theta_d is Chiang's M_p normalisation near the specular cone too.
+//
 // Tables (dual_scattering.py, ShadingSettings.dual_lut()): uniform sampler2D hair_dual_lut,
-// RGBA32F, 7 rows x size (64) texels, linear in x (interpolated in the shader from two
+// RGBA32F, 8 rows x size (64) texels, linear in x (interpolated in the shader from two
 // texelFetch, hair_dual_fetch), read at row centres:
 //   over theta_i in [-pi/2, pi/2]: 0 A_b, 1 Delta_b, 2 sigma_b^2, 3 a_f, 4 beta_f^2 (rgb)
-//   over |theta_d| in [0, pi/2]:  5 N^G_TT (rgb) + N^G_R (a), 6 N^G_TRT (rgb)
-// Defines (ShadingSettings.defines()): HAIR_DUAL_DF d_f, HAIR_DUAL_DB d_b,
-// HAIR_DUAL_HAIR_OPACITY, HAIR_DUAL_MAX_HAIRS.
+//   over |theta_d| in [0, pi/2]:  5 N^G_TT (rgb) + N^G_R (a), 6 N^G_TRT (rgb), 7 N^G_TRRT+ (rgb)
+//   (Chiang: rows 5-7 over |theta_o|)
+// Defines (ShadingSettings.defines()): HAIR_DUAL_DF d_f, HAIR_DUAL_DB d_b, HAIR_DUAL_MAX_HAIRS.
 //
 // Cost per light: hair_angles (~40 ALU, 3 atan) + 3 lookups (2 texelFetch + mix each) and ~25
 // ALU (1 exp, 1 rsqrt per channel) when t = 1; in the shadow +4 lookups, 1 log, pow, 4 vec3
@@ -45,13 +52,10 @@
 #define MANE_HAIR_DUAL_SCATTERING_GLSL
 
 #ifndef HAIR_DUAL_DF
-#define HAIR_DUAL_DF 0.7
+#define HAIR_DUAL_DF 1.0
 #endif
 #ifndef HAIR_DUAL_DB
 #define HAIR_DUAL_DB 0.7
-#endif
-#ifndef HAIR_DUAL_HAIR_OPACITY
-#define HAIR_DUAL_HAIR_OPACITY 0.65
 #endif
 #ifndef HAIR_DUAL_MAX_HAIRS
 #define HAIR_DUAL_MAX_HAIRS 64.0
@@ -61,14 +65,14 @@
 
 uniform sampler2D hair_dual_lut;
 
-const float HAIR_DUAL_ROWS = 7.0;
+const float HAIR_DUAL_ROWS = 8.0;
 
 // Row `row` at texel coordinate x in [0, size - 1] (grid point j at x = j), linear in x.
 // Two texelFetch and a float32 mix rather than the sampler's linear filter: GPUs interpolate
 // with low-precision weights (NVIDIA: 8 fractional bits, an error of up to 1/512 of the step
 // between neighbouring texels, ~2e-3 relative on these tables), while the NumPy twin
 // (np.interp) interpolates exactly. Same texel-centre convention as textureLod at
-// ((x + 0.5) / size, (row + 0.5) / 7) with clamp-to-edge, and the result no longer depends
+// ((x + 0.5) / size, (row + 0.5) / 8) with clamp-to-edge, and the result no longer depends
 // on the sampler's filter or the GPU's filtering precision.
 vec4 hair_dual_fetch(float x, float row, float size) {
     float xc = clamp(x, 0.0, size - 1.0);
@@ -101,21 +105,29 @@ vec3 hair_ms_dual(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
     // local back-scattering of the light that arrives unscattered
     vec3 f = (t * HAIR_DUAL_DB * back_norm) * A_b * hair_dual_gauss(sigma_b2, vec3(theta_h) - delta_b);
     if (t < 1.0) {
-        float n = min(log(max(t, 1e-30)) / log(1.0 - HAIR_DUAL_HAIR_OPACITY), HAIR_DUAL_MAX_HAIRS);
+        float n = min(-log(max(t, 1e-30)), HAIR_DUAL_MAX_HAIRS);
         vec3 a_f = hair_dual_fetch(xi, 3.0, size).rgb;
         vec3 sigma_f2 = n * hair_dual_fetch(xi, 4.0, size).rgb;
-        vec3 T_f = exp(n * log(clamp(a_f, 1e-30, 1.0)));
+        vec3 T_f = exp(-n * (1.0 - clamp(a_f, 0.0, 1.0)));
         vec3 scattered = max(T_f - vec3(t), vec3(0.0));
+#if HAIR_MODEL == HAIR_MODEL_CHIANG
+        float xd = clamp(abs(a.theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size - 1.0);
+        vec3 alpha = m.shift * vec3(1.0, -0.5, -2.0);
+#else
         float xd = clamp(abs(theta_d) * (2.0 * INV_PI), 0.0, 1.0) * (size - 1.0);
+        vec3 alpha = m.shift * vec3(1.0, -0.5, -1.5);
+#endif
         vec4 ng0 = hair_dual_fetch(xd, 5.0, size);
         vec3 ng_trt = hair_dual_fetch(xd, 6.0, size).rgb;
-        vec3 alpha = m.shift * vec3(1.0, -0.5, -1.5);
+        vec3 ng_trrt = hair_dual_fetch(xd, 7.0, size).rgb;
         vec3 beta = m.roughness * vec3(1.0, 0.5, 2.0);
         beta *= beta;
         vec3 mg_r = 0.5 * hair_dual_gauss(beta.x + sigma_f2, vec3(theta_h - alpha.x));
         vec3 mg_tt = 0.5 * hair_dual_gauss(beta.y + sigma_f2, vec3(theta_h - alpha.y));
         vec3 mg_trt = 0.5 * hair_dual_gauss(beta.z + sigma_f2, vec3(theta_h - alpha.z));
-        vec3 f_scatter_s = (m.specular * ng0.a * mg_r + mg_tt * ng0.rgb + mg_trt * ng_trt) * inv_cd2;
+        vec3 mg_trrt = 0.5 * hair_dual_gauss(beta.z + sigma_f2, vec3(theta_h));
+        vec3 f_scatter_s = (m.specular * ng0.a * mg_r + mg_tt * ng0.rgb + mg_trt * ng_trt + mg_trrt * ng_trrt)
+                           * inv_cd2;
         vec3 f_scatter_back = back_norm * A_b * hair_dual_gauss(sigma_b2 + sigma_f2, vec3(theta_h) - delta_b);
         f += scattered * HAIR_DUAL_DF * (f_scatter_s + HAIR_DUAL_DB * f_scatter_back);
     }

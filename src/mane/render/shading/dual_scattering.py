@@ -1,9 +1,12 @@
 """Zinke, Yuksel, Weber and Keyser 2008, "Dual Scattering Approximation for Fast Multiple
 Scattering in Hair": NumPy precomputation of the per-material tables and their lookup texture.
 
-Everything is integrated from the single-scattering Marschner lobes of luts.py (the same
-S_p = M_p N_p / cos^2 theta_d that hair_bsdf uses, per colour channel, with the material's
-sigma_a, eta, roughness, shift, glint, caustic constants, energy clamp and ``specular`` on R).
+Everything is integrated from the single-scattering lobes of the material's fibre model:
+``model="marschner"`` (also for the colour-driven models): Marschner's lobes of luts.py (the
+same S_p = M_p N_p / cos^2 theta_d that hair_bsdf uses, per colour channel, with the
+material's sigma_a, eta, roughness, shift, glint, caustic constants, energy clamp and
+``specular`` on R); ``model="chiang"``: the four lobes of chiang.py (R, TT, TRT, TRRT+), see
+"Chiang's fibre" below.
 
 Notation: theta_i is the inclination of the light (the paper's theta_d of omega_d, the
 direction towards the light; Sadeghi and Tamstorf 2010 point out that it is the light's
@@ -40,11 +43,22 @@ through). Forward hemisphere Omega_f: phi in [pi/2, pi]; backward Omega_b: phi i
       N_p^G(theta_d) = 2/pi int_{pi/2}^{pi} N_p(cos theta_d, phi) dphi
   over Marschner's difference angle |theta_d| = |theta_o - theta_i| / 2 (N_R is colourless).
 
+Chiang's fibre (``model="chiang"``): M_p is normalised (int M_p cos theta_i dtheta_i = 1) and
+the azimuthal table Nbar_p(phi, theta_o) (chiang.py) carries the attenuation, so with the eye at
+theta the energy each lobe gathers from the forward / backward half of the light directions is
+      I_f^p(theta) = 2 int_{pi/2}^{pi} Nbar_p(phi, theta) dphi,   I_b^p = 2 int_0^{pi/2} Nbar_p dphi
+(pbrt's white-furnace integral split by hemisphere: a_f + a_b = sum_p Abar_p <= 1 exactly); by
+the model's reciprocity this is also the energy light from theta scatters into each half, so it
+serves as a_f(theta_i), a_b(theta_i). The lobes peak at theta_h = (alpha, -alpha/2, -2 alpha, 0)
+with widths (1, 1/2, 2, 2) roughness (chiang.lobe_shifts / lobe_widths), and the forward-averaged
+azimuthal functions are N^G_p(theta_o) = 2/pi int_{pi/2}^{pi} Nbar_p(phi, theta_o) dphi
+= I_f^p(theta_o) / pi, over the eye's |theta_o| (Nbar depends on theta_o, not theta_d).
+
 Guards (not in the paper): a_f and a_b are clamped to [0, 1] before use, 1 - a_f^2 to >= 1e-4,
 the denominator of sigma_b to >= 1e-12 (a_b = 0 gives sigma_b = 0 there; A_b is 0 too), and
 Delta_b to [-pi/2, pi/2].
 
-Lookup texture (``build_dual_lut``): a (7, size) RGBA32F 2D texture, 7 rows, ``size`` texels
+Lookup texture (``build_dual_lut``): a (8, size) RGBA32F 2D texture, 8 rows, ``size`` texels
 per row (default 64, 7 KiB), linear filtering in x, sampled at texel centres with the grid
 point j of n at x = (j + 0.5) / n so that the table ends are exact, and rows fetched at their
 centres (v = (row + 0.5) / 7, no filtering across rows):
@@ -54,8 +68,8 @@ centres (v = (row + 0.5) / 7, no filtering across rows):
       1  Delta_b.rgb             4  beta_f^2.rgb
       2  sigma_b^2.rgb
     rows over |theta_d| in [0, pi/2] (grid pi/2 j / (size - 1)):
-      5  N^G_TT.rgb, N^G_R in a  6  N^G_TRT.rgb
-    alpha = 0 elsewhere.
+      5  N^G_TT.rgb, N^G_R in a  6  N^G_TRT.rgb  7  N^G_TRRT+.rgb (Chiang; 0 for Marschner)
+    (Chiang: rows 5-7 over |theta_o| in [0, pi/2].) alpha = 0 elsewhere.
 
 Integration: midpoint rule, ``n_theta_o`` x ``n_phi`` points per theta_i (default 192 x 96;
 against 512 x 256: a_f, a_b within 1.4e-3 absolute, A_b within 0.3 % of its peak, worst at
@@ -74,11 +88,11 @@ from .luts import lobe_params, marschner_lobes, marschner_n
 
 PI = math.pi
 HALF_PI = 0.5 * math.pi
-LUT_ROWS = 7
-ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1 = range(LUT_ROWS)
+LUT_ROWS = 8
+ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1, ROW_NG3 = range(LUT_ROWS)
 
 # Zinke 2008 sec. 4: density factors d_f, d_b of human hair are ~0.6-0.8; 0.7 in the paper.
-DENSITY_FRONT = 0.7
+DENSITY_FRONT = 1.0   # mane's default (ShadingSettings.dual_density_front says why)
 DENSITY_BACK = 0.7
 
 
@@ -103,8 +117,9 @@ class DualTables:
     ng_r: np.ndarray
     ng_tt: np.ndarray
     ng_trt: np.ndarray
-    lobe_f: np.ndarray    # (size, 3 lobes, 3 colours): I_f^p
-    lobe_b: np.ndarray    # (size, 3 lobes, 3 colours): I_b^p
+    lobe_f: np.ndarray    # (size, lobes, 3 colours): I_f^p (3 lobes Marschner, 4 Chiang)
+    lobe_b: np.ndarray    # (size, lobes, 3 colours): I_b^p
+    ng_trrt: np.ndarray = None   # (size, 3): Chiang's TRRT+ N^G (zeros for Marschner)
 
 
 def hemisphere_integrals(theta_i, sigma_a, *, specular=1.0, n_theta_o=192, n_phi=96, **marschner_kw):
@@ -160,15 +175,37 @@ def azimuthal_forward_average(cos_d, sigma_a, *, n_phi=256, eta=1.55, glint=0.5,
     return n_r.mean(axis=1), n_tt.mean(axis=1), n_trt.mean(axis=1)
 
 
+def chiang_hemisphere_integrals(theta, sigma_a, *, eta=1.55, beta_n=0.3, specular=1.0, n_phi=128, n_h=128):
+    """(I_f, I_b), each (len(theta), 4 lobes, 3 colours), for Chiang's fibre with the eye at
+    ``theta`` (module docstring)."""
+    from .chiang import azimuthal_average
+
+    theta = np.atleast_1d(np.asarray(theta, np.float64))
+    ph = (np.arange(n_phi) + 0.5) / n_phi * PI
+    TH, PH = np.meshgrid(np.abs(theta), ph, indexing="ij")
+    n_r, n_tt, n_trt, n_3 = azimuthal_average(PH, TH, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h)
+    lobes = np.stack([np.repeat(specular * n_r[..., None], 3, axis=-1), n_tt, n_trt, n_3], axis=-2)
+    w = 2.0 * PI / n_phi                                  # phi and -phi
+    back = ph < HALF_PI
+    return lobes[:, ~back].sum(axis=1) * w, lobes[:, back].sum(axis=1) * w
+
+
 def precompute_dual(sigma_a, *, eta=1.55, beta_r=math.radians(7.5), alpha_r=math.radians(-5.0),
                     glint=0.5, caustic_width=math.radians(15), caustic_fade=0.3, caustic_limit=0.5,
                     energy_clamp=True, specular=1.0, d_b=DENSITY_BACK, size=64, n_theta_o=192,
-                    n_phi=96, n_phi_g=256) -> DualTables:
-    """The dual-scattering tables of a material (module docstring), over ``size`` theta_i."""
+                    n_phi=96, n_phi_g=256, model="marschner", beta_n=0.3) -> DualTables:
+    """The dual-scattering tables of a material (module docstring), over ``size`` theta_i.
+    ``model``: "marschner" or "chiang" (then glint, the caustic constants and energy_clamp
+    are not used, beta_n is)."""
     n = int(size)
     if n < 4:
         raise ValueError("size must be >= 4")
     sigma_a = np.asarray(sigma_a, np.float64).reshape(3)
+    if model == "chiang":
+        return _precompute_dual_chiang(sigma_a, n, eta=eta, roughness=beta_r, shift=alpha_r, beta_n=beta_n,
+                                       specular=specular, d_b=d_b)
+    if model != "marschner":
+        raise ValueError(f"dual scattering tables for 'marschner' or 'chiang', not {model!r}")
     kw = dict(eta=eta, beta_r=beta_r, alpha_r=alpha_r, glint=glint, caustic_width=caustic_width,
               caustic_fade=caustic_fade, caustic_limit=caustic_limit, energy_clamp=energy_clamp)
     theta = np.linspace(-HALF_PI, HALF_PI, n)
@@ -189,11 +226,38 @@ def precompute_dual(sigma_a, *, eta=1.55, beta_r=math.radians(7.5), alpha_r=math
         caustic_fade=caustic_fade, caustic_limit=caustic_limit)
     return DualTables(theta=theta, a_f=a_f, a_b=a_b, alpha_f=alpha_f, alpha_b=alpha_b, beta_f2=beta_f2,
                       beta_b2=beta_b2, A_b=A_b, delta_b=delta_b, sigma_b2=sigma_b2, theta_d=theta_d,
-                      ng_r=ng_r, ng_tt=ng_tt, ng_trt=ng_trt, lobe_f=I_f, lobe_b=I_b)
+                      ng_r=ng_r, ng_tt=ng_tt, ng_trt=ng_trt, lobe_f=I_f, lobe_b=I_b,
+                      ng_trrt=np.zeros_like(ng_tt))
+
+
+def _lobe_averages(I_f, I_b, alpha, beta):
+    a_f = I_f.sum(axis=1)
+    a_b = I_b.sum(axis=1)
+    safe_f = np.maximum(a_f, 1e-30)
+    safe_b = np.maximum(a_b, 1e-30)
+    return (a_f, a_b, np.einsum("tpc,p->tc", I_f, alpha) / safe_f, np.einsum("tpc,p->tc", I_b, alpha) / safe_b,
+            np.einsum("tpc,p->tc", I_f, beta**2) / safe_f, np.einsum("tpc,p->tc", I_b, beta**2) / safe_b)
+
+
+def _precompute_dual_chiang(sigma_a, n, *, eta, roughness, shift, beta_n, specular, d_b) -> DualTables:
+    from .chiang import lobe_shifts, lobe_widths
+
+    theta = np.linspace(-HALF_PI, HALF_PI, n)
+    I_f, I_b = chiang_hemisphere_integrals(theta, sigma_a, eta=eta, beta_n=beta_n, specular=specular)
+    a_f, a_b, alpha_f, alpha_b, beta_f2, beta_b2 = _lobe_averages(I_f, I_b, lobe_shifts(shift),
+                                                                  lobe_widths(roughness))
+    A_b, delta_b, sigma_b2 = back_scattering(a_f, a_b, alpha_f, alpha_b, beta_f2, beta_b2, d_b)
+    theta_o = np.linspace(0.0, HALF_PI, n)
+    G_f, _ = chiang_hemisphere_integrals(theta_o, sigma_a, eta=eta, beta_n=beta_n, specular=1.0)
+    ng = G_f / PI
+    return DualTables(theta=theta, a_f=a_f, a_b=a_b, alpha_f=alpha_f, alpha_b=alpha_b, beta_f2=beta_f2,
+                      beta_b2=beta_b2, A_b=A_b, delta_b=delta_b, sigma_b2=sigma_b2, theta_d=theta_o,
+                      ng_r=ng[:, 0, 0], ng_tt=ng[:, 1], ng_trt=ng[:, 2], lobe_f=I_f, lobe_b=I_b,
+                      ng_trrt=ng[:, 3])
 
 
 def build_dual_lut(tables: DualTables) -> np.ndarray:
-    """(7, size, 4) float32 texture data (row layout in the module docstring); a_f is
+    """(8, size, 4) float32 texture data (row layout in the module docstring); a_f is
     clamped to [0, 1] (T_f = a_f^n then never grows with n)."""
     n = tables.theta.size
     lut = np.zeros((LUT_ROWS, n, 4), np.float64)
@@ -205,6 +269,8 @@ def build_dual_lut(tables: DualTables) -> np.ndarray:
     lut[ROW_NG0, :, :3] = tables.ng_tt
     lut[ROW_NG0, :, 3] = tables.ng_r
     lut[ROW_NG1, :, :3] = tables.ng_trt
+    if tables.ng_trrt is not None:
+        lut[ROW_NG3, :, :3] = tables.ng_trrt
     if not np.isfinite(lut).all():
         raise FloatingPointError("non-finite dual-scattering table")
     return lut.astype(np.float32)

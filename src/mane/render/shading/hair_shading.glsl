@@ -33,6 +33,7 @@
 // Lookup textures (HAIR_MODEL_MARSCHNER_LUT): uniform sampler2D hair_lut_m (RGBA16F over
 // (theta_i, theta_o), evenly spaced in angle) and hair_lut_n (RGBA16F, 2 tiles side by side
 // over (phi / pi, cos theta_d)); see luts.py / build_marschner_luts.
+// HAIR_MODEL_CHIANG: uniform sampler2D hair_chiang_n (chiang.py / chiang.glsl).
 
 #ifndef MANE_HAIR_SHADING_GLSL
 #define MANE_HAIR_SHADING_GLSL
@@ -45,6 +46,7 @@
 #define HAIR_MODEL_SADEGHI 3
 #define HAIR_MODEL_SCHEUERMANN 4
 #define HAIR_MODEL_KARIS 5
+#define HAIR_MODEL_CHIANG 6
 
 #ifndef HAIR_MODEL
 #define HAIR_MODEL HAIR_MODEL_MARSCHNER
@@ -75,7 +77,7 @@ struct HairMaterial {
 // mane.gpu.glsl expands every #include (also inside #if), so each model file is included;
 // unused functions cost nothing after compilation, and the LUT samplers are declared only
 // for HAIR_MODEL_MARSCHNER_LUT (inside marschner_lut.glsl).
-#if HAIR_MODEL < 0 || HAIR_MODEL > 5
+#if HAIR_MODEL < 0 || HAIR_MODEL > 6
 #error "unknown HAIR_MODEL"
 #endif
 #include "kajiya_kay.glsl"
@@ -84,6 +86,7 @@ struct HairMaterial {
 #include "sadeghi.glsl"
 #include "scheuermann.glsl"
 #include "karis.glsl"
+#include "chiang.glsl"
 #include "multiple_scattering.glsl"
 
 vec3 hair_bsdf(vec3 T, vec3 V, vec3 L, HairMaterial m) {
@@ -97,8 +100,10 @@ vec3 hair_bsdf(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     return hair_sadeghi(T, V, L, m);
 #elif HAIR_MODEL == HAIR_MODEL_SCHEUERMANN
     return hair_scheuermann(T, V, L, m);
-#else
+#elif HAIR_MODEL == HAIR_MODEL_KARIS
     return hair_karis(T, V, L, m);
+#else
+    return hair_chiang(T, V, L, m);
 #endif
 }
 

@@ -1,6 +1,9 @@
 // Karis 2016, "Physically Based Hair Shading in Unreal" (SIGGRAPH course notes; UE4 code):
 //   M_p = g(beta_p; sin theta_i + sin theta_o - alpha_p)  (unit integral in sin theta_o)
-//   alpha = (alpha_R, -alpha_R/2, -2 alpha_R) (Karis: -2s, s, 4s), beta = r (1, 1/2, 2)
+//   alpha = 2 alpha_R (1, -1/2, -2) (Karis: -2s, s, 4s), beta = 2 r (1, 1/2, 2): the Gaussian
+//   runs over sin theta_i + sin theta_o ~ 2 theta_h, so mane's theta_h width r = beta_R and
+//   shift alpha_R enter doubled (without the 2 the lobes were half as wide and half as shifted
+//   as Marschner's with the same settings)
 //   N_R   = 1/4 cos(phi/2) F(sqrt(1/2 + 1/2 V.L))
 //   N_TT  = (1 - F(cos theta_d sqrt(1 - h^2)))^2 C^(sqrt(1 - h^2 a^2) / (2 cos theta_d))
 //           exp(-3.65 cos phi - 3.98),  a = 1/(1.19/cos theta_d + 0.36 cos theta_d),
@@ -36,8 +39,8 @@ vec3 hair_karis(vec3 T, vec3 V, vec3 L, HairMaterial m) {
         ? min(0.5 * length(lp * inversesqrt(dot(lp, lp)) + vp * inversesqrt(dot(vp, vp))), 1.0)
         : 0.70710678118654752;
     float f0 = sqr((m.eta - 1.0) / (m.eta + 1.0));
-    vec3 alpha = m.shift * vec3(1.0, -0.5, -2.0);
-    vec3 beta = max(m.roughness, 1e-3) * vec3(1.0, 0.5, 2.0);
+    vec3 alpha = 2.0 * m.shift * vec3(1.0, -0.5, -2.0);
+    vec3 beta = 2.0 * max(m.roughness, 1e-3) * vec3(1.0, 0.5, 2.0);
     vec3 x = (si + so - alpha) / beta;
     vec3 M = exp(-0.5 * x * x) * (0.39894228040143267794 / beta);
     vec3 C = max(m.color, vec3(1e-4));

@@ -20,11 +20,38 @@ a hair volume), with azimuthal roughness beta_n:
 
     sigma_a = (ln(c) / (5.969 - 0.215 b + 2.532 b^2 - 10.73 b^3 + 5.574 b^4 + 0.245 b^5))^2
 
-and ``sigma_a_to_color`` its inverse, c = exp(-sqrt(sigma_a) * f(b)).
+and ``sigma_a_to_color`` its inverse, c = exp(-sqrt(sigma_a) * f(b)): the colour of a
+multiple-scattering hair VOLUME, not of one fibre.
+
+``fibre_color`` is one fibre's colour, C = exp(-4 sigma_a): Karis 2016 writes the TT
+transmittance as C^(sqrt(1 - h^2 a^2) / (2 cos theta_d)), which at h = 0, theta_d = 0 is
+C^(1/2) = exp(-2 sigma_a), the transmittance through the fibre's centre (2 radii). This is the
+colour the colour-driven models (Kajiya-Kay, Sadeghi, Scheuermann, Karis) take from melanin.
+
+``PRESETS``: named (eumelanin, pheomelanin) pairs. Chiang et al. 2016 (Fig. 8) and pbrt-v4's
+documentation give eumelanin ~8 black, ~1.3 brown, ~0.3 blond; Mitsuba's ``hair`` example uses
+eumelanin 1.3 / pheomelanin 0.2 for brown. Red and auburn hair are pheomelanin-rich (d'Eon
+et al. 2011; Ito and Wakamatsu 2011 measure pheomelanin-dominant red hair and mixed
+eu/pheo auburn), platinum blond is nearly pigment-free. Grey hair is, in a real head, a mix
+of unpigmented (white) and pigmented fibres (canities); with one material per groom mane
+approximates its average by little eumelanin and no pheomelanin (the least yellow cast melanin
+allows: eumelanin itself absorbs blue 3.3x more than red, so a neutral grey is out of its reach;
+a salt-and-pepper head needs two grooms, white and dark).
 """
 from __future__ import annotations
 
 import numpy as np
+
+PRESETS: dict[str, tuple[float, float]] = {
+    "black": (8.0, 0.0),
+    "dark_brown": (3.0, 0.3),
+    "brown": (1.3, 0.2),
+    "auburn": (0.8, 1.0),
+    "red": (0.2, 1.6),
+    "blond": (0.3, 0.1),
+    "platinum": (0.06, 0.02),
+    "grey": (0.12, 0.0),
+}
 
 EUMELANIN_SIGMA_A = (0.419, 0.697, 1.37)
 PHEOMELANIN_SIGMA_A = (0.187, 0.4, 1.05)
@@ -55,3 +82,24 @@ def sigma_a_to_color(sigma_a, beta_n: float = DEFAULT_BETA_N) -> np.ndarray:
     """The inverse of ``color_to_sigma_a``: the linear RGB colour of a hair volume."""
     s = np.maximum(np.asarray(sigma_a, dtype=np.float64), 0.0)
     return np.exp(-np.sqrt(s) * _chiang_f(beta_n))
+
+
+def hair_preset(name: str) -> tuple[float, float]:
+    """(eumelanin, pheomelanin) of a named preset (``PRESETS``); "dark brown" = "dark_brown"."""
+    key = str(name).strip().lower().replace(" ", "_").replace("-", "_")
+    if key not in PRESETS:
+        from ...errors import UsageError
+
+        raise UsageError(f"unknown hair preset {name!r}; one of {', '.join(PRESETS)}")
+    return PRESETS[key]
+
+
+def fibre_color(sigma_a) -> np.ndarray:
+    """One fibre's colour C = exp(-4 sigma_a) (Karis 2016's C; module docstring)."""
+    return np.exp(-4.0 * np.maximum(np.asarray(sigma_a, dtype=np.float64), 0.0))
+
+
+def fibre_color_to_sigma_a(color) -> np.ndarray:
+    """The inverse of ``fibre_color``."""
+    c = np.clip(np.asarray(color, dtype=np.float64), 1e-4, 1.0)
+    return -np.log(c) / 4.0

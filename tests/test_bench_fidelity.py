@@ -1,0 +1,132 @@
+"""mane bench fidelity: its metrics against hand-computed values, and a tiny run end to end."""
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+from mane.bench import fidelity_metrics as fm
+
+
+def _img(rgb_rows):
+    return np.asarray(rgb_rows, np.float64)
+
+
+# two pixels side by side; mask picks both or the first
+REF = _img([[[1.0, 0.5, 0.0], [0.0, 0.0, 1.0]]])          # (1, 2, 3)
+TEST = _img([[[2.0, 0.5, 0.0], [0.0, 0.5, 1.0]]])
+
+
+def test_mae_p95_and_relative_mae_by_hand():
+    # |diff| = [1, 0, 0, 0, 0.5, 0] -> mean 1.5 / 6 = 0.25
+    assert fm.mae(TEST, REF) == pytest.approx(0.25)
+    # numpy's linear percentile of [0,0,0,0,0.5,1] at 95%: 0.5 + 0.75 * 0.5 = 0.875
+    assert fm.p95(TEST, REF) == pytest.approx(0.875)
+    # reference luminances 0.2126 + 0.3576 = 0.5702 and 0.0722: mean 0.3212
+    assert fm.relative_mae(TEST, REF) == pytest.approx(0.25 / 0.3212)
+    mask = np.array([[True, False]])
+    assert fm.mae(TEST, REF, mask) == pytest.approx(1.0 / 3.0)
+    assert fm.relative_mae(TEST, REF, mask) == pytest.approx((1.0 / 3.0) / 0.5702)
+
+
+def test_luminance_ratio_and_rgb_balance_by_hand():
+    # test luminances 0.4252 + 0.3576 = 0.7828 and 0.3576 + 0.0722 = 0.4298: mean 0.6063
+    assert fm.luminance_ratio(TEST, REF) == pytest.approx(0.6063 / 0.3212)
+    # ref sums (1, 0.5, 1) / 2.5 = (0.4, 0.2, 0.4); test (2, 1, 1) / 4 = (0.5, 0.25, 0.25)
+    np.testing.assert_allclose(fm.rgb_share(REF), [0.4, 0.2, 0.4])
+    np.testing.assert_allclose(fm.rgb_balance(TEST, REF), [0.1, 0.05, -0.15])
+    assert fm.rgb_balance(TEST, REF).sum() == pytest.approx(0.0)
+
+
+def test_falloff_splits_the_masks_screen_box_at_its_middle_row():
+    img = np.zeros((6, 3, 3))
+    img[1:3] = 4.0          # rows 1, 2: the upper half of the box rows 1..4
+    img[3:5] = 1.0          # rows 3, 4: the lower half
+    mask = np.zeros((6, 3), bool)
+    mask[1:5, 1] = True
+    assert fm.falloff(img, mask) == pytest.approx(4.0)
+    flat = np.ones((6, 3, 3))
+    assert fm.falloff_ratio(img, flat, mask) == pytest.approx(4.0)
+    # an odd height gives the middle row to the upper half: rows 1..3 -> upper rows 1, 2
+    mask[4] = False
+    img2 = np.zeros((6, 3, 3))
+    img2[1:3] = 2.0
+    img2[3] = 1.0
+    assert fm.falloff(img2, mask) == pytest.approx(2.0)
+    assert np.isnan(fm.falloff(img, np.zeros((6, 3), bool)))
+
+
+def test_flip_is_zero_for_equal_images_and_grows_with_the_error():
+    pytest.importorskip("flip_evaluator")
+    rng = np.random.default_rng(0)
+    ref = rng.uniform(0.0, 1.0, (32, 32, 3)).astype(np.float32)
+    same, emap = fm.flip(ref, ref)
+    assert same == pytest.approx(0.0, abs=1e-6) and emap.shape == (32, 32)
+    small = fm.flip(ref * 1.1, ref)[0]
+    large = fm.flip(ref * 3.0, ref)[0]
+    assert 0.0 < small < large <= 1.0
+
+
+def _tiny_scene():
+    """A few curly strands hanging in front of a box "head" (12 triangles): the bench's paths
+    (head in both renderers, hair coverage with the head hiding hair) in seconds."""
+    from mane.groom import Groom
+    from mane.mesh import Mesh
+
+    t = np.linspace(0, 1, 12)
+    strands = []
+    for i, x in enumerate(np.linspace(-0.04, 0.04, 9)):
+        a = 12 * t + i
+        strands.append(np.stack([x + 0.006 * np.cos(a), 0.06 - 0.12 * t, 0.03 + 0.006 * np.sin(a)], axis=1))
+    groom = Groom(points=np.concatenate(strands).astype(np.float32), counts=np.full(9, 12, np.int32))
+    v = np.array([[x, y, z] for x in (-0.05, 0.05) for y in (-0.08, 0.08) for z in (-0.05, 0.0)], np.float32)
+    f = np.array([[0, 1, 3], [0, 3, 2], [4, 6, 7], [4, 7, 5], [0, 4, 5], [0, 5, 1], [2, 3, 7], [2, 7, 6],
+                  [0, 2, 6], [0, 6, 4], [1, 5, 7], [1, 7, 3]], np.int32)
+    return groom, Mesh(vertices=v, faces=f)
+
+
+def test_bench_fidelity_tiny_run_writes_numbers_pictures_and_cache(gl, tmp_path, monkeypatch):
+    pytest.importorskip("mitsuba")
+    pytest.importorskip("flip_evaluator")
+    from mane.bench import fidelity
+
+    monkeypatch.setattr(fidelity, "load_scene", lambda scene, guides=0: _tiny_scene())
+    kw = dict(image_dir=tmp_path / "img", cache_dir=tmp_path / "cache", size=(32, 32), spp=4)
+    res = fidelity.run(gl, "quick", **kw)
+    (row,) = res["results"]
+    assert (row["scene"], row["model"], row["shadows"]) == ("curly_head", "marschner", "deep_opacity")
+    hair = row["hair"]
+    for key in ("mae", "p95", "relative_mae", "luminance_ratio", "flip", "falloff", "falloff_ref"):
+        assert np.isfinite(hair[key]), key
+    assert len(hair["rgb_balance"]) == 3 and abs(sum(hair["rgb_balance"])) < 1e-9
+    assert res["scenes"]["curly_head"]["hair_pixels"] > 0
+    pic = tmp_path / "img" / "curly_head_marschner_deep_opacity.png"
+    from PIL import Image
+
+    assert Image.open(pic).size == (96, 32)                   # reference | mane | error
+    cached = sorted(p.name for p in (tmp_path / "cache").glob("*.npy"))
+    assert len(cached) == 2                                   # the radiance and the hair coverage
+    assert f"{res['scenes']['curly_head']['reference_key']}.npy" in cached   # what a rerun loads
+    json.dumps(res, default=float)
+    text = fidelity.format_text(res)
+    assert "curly_head" in text and "marschner" in text
+    md = fidelity.format_markdown(res).splitlines()
+    assert len(md) == 3 and md[2].startswith("| curly_head | marschner | deep_opacity |")
+
+
+def test_cli_bench_fidelity_rejects_an_unknown_scene(gl, capsys):
+    pytest.importorskip("mitsuba")
+    from mane.app.cli import main
+
+    assert main(["bench", "fidelity", "--quick", "--scenes", "nowhere"]) == 2
+    assert "unknown fidelity scene" in capsys.readouterr().err
+
+
+def test_bench_fidelity_skips_sintel_without_the_shared_data(gl, monkeypatch):
+    pytest.importorskip("mitsuba")
+    from mane.bench import fidelity
+
+    monkeypatch.setattr(fidelity, "data_dir", lambda: None)
+    res = fidelity.run(gl, "quick", scenes=["sintel_brown"], size=(16, 16), spp=1)
+    assert res["results"] == [] and "not found" in res["scenes"]["sintel_brown"]["skipped"]

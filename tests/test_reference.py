@@ -1,0 +1,298 @@
+"""mane.reference: the path-traced ground truth (Mitsuba 3, the ``reference`` extra).
+
+The reference is checked against physics and geometry, never against mane's shading: the
+B-spline through the renderer's points, the camera's projection, the radiance of one fibre
+against Chiang's far-field R lobe integrated in NumPy, the cuticle tilt's direction, energy
+ordering with melanin, determinism and the cache. The geometry is compared with the compute
+rasteriser's coverage.
+"""
+from __future__ import annotations
+
+import math
+import sys
+
+import numpy as np
+import pytest
+
+from mane import reference as ref
+from mane.errors import ManeError, UsageError
+from mane.reference.scene import ExpandedStrands, HairMaterial, bspline_control_points, bspline_eval
+from mane.render import RenderSettings
+from mane.render.camera import Camera
+from mane.render.lights import Light
+
+
+@pytest.fixture(scope="module")
+def mi():
+    return pytest.importorskip("mitsuba")
+
+
+# ---------------------------------------------------------------- no Mitsuba needed
+def test_bspline_control_points_of_a_line_are_the_evenly_spaced_points():
+    P = np.array([[[0, 0, 0], [1, 0, 0], [2, 0, 0], [3, 0, 0]]], float)
+    C, _ = bspline_control_points(P)
+    # hand solution: the B-spline of evenly spaced collinear control points is the line
+    np.testing.assert_allclose(C[0, :, 0], [-1, 0, 1, 2, 3, 4], atol=1e-12)
+
+
+def test_bspline_passes_through_every_point_and_follows_a_circle():
+    n = 24
+    a = np.linspace(0, 1.5 * math.pi, n)
+    P = np.stack([np.cos(a), np.sin(a), 0.1 * a], axis=1)[None] * 0.01       # a 1 cm helix arc
+    C, R = bspline_control_points(P, np.linspace(3e-4, 1e-4, n)[None])
+    at_knots = bspline_eval(C, np.arange(n, dtype=float))
+    np.testing.assert_allclose(at_knots, P, atol=1e-12)
+    # half-way between knots the spline stays on the helix (radius 1 cm) to far below a width:
+    # inside to 0.3 um, in the end segments (straightened by the clamped ends) to 20 um
+    t = np.arange(n - 1) + 0.5
+    off = np.abs(np.hypot(*bspline_eval(C, t)[0, :, :2].T) - 0.01)
+    assert off[3:-3].max() < 3e-7 and off.max() < 2.5e-5
+    radii = bspline_eval(R[..., None], np.arange(n, dtype=float))[0, :, 0]
+    np.testing.assert_allclose(radii, np.linspace(3e-4, 1e-4, n), atol=1e-12)
+
+
+def test_control_points_from_the_raw_polyline_would_cut_curls_by_more_than_a_width():
+    # why the control points are solved for: a curl of radius 3 mm sampled every 60 degrees
+    a = np.linspace(0, 4 * math.pi, 13)
+    P = np.stack([0.003 * np.cos(a), 0.003 * np.sin(a), 0.002 * a], axis=1)[None]
+    raw = bspline_eval(np.concatenate([2 * P[:, :1] - P[:, 1:2], P, 2 * P[:, -1:] - P[:, -2:-1]], axis=1),
+                       np.arange(13, dtype=float))
+    assert np.linalg.norm(raw - P, axis=2).max() > 3e-4       # half a root width off
+    C, _ = bspline_control_points(P)
+    assert np.linalg.norm(bspline_eval(C, np.arange(13, dtype=float)) - P, axis=2).max() < 1e-12
+
+
+def test_longitudinal_width_maps_to_chiang_roughness():
+    # sqrt(v) = 0.726 b + 0.812 b^2 + 3.7 b^20; at b = 0.3: 0.2178 + 0.07308 + 1.29e-10
+    assert ref.beta_m_to_lobe_width(0.3) == pytest.approx(0.29088, abs=1e-5)
+    assert ref.lobe_width_to_beta_m(0.29088) == pytest.approx(0.3, abs=1e-5)
+    b = ref.lobe_width_to_beta_m(math.radians(7.5))
+    assert 0.726 * b + 0.812 * b * b == pytest.approx(math.radians(7.5), rel=1e-9)
+    with pytest.raises(UsageError):
+        ref.lobe_width_to_beta_m(0.0)
+
+
+def test_material_from_settings_takes_melanin_width_tilt_and_ior():
+    s = RenderSettings(shading="marschner", hair_color=None,
+                       shading_options={"melanin": (1.3, 0.2), "roughness": math.radians(7.5),
+                                        "shift": math.radians(-5.0), "eta": 1.6})
+    m = HairMaterial.from_settings(s)
+    assert (m.eumelanin, m.pheomelanin, m.sigma_a) == (1.3, 0.2, None)
+    assert m.tilt == pytest.approx(-5.0) and m.eta == 1.6
+    # beta_R is a width in theta_h, the R lobe's standard deviation in theta_o is twice it
+    assert m.longitudinal_roughness == pytest.approx(ref.lobe_width_to_beta_m(2 * math.radians(7.5)))
+    assert m.azimuthal_roughness == 0.3
+    np.testing.assert_allclose(m.resolved_sigma_a(), 1.3 * np.array([0.419, 0.697, 1.37]) + 0.2 * np.array([0.187, 0.4, 1.05]))
+    # an RGB colour (no melanin): Chiang's inversion, as the real-time models use
+    from mane.render.shading import color_to_sigma_a
+
+    m2 = HairMaterial.from_settings(RenderSettings(shading="marschner", hair_color=(0.3, 0.2, 0.1)))
+    np.testing.assert_allclose(m2.sigma_a, color_to_sigma_a((0.3, 0.2, 0.1)))
+
+
+def test_missing_mitsuba_is_one_clear_error(monkeypatch):
+    monkeypatch.setitem(sys.modules, "mitsuba", None)      # "import mitsuba" raises ImportError
+    with pytest.raises(ManeError, match=r"pip install mane\[reference\]") as info:
+        ref.mitsuba()
+    assert "\n" not in str(info.value)
+    assert not ref.available()
+
+
+# ---------------------------------------------------------------- with Mitsuba
+def _strand(points, width):
+    P = np.asarray(points, np.float32)[None]
+    return ExpandedStrands(P, np.full(P.shape[:2], width, np.float32))
+
+
+def _line(a, b, n=8):
+    t = np.linspace(0, 1, n)[:, None]
+    return (1 - t) * np.asarray(a, float) + t * np.asarray(b, float)
+
+
+def test_camera_projects_a_strand_where_mane_does(mi, tmp_path):
+    # a short vertical strand at a known point off the axis; mane's view-projection says where
+    cam = Camera(eye=(0.1, 0.05, 0.6), target=(0.0, 0.0, 0.0), fov_y=35.0)
+    W, H = 80, 60
+    p = np.array([0.04, 0.02, 0.03])
+    st = _strand(_line(p - [0, 0.01, 0], p + [0, 0.01, 0]), 0.002)
+    s = RenderSettings(size=(W, H))
+    cov = ref.hair_coverage(strands=st, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    clip = cam.view_projection(W / H) @ np.append(p, 1.0)
+    ndc = clip[:2] / clip[3]
+    x, y = (ndc[0] + 1) / 2 * W, (1 - ndc[1]) / 2 * H           # pixel units, top row first
+    ys, xs = np.indices(cov.shape) + 0.5
+    cx, cy = (cov * xs).sum() / cov.sum(), (cov * ys).sum() / cov.sum()
+    assert abs(cx - x) < 0.25 and abs(cy - y) < 0.25
+
+
+def _chiang_r_backscatter(beta_m, beta_n, eta, h):
+    """Chiang 2016 / pbrt-v3's R term for light and eye along the same direction perpendicular
+    to the fibre (theta_i = theta_o = 0, delta phi = 0, no tilt), per unit irradiance."""
+    from scipy.special import i0e
+
+    v = (0.726 * beta_m + 0.812 * beta_m ** 2 + 3.7 * beta_m ** 20) ** 2
+    mp = i0e(1 / v) / (v * (1 - math.exp(-2 / v)))            # I0(1/v) / (2 v sinh(1/v))
+    ci = np.sqrt(1 - h * h)                                    # cos of the incidence angle
+    st = np.sqrt(np.maximum(0, 1 - (1 - ci * ci) / eta ** 2))
+    rs = (ci - eta * st) / (ci + eta * st)
+    rp = (eta * ci - st) / (eta * ci + st)
+    fresnel = 0.5 * (rs * rs + rp * rp)
+    s = math.sqrt(math.pi / 8) * (0.265 * beta_n + 1.194 * beta_n ** 2 + 5.372 * beta_n ** 22)
+    x = np.abs(2 * np.arcsin(h))                               # delta phi - Phi_R = 0 - (-2 gamma_i)
+
+    def cdf(u):
+        return 1 / (1 + np.exp(-u / s))
+
+    logistic = np.exp(-x / s) / (s * (1 + np.exp(-x / s)) ** 2) / (cdf(math.pi) - cdf(-math.pi))
+    return mp * fresnel * logistic
+
+
+def test_one_black_fibre_matches_chiangs_r_lobe_integrated_over_its_width(mi, tmp_path):
+    # a long dark fibre (only R survives: transmittance < e^-30) across a narrow view, light from
+    # the eye: the image's radiance integrated over the screen is length x width x mean_h L(h)
+    d, fov, W, H = 1.0, 2.0, 96, 96
+    r = 2.5e-4
+    cam = Camera(eye=(0, 0, d), target=(0, 0, 0), fov_y=fov)
+    st = _strand(_line((-0.1, 0, 0), (0.1, 0, 0), 16), 2 * r)
+    mat = HairMaterial(sigma_a=(20.0, 20.0, 20.0), longitudinal_roughness=0.3, azimuthal_roughness=0.3,
+                       tilt=0.0, eta=1.55)
+    E = 2.0
+    img = ref.render(strands=st, camera=cam, lights=[Light("directional", (0, 0, 1), (1, 1, 1), E)],
+                     settings=RenderSettings(size=(W, H)), material=mat, spp=64, cache=False)
+    view = 2 * d * math.tan(math.radians(fov) / 2)             # metres across the view at the fibre
+    integral = img[..., 1].sum() * (view / W) * (view / H)     # radiance x area on the fibre's plane
+    h = np.linspace(-1, 1, 20001)
+    expected = E * np.trapezoid(_chiang_r_backscatter(0.3, 0.3, 1.55, h), h) / 2 * view * 2 * r
+    assert integral == pytest.approx(expected, rel=0.05)
+    np.testing.assert_allclose(img[..., 0].sum(), img[..., 2].sum(), rtol=1e-3)   # grey: Fresnel only
+
+
+def test_tilt_moves_the_highlight_as_manes_marschner_convention(mi, tmp_path):
+    # a vertical fibre, root at the top, seen and lit from the front: theta_i = 0 and
+    # sin theta_o = V.T, T root -> tip (down). Mane's R peaks at theta_h = alpha, i.e.
+    # theta_o = 2 alpha: for alpha = -10 deg at y = d tan(2 alpha), below the centre (tipward).
+    # The luminance-weighted mean of theta_o along the fibre is where the lobe sits.
+    d, W, H, fov = 0.5, 16, 160, 70.0
+    cam = Camera(eye=(0, 0, d), target=(0, 0, 0), fov_y=fov)
+    st = _strand(_line((0, 0.33, 0), (0, -0.33, 0), 24), 0.004)
+    half = d * math.tan(math.radians(fov) / 2)
+    theta_o = np.degrees(np.arctan((half - (np.arange(H) + 0.5) / H * 2 * half) / d))   # per row
+    for alpha in (-10.0, 10.0):
+        mat = HairMaterial(sigma_a=(8.0, 8.0, 8.0), longitudinal_roughness=0.12, tilt=alpha)
+        img = ref.render(strands=st, camera=cam, lights=[Light("directional", (0, 0, 1), (1, 1, 1), 1.0)],
+                         settings=RenderSettings(size=(W, H)), material=mat, spp=32, cache=False)
+        col = img[..., 1].sum(axis=1)
+        assert (col * theta_o).sum() / col.sum() == pytest.approx(2 * alpha, abs=1.5)
+
+
+def test_melanin_darkens_and_the_image_is_deterministic_and_cached(mi, tmp_path):
+    cam = Camera(eye=(0, 0, 0.3), target=(0, 0, 0), fov_y=30.0)
+    xs = np.linspace(-0.03, 0.03, 12)
+    P = np.stack([_line((x, 0.05, 0.002 * i), (x, -0.05, 0.002 * i), 8) for i, x in enumerate(xs)])
+    st = ExpandedStrands(P, np.full(P.shape[:2], 8e-4))
+    light = [Light("directional", (0.3, 0.5, 1.0), (1, 1, 1), 3.0)]
+    s = RenderSettings(size=(24, 24))
+    kw = dict(strands=st, camera=cam, lights=light, settings=s, spp=8, cache_dir=tmp_path)
+    white = ref.render(material=HairMaterial(eumelanin=0.0, pheomelanin=0.0), **kw)
+    black = ref.render(material=HairMaterial(eumelanin=8.0, pheomelanin=0.0), **kw)
+    assert white.mean() > 3 * black.mean() > 0
+    files = sorted(p.name for p in tmp_path.glob("*.npy"))
+    assert len(files) == 2
+    again = ref.render(material=HairMaterial(eumelanin=8.0, pheomelanin=0.0), **kw)      # a cache hit
+    np.testing.assert_array_equal(again, black)
+    fresh = ref.render(material=HairMaterial(eumelanin=8.0, pheomelanin=0.0), cache=False, **kw)
+    np.testing.assert_array_equal(fresh, black)                   # the same seed, the same image
+    other = ref.render(material=HairMaterial(eumelanin=8.0, pheomelanin=0.0), seed=1, cache=False, **kw)
+    assert not np.array_equal(other, black)
+    # the key moves with anything that changes the picture
+    k = ref.cache_key(material=HairMaterial(eumelanin=8.0), **{k: v for k, v in kw.items() if k != "cache_dir"})
+    k2 = ref.cache_key(material=HairMaterial(eumelanin=8.0), **{**{k: v for k, v in kw.items() if k != "cache_dir"},
+                                                               "spp": 9})
+    assert k != k2
+
+
+def test_reference_hair_matches_the_compute_rasterisers_coverage(mi, gl, tmp_path):
+    # the renderer's own expanded strands, camera and size: the path tracer's hair coverage and
+    # the compute rasteriser's (its HDR alpha) agree in total and pixel by pixel
+    from mane.bench.fidelity import realtime_linear
+    from mane.grooming import grow
+    from mane.render import Renderer
+    from mane.render.scene import default_head
+
+    head = default_head()
+    groom = grow(head, num_strands=30, style="wavy", points_per_strand=12, seed=3)
+    s = RenderSettings(size=(64, 64), strands_per_guide=8, rasterizer="compute", msaa=16, shadows="none",
+                       hair_color=None, ambient=0.0, draw_head=False, width=0.002, min_pixel_width=0.0)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        strands = ref.renderer_strands(r)
+        cam = r.default_camera()
+        alpha = realtime_linear(r, cam, [Light()])[..., 3]
+    finally:
+        r.release()
+    cov = ref.hair_coverage(strands=strands, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    assert alpha.sum() == pytest.approx(cov.sum(), rel=0.05)
+    ys, xs = np.indices(cov.shape)
+    for grid in (ys, xs):      # the same place to a quarter of a pixel (half-pixel conventions would show)
+        assert (alpha * grid).sum() / alpha.sum() == pytest.approx((cov * grid).sum() / cov.sum(), abs=0.25)
+    # pixel by pixel: the two samplings (a 4 x 4 grid, 16 random samples) differ by noise only
+    assert np.corrcoef(alpha.ravel(), cov.ravel())[0, 1] > 0.9
+    shifted = np.corrcoef(np.roll(alpha, 1, axis=1).ravel(), cov.ravel())[0, 1]
+    assert shifted < np.corrcoef(alpha.ravel(), cov.ravel())[0, 1] - 0.1     # a pixel off would show
+
+
+def test_render_png_writes_srgb(mi, tmp_path):
+    from PIL import Image
+
+    cam = Camera(eye=(0, 0, 0.3), target=(0, 0, 0), fov_y=30.0)
+    st = _strand(_line((0, 0.05, 0), (0, -0.05, 0)), 0.004)
+    img = ref.render_png(None, tmp_path / "r.png", strands=st, camera=cam, lights=[Light()],
+                         settings=RenderSettings(size=(16, 12)), spp=4, cache=False)
+    png = np.asarray(Image.open(tmp_path / "r.png"))
+    assert png.shape == (12, 16, 3) and img.shape == (12, 16, 3) and img.dtype == np.float32
+    np.testing.assert_array_equal(png, ref.to_srgb8(img))
+    assert ref.to_srgb8(np.array([[[0.0, 0.0031308, 1.0]]]))[0, 0].tolist() == [0, 10, 255]
+
+
+def test_cli_reference_renders_a_groom_file(mi, gl, tmp_path, capsys):
+    from PIL import Image
+
+    from mane.app.cli import main
+    from mane.groom import Groom
+    from mane.io import save
+
+    P = np.stack([_line((x, 0.05, 0), (x, -0.05, 0.01), 8) for x in np.linspace(-0.02, 0.02, 5)])
+    save(Groom(points=P.reshape(-1, 3).astype(np.float32), counts=np.full(5, 8, np.int32)), tmp_path / "g.hair")
+    out = tmp_path / "ref.png"
+    rc = main(["reference", str(tmp_path / "g.hair"), "--out", str(out), "--size", "24x16", "--spp", "2",
+               "--strands-per-guide", "2", "--melanin", "0.3,0.1", "--light", "dir:0,0.5,1:3", "--cache",
+               str(tmp_path / "cache")])
+    assert rc == 0
+    assert Image.open(out).size == (24, 16)
+    assert "24x16, 2 spp, 10 strands" in capsys.readouterr().out
+    assert main(["reference", str(tmp_path / "g.hair"), "--out", str(tmp_path / "x.jpg")]) == 2
+    assert main(["reference", str(tmp_path / "g.hair"), "--melanin", "a,b"]) == 2
+
+
+def test_hair_coverage_separates_the_hair_from_the_head_behind_and_in_front(mi, tmp_path):
+    from mane.mesh import Mesh
+
+    # a square "head" at z = 0 (x, y in +-0.05) and a wide strand across it at z = 0.01 (in
+    # front, y = 0) plus one at z = -0.01 behind it (y = 0.03: hidden by the head)
+    v = np.array([[-0.05, -0.05, 0], [0.05, -0.05, 0], [0.05, 0.05, 0], [-0.05, 0.05, 0]], np.float32)
+    head = Mesh(vertices=v, faces=np.array([[0, 1, 2], [0, 2, 3]], np.int32))
+    P = np.stack([_line((-0.08, 0.0, 0.01), (0.08, 0.0, 0.01), 8), _line((-0.08, 0.03, -0.01), (0.08, 0.03, -0.01), 8)])
+    st = ExpandedStrands(P, np.full(P.shape[:2], 0.01))
+    cam = Camera(eye=(0, 0, 0.4), target=(0, 0, 0), fov_y=30.0)
+    s = RenderSettings(size=(40, 40))
+    hair = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    both = ref.hair_coverage(strands=st, head=head, camera=cam, settings=s, spp=16, cache_dir=tmp_path,
+                             include_head=True)
+    alone = ref.hair_coverage(strands=st, camera=cam, settings=s, spp=16, cache_dir=tmp_path)
+    row = lambda y: int(round((1 - (y / (0.4 * math.tan(math.radians(15))) + 1) / 2) * 40 - 0.5))  # noqa: E731
+    assert hair[row(0.0), 20] == pytest.approx(1.0) and both[row(0.0), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 20] == 0.0 and alone[row(0.03), 20] == pytest.approx(1.0)   # behind the head
+    assert both[row(0.03), 20] == pytest.approx(1.0) and both[row(-0.03), 20] == pytest.approx(1.0)
+    assert hair[row(0.03), 8] == pytest.approx(1.0)          # beside the head (x = -0.066) it shows
+    assert both[1, 1] == 0.0
