@@ -372,12 +372,6 @@ class Bench(BenchRows):
         fields = dict(guides=int(guides), guide_points=int(points),
                       strands_per_guide=settings.get("strands_per_guide"),
                       segments_requested=settings.get("segments"), **fields)
-        try:   # the time budget first: _guard's generator cannot skip its body once entered
-            self._before_config()
-        except Skip as exc:
-            self._log(f"{bench}: {name}")
-            self._skip_row(bench, name, str(exc), **fields)
-            return
         with self._guard(bench, name, **fields):
             self._before_config()
             s, dropped = make_settings(settings, required)
