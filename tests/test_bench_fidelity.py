@@ -57,6 +57,20 @@ def test_falloff_splits_the_masks_screen_box_at_its_middle_row():
     assert np.isnan(fm.falloff(img, np.zeros((6, 3), bool)))
 
 
+def test_box_means_and_the_block_relative_mae_by_hand():
+    img = np.arange(16, dtype=float).reshape(4, 4)
+    np.testing.assert_allclose(fm.box(img, 2), [[2.5, 4.5], [10.5, 12.5]])
+    # noise that cancels inside each 2 x 2 block: per pixel an error, per block none
+    ref = np.full((4, 4, 3), 0.5)
+    test = ref + np.array([[0.1, -0.1, 0.1, -0.1], [-0.1, 0.1, -0.1, 0.1]] * 2)[..., None]
+    mask = np.ones((4, 4), bool)
+    assert fm.relative_mae(test, ref, mask) == pytest.approx(0.1 / 0.5)
+    assert fm.relative_mae_box(test, ref, mask, 2) == pytest.approx(0.0)
+    mask[:] = False
+    mask[0, 3] = mask[3, 0] = True    # one pixel in two blocks: no block is half mask
+    assert np.isnan(fm.relative_mae_box(test, ref, mask, 2))
+
+
 def test_flip_is_zero_for_equal_images_and_grows_with_the_error():
     pytest.importorskip("flip_evaluator")
     rng = np.random.default_rng(0)
