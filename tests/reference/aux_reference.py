@@ -10,35 +10,7 @@ import math
 
 import numpy as np
 
-from .raster_reference import project, scan_segment
-
-
-def nearest_samples(expanded, proj_kw, scene_depth=None):
-    """(ids, z, cover) in the sample grid (rows bottom first): the nearest segment's first point
-    index (-1: none), its window depth, and -sum log(1 - coverage)."""
-    S, N, _ = expanded.shape
-    W, H = proj_kw["size"]
-    g = proj_kw["grid"]
-    pr = project(expanded.reshape(-1, 8)[:, :4], **proj_kw)
-    best = np.full((H, W), np.inf)
-    ids = np.full((H, W), -1, np.int64)
-    cover = np.zeros((H, W))
-    for strand in range(S):
-        for j in range(N - 1):
-            i = strand * N + j
-            if not (pr["ok"][i] and pr["ok"][i + 1]):
-                continue
-            for x, y, z, c in scan_segment(pr["s"][i], pr["s"][i + 1], pr["window_z"][i], pr["window_z"][i + 1],
-                                           pr["half_width"][i], pr["half_width"][i + 1], pr["coverage"][i],
-                                           pr["coverage"][i + 1], (W, H)):
-                if not 0.0 <= z < 1.0:
-                    continue
-                if scene_depth is not None and z >= scene_depth[y // g, x // g]:
-                    continue
-                cover[y, x] += -math.log(1.0 - min(max(c, 0.0), 0.9999))
-                if z < best[y, x] or (z == best[y, x] and i > ids[y, x]):
-                    best[y, x], ids[y, x] = z, i
-    return ids, best, cover, pr
+from .raster_reference import nearest_samples
 
 
 def screen_angle(pr, i) -> float:

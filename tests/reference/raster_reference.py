@@ -58,9 +58,10 @@ def scan_segment(a, b, za, zb, ha, hb, ca, cb, size):
     return out
 
 
-def rasterize(expanded, proj_kw, scene_depth=None):
+def nearest_samples(expanded, proj_kw, scene_depth=None):
     """expanded (strands, points, 8) -> (ids (H, W) of the nearest segment's first point, -1
-    none; cover (H, W) = -sum log(1 - coverage)) in the sample grid, as hair_raster.comp."""
+    none; its window depth z (H, W); cover (H, W) = -sum log(1 - coverage); the projection) in
+    the sample grid, as hair_raster.comp (equal depths: the larger id)."""
     S, N, _ = expanded.shape
     W, H = proj_kw["size"]
     pts = expanded.reshape(-1, 8)
@@ -84,6 +85,13 @@ def rasterize(expanded, proj_kw, scene_depth=None):
                 cover[y, x] += -math.log(1.0 - min(max(c, 0.0), 0.9999))
                 if z < best[y, x] or (z == best[y, x] and i > ids[y, x]):
                     best[y, x], ids[y, x] = z, i
+    return ids, best, cover, pr
+
+
+def rasterize(expanded, proj_kw, scene_depth=None):
+    """expanded (strands, points, 8) -> (ids (H, W) of the nearest segment's first point, -1
+    none; cover (H, W) = -sum log(1 - coverage)) in the sample grid, as hair_raster.comp."""
+    ids, _, cover, _ = nearest_samples(expanded, proj_kw, scene_depth)
     return ids, cover
 
 

@@ -15,13 +15,13 @@ resolve (hdr -> output).
 from __future__ import annotations
 
 import math
-import sys as _sys
 
 import moderngl
 import numpy as np
 
 from ..errors import UsageError
 from ..gpu.context import get_context, renderer_name
+from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
@@ -88,7 +88,7 @@ DEFAULT_HEAD_FRAME_FLOOR = -0.30
 """Lowest height (m) the default camera frames on the default bust (mid-chest)."""
 
 
-class Renderer:
+class Renderer(GpuOwner):
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
     def __init__(self, settings: RenderSettings | None = None, *, ctx=None, profile: bool = True,
@@ -597,27 +597,11 @@ class Renderer:
                 return p.stats()
         return {"oit": "none", "oit_bytes": 0}
 
-    def __enter__(self) -> "Renderer":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
-    def __del__(self):
-        # a dropped renderer (a notebook cell run again) gives its GPU memory back
-        if _sys.is_finalizing() or getattr(self, "_released", True):
-            return
-        try:
-            self.release()
-        except Exception:
-            pass
-
     def release(self) -> None:
         """Free every GPU object (targets, passes, strands, head); safe to call twice. Also called
         when the renderer is dropped or leaves a ``with`` block."""
-        if getattr(self, "_released", True):
+        if not self.released_now():
             return
-        self._released = True
         # Give the context back its framebuffer: moderngl's ctx.fbo would otherwise
         # point at one of ours once released, and break the next ctx.scope().
         if self._initial_fbo is not None:

@@ -49,7 +49,6 @@ has a gather deferred onto its grid).
 from __future__ import annotations
 
 import math
-import sys as _sys
 from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +57,7 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
+from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from . import head_motion
 from .colliders import Collider, MeshCollider, pack_colliders
@@ -127,7 +127,7 @@ class _Timer:
     totals: dict = field(default_factory=dict)  # name -> [ms sum, count]
 
 
-class Simulator:
+class Simulator(GpuOwner):
     """GPU strand simulation of a groom (see the module doc)."""
 
     def __init__(self, groom, colliders=(), settings: SimSettings | None = None, ctx=None, *,
@@ -812,9 +812,8 @@ class Simulator:
     def release(self) -> None:
         """Free the GPU buffers (state, friction grid, FLIP volume, timers); safe to call twice.
         Also called when the simulator is dropped or leaves a ``with`` block."""
-        if getattr(self, "_released", True):
+        if not self.released_now():
             return
-        self._released = True
         self._deferred = None
         for name in ("_grid", "_flip", "_profiler"):
             obj = getattr(self, name, None)
@@ -822,21 +821,6 @@ class Simulator:
                 obj.release()
                 setattr(self, name, None)
         self.state.release()
-
-    def __enter__(self) -> "Simulator":
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.release()
-
-    def __del__(self):
-        # a dropped simulator (a notebook cell run again) gives its GPU memory back
-        if _sys.is_finalizing() or getattr(self, "_released", True):
-            return
-        try:
-            self.release()
-        except Exception:
-            pass
 
 
 MAX_ULP_FRACTION = 1e-2
