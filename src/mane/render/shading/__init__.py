@@ -351,21 +351,26 @@ def _chiang_table(key: tuple) -> np.ndarray:
 _chiang_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
-def chiang_texture(ctx, settings: ShadingSettings):
-    """The ``hair_chiang_n`` texture: (6 chiang_size x chiang_size) RGBA32F, linear filtering,
-    clamped; cached per context and ``settings.chiang_key()``."""
+def _table_texture(ctx, caches, key, make):
+    """An RGBA32F texture of the (rows, columns, 4) table ``make()``, linear filtering, clamped;
+    cached per context (``caches``: a WeakKeyDictionary) and ``key``."""
     import moderngl
 
-    cache = _chiang_cache.setdefault(ctx, {})
-    key = settings.chiang_key()
+    cache = caches.setdefault(ctx, {})
     if key not in cache:
-        data = settings.chiang_table()
+        data = make()
         tex = ctx.texture((data.shape[1], data.shape[0]), 4, np.ascontiguousarray(data, np.float32).tobytes(),
                           dtype="f4")
         tex.repeat_x = tex.repeat_y = False
         tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
         cache[key] = tex
     return cache[key]
+
+
+def chiang_texture(ctx, settings: ShadingSettings):
+    """The ``hair_chiang_n`` texture: (6 chiang_size x chiang_size) RGBA32F; cached per context
+    and ``settings.chiang_key()``."""
+    return _table_texture(ctx, _chiang_cache, settings.chiang_key(), settings.chiang_table)
 
 
 @functools.lru_cache(maxsize=32)
@@ -384,19 +389,9 @@ _dual_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def dual_lut_texture(ctx, settings: ShadingSettings):
-    """The ``hair_dual_lut`` moderngl texture: (dual_size x 8) RGBA32F, linear filtering,
-    clamped; cached per context and ``settings.dual_key()``."""
-    import moderngl
-
-    cache = _dual_cache.setdefault(ctx, {})
-    key = settings.dual_key()
-    if key not in cache:
-        lut = settings.dual_lut()
-        tex = ctx.texture((lut.shape[1], lut.shape[0]), 4, np.ascontiguousarray(lut, np.float32).tobytes(), dtype="f4")
-        tex.repeat_x = tex.repeat_y = False
-        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        cache[key] = tex
-    return cache[key]
+    """The ``hair_dual_lut`` moderngl texture: (dual_size x 8) RGBA32F; cached per context and
+    ``settings.dual_key()``."""
+    return _table_texture(ctx, _dual_cache, settings.dual_key(), settings.dual_lut)
 
 
 _lut_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
