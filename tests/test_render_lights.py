@@ -104,7 +104,11 @@ def fan_over_occluder() -> Groom:
 
 def test_deep_opacity_per_light(gl):
     g = fan_over_occluder()
-    kw = dict(strands_per_guide=8, clump_radius=0.006, width=0.002, strand_opacity=0.5)
+    # single scattering: dual scattering's forward-scattered term may light a strand behind a few
+    # others more than the direct lobes do (measured +19/255 on 5 pixels), so "only darkens" holds
+    # for the shadow maps themselves, which is what this checks
+    kw = dict(strands_per_guide=8, clump_radius=0.006, width=0.002, strand_opacity=0.5,
+              shading_options={"multiple_scattering": "none"})
     one = render(gl, 1, shadows="deep_opacity", groom=g, **kw)
     two = render(gl, 2, shadows="deep_opacity", groom=g, **kw)
     diff = two - one
