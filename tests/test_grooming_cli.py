@@ -46,3 +46,22 @@ def test_grow_bad_arguments(tmp_path, capsys):
     assert main(["grow", "--points", "1", "--out", str(tmp_path / "x.npz")]) == 2
     assert main(["grow", "--strands", "5", "--out", str(tmp_path / "x.unknown")]) == 2
     assert "cannot write .unknown" in capsys.readouterr().err
+
+
+def test_grow_on_a_millimetre_z_up_mesh_with_head_options(tmp_path, capsys):
+    """--head-units/--head-up apply to --mesh: a 200 mm ball stored Z-up grows hair on a 0.2 m
+    ball, Y up (the roots lie on its surface, 0.1 m from its centre)."""
+    import trimesh
+
+    import mane
+
+    ball = trimesh.creation.icosphere(subdivisions=2, radius=100.0)
+    ball.apply_translation((0.0, 0.0, 500.0))            # 0.5 m up along Z, in mm
+    mesh_path = tmp_path / "ball_mm.obj"
+    ball.export(mesh_path)
+    out = tmp_path / "ball.npz"
+    assert main(["grow", "--mesh", str(mesh_path), "--head-units", "mm", "--head-up", "z", "--strands", "100",
+                 "--points", "4", "--out", str(out)]) == 0
+    roots = mane.load(out, units="m", up="y").roots.astype(np.float64)
+    r = np.linalg.norm(roots - (0.0, 0.5, 0.0), axis=1)
+    np.testing.assert_allclose(r, 0.1, atol=0.004)

@@ -34,13 +34,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--strand-budget", type=int, default=None,
                         help="refuse --strands beyond this budget (default 5000000)")
     parser.add_argument("--out", required=True, help="output hair file (.npz .usda .hair .ply ...)")
+    from .options import add_frame_arguments
+
+    add_frame_arguments(parser, groom=False)   # --head-units/--head-up/--head-scale for --mesh
 
 
 def run(args) -> int:
     from pathlib import Path
 
     from ..grooming import default_head, grow
-    from ..io import HAIR_FORMATS, load_mesh, save
+    from ..io import HAIR_FORMATS, save
 
     suffix = Path(args.out).suffix.lower()
     if suffix not in HAIR_FORMATS or not HAIR_FORMATS[suffix][2]:
@@ -63,7 +66,9 @@ def run(args) -> int:
                 f"growing {args.strands:,} strands x {args.points} points", "ask for fewer strands or points")
     check_output_path(args.out, "--out")
     t0 = time.perf_counter()
-    mesh = load_mesh(args.mesh) if args.mesh else default_head()
+    from .options import load_head
+
+    mesh = load_head(args, args.mesh) if args.mesh else default_head()
     groom = grow(mesh, args.strands, args.style, args.points, args.seed,
                  blue_noise=args.blue_noise, length=args.length,
                  curl_radius=args.curl_radius, curl_pitch=args.curl_pitch)
