@@ -296,3 +296,20 @@ def test_hair_coverage_separates_the_hair_from_the_head_behind_and_in_front(mi, 
     assert both[row(0.03), 20] == pytest.approx(1.0) and both[row(-0.03), 20] == pytest.approx(1.0)
     assert hair[row(0.03), 8] == pytest.approx(1.0)          # beside the head (x = -0.066) it shows
     assert both[1, 1] == 0.0
+
+
+def test_cli_reference_takes_the_hair_preset_and_the_frame_options(monkeypatch):
+    """mane reference parses --hair like mane render, refuses it beside --melanin, and takes the
+    groom and head --units/--up options (issue 13: every command that reads a groom)."""
+    from mane.app.cli import build_parser
+    from mane.app.reference import settings_from_args
+    from mane.render.shading import hair_preset
+
+    args = build_parser("reference").parse_args(["reference", "g.hair", "--hair", "blond", "--units", "cm",
+                                                 "--up", "z", "--head-units", "mm", "--size", "8x8"])
+    assert (args.units, args.up, args.head_units) == ("cm", "z", "mm")
+    s = settings_from_args(args)
+    assert s.shading_options["melanin"] == hair_preset("blond") and s.hair_color is None
+    args = build_parser("reference").parse_args(["reference", "--hair", "red", "--melanin", "1,0"])
+    with pytest.raises(UsageError, match="one of them"):
+        settings_from_args(args)

@@ -32,8 +32,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                      "box, or eye=x,y,z;target=x,y,z[;fov=deg] (as mane render)")
     parser.add_argument("--light", action="append", default=None,
                         help="dir:X,Y,Z[:INTENSITY[:R,G,B]] or point:...; repeatable (default: mane render's 3 lights)")
-    parser.add_argument("--shading", default="marschner",
-                        help=f"the real-time model whose material parameters are used ({', '.join(SHADINGS)})")
+    from ..render.settings import RenderSettings
+
+    parser.add_argument("--shading", default=RenderSettings.shading,
+                        help=f"the real-time model whose material parameters are used ({', '.join(SHADINGS)}; "
+                             f"default {RenderSettings.shading}, mane render's)")
+    parser.add_argument("--hair", default=None, help="hair colour preset (black, dark_brown, brown, auburn, red, "
+                                                     "blond, platinum, grey), as mane render --hair")
     parser.add_argument("--melanin", default=None, help="EU,PHEO pigment concentrations (e.g. 1.3,0.2 brown, 0.3,0.1 blond)")
     parser.add_argument("--color", default=None, help="hair colour, linear R,G,B (Chiang's inversion to absorption)")
     parser.add_argument("--interpolation", default="catmull_rom", choices=INTERPOLATIONS)
@@ -45,6 +50,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--cache", default=None, help="image cache folder (default $MANE_REFERENCE_CACHE or "
                                                       "~/.cache/mane/reference)")
     parser.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
+    from .options import add_frame_arguments
+
+    add_frame_arguments(parser)   # --units/--up/--scale and --head-units/--head-up/--head-scale, as mane render
 
 
 def settings_from_args(args):
@@ -66,6 +74,13 @@ def settings_from_args(args):
             if len(c) > 1:
                 kw["curl_frequency"] = c[1]
         options = {}
+        if args.hair:
+            from ..render.shading import hair_preset
+
+            if args.melanin or args.color:
+                raise UsageError("give --hair, --melanin or --color, one of them")
+            options["melanin"] = hair_preset(args.hair)
+            kw["hair_color"] = None
         if args.melanin:
             m = tuple(float(v) for v in args.melanin.split(","))
             if len(m) not in (1, 2) or min(m) < 0:
