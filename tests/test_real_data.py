@@ -182,3 +182,18 @@ def test_real_groom_converts_exactly(shared_data, tmp_path, capsys, suffix):
     a, b = mane.load(src), mane.load(out)
     np.testing.assert_array_equal(a.counts, b.counts)
     np.testing.assert_array_equal(a.points, b.points)
+
+
+def test_sintel_scenes_are_in_metres(shared_data):
+    """The Sintel scene of the examples and of ``mane bench fidelity`` read the TressFX
+    centimetres as metres once (she is ~27 cm of hair; x0.01 twice made her 2.7 mm)."""
+    from mane.bench.fidelity import SCENES, load_scene
+    from mane.render.scene import sintel_scene
+
+    groom, head = sintel_scene(shared_data)
+    bench_groom, _ = load_scene(SCENES["sintel_brown"])
+    for g in (groom, bench_groom):
+        lo, hi = g.bbox()
+        assert 0.2 < hi[1] - lo[1] < 0.4
+    lo, hi = head.bbox()
+    assert 0.3 < hi[1] - lo[1] < 0.6

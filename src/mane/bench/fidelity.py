@@ -90,7 +90,7 @@ def load_scene(scene: Scene, curly_guides: int = 300):
         root = data_dir()
         if root is None:
             raise UsageError(f"Sintel's groom ({SINTEL}) was not found under ../shared/data or $MANE_SHARED_DATA")
-        return load(root / SINTEL).scaled(0.01), None
+        return load(root / SINTEL, units="cm", up="y"), None   # TressFX: centimetres, Y up
     from ..grooming import grow
     from ..render.scene import default_head
 

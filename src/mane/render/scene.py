@@ -49,8 +49,6 @@ def sintel_scene(data_dir):
     ``GroomError`` that names it."""
     from pathlib import Path
 
-    import numpy as np
-
     from ..errors import GroomError
     from ..io import load, load_mesh
 
@@ -59,8 +57,8 @@ def sintel_scene(data_dir):
     for f in (hair, bust):
         if not f.is_file():
             raise GroomError(f"Sintel's scene needs {f}, which is not there")
-    groom = load(hair).scaled(0.01)
-    head = load_mesh(bust).transformed(np.diag([0.01, 0.01, 0.01, 1.0]))
+    groom = load(hair, units="cm", up="y")            # TressFX: centimetres, Y up
+    head = load_mesh(bust, units="cm", up="y")        # her bust, in the same frame
     return groom, head
 
 
