@@ -177,24 +177,34 @@ def test_oit_and_captures_keep_the_tessellation_pipeline(gl):
         r.release()
 
 
+LOD_SETTINGS = dict(size=(64, 48), msaa=1, pipeline="compute", lod=True, lod_start=0.5, lod_end=2.5,
+                    segments=40, strands_per_guide=8, stray_fraction=0.0)
+
+
+def lod_expanded(gl, g, distance):
+    """The compute expansion of ``g`` with the camera ``distance`` m in front of its first root:
+    (settings, eye, expanded buffer, renderer stats, rendered strands)."""
+    s = RenderSettings(**LOD_SETTINGS)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(g)
+        r.strands.update_frames()
+        eye = g.as_padded()[0, 0].astype(np.float64) + np.array([0.0, 0.0, distance])
+        r.lod_eye = eye
+        e = r.get_pass("expand").read()
+        return s, eye, e, r.stats(), r.rendered_strands
+    finally:
+        r.release()
+
+
 @pytest.mark.parametrize("distance", [0.0, 0.7, 1.2, 3.0])
 def test_lod_expansion_matches_the_numpy_lod_twin(gl, distance):
     # the distance LOD in the compute expansion: per guide segment L = wanted / guide segments
     # distinct points at u = min(k / L, 1); strand j of a guide has alpha clamp(c - j, 0, 1),
     # c = density x strands per guide, the width scaled by it (0: dropped); the width multiplier
     g = wavy_groom()
-    s = RenderSettings(size=(64, 48), msaa=1, pipeline="compute", lod=True, lod_start=0.5, lod_end=2.5,
-                       segments=40, strands_per_guide=8, stray_fraction=0.0)
-    r = Renderer(s, ctx=gl, profile=False)
-    try:
-        r.set_strands(g)
-        r.strands.update_frames()
-        roots = g.as_padded()[:, 0].astype(np.float64)
-        eye = roots[0] + np.array([0.0, 0.0, distance])
-        r.lod_eye = eye
-        e = r.get_pass("expand").read()
-    finally:
-        r.release()
+    s, eye, e, _, _ = lod_expanded(gl, g, distance)
+    roots = g.as_padded()[:, 0].astype(np.float64)
     spg, N = 8, g.as_padded().shape[1]
     sub = e.shape[1] // (N - 1)
     for gi in range(g.num_strands):
@@ -222,19 +232,9 @@ def test_lod_rendered_segments_count_what_is_drawn(gl, distance):
     buffer that are drawn (both ends apart, width > 0), counted on the GPU's own output; they
     fall with distance (the old count never did and read 1.5x high)."""
     g = wavy_groom()
-    s = RenderSettings(size=(64, 48), msaa=1, pipeline="compute", lod=True, lod_start=0.5, lod_end=2.5,
-                       segments=40, strands_per_guide=8, stray_fraction=0.0)
-    r = Renderer(s, ctx=gl, profile=False)
-    try:
-        r.set_strands(g)
-        r.strands.update_frames()
-        roots = g.as_padded()[:, 0].astype(np.float64)
-        r.lod_eye = roots[0] + np.array([0.0, 0.0, distance])
-        e = r.get_pass("expand").read()
-        stat = r.stats()["rendered_segments"]
-        full = r.rendered_strands * (g.as_padded().shape[1] - 1) * (e.shape[1] - 1) // (g.as_padded().shape[1] - 1)
-    finally:
-        r.release()
+    _, _, e, stats, strands = lod_expanded(gl, g, distance)
+    stat = stats["rendered_segments"]
+    full = strands * (e.shape[1] - 1)
     step = np.linalg.norm(np.diff(e[..., :3], axis=1), axis=2)
     drawn = int(((step > 1e-7) & (e[:, :-1, 3] > 0)).sum())
     assert stat == drawn, (stat, drawn)
