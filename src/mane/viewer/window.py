@@ -221,12 +221,7 @@ class Viewer:
 
         self._connect_events()
         self._head_is_users = head is not None
-        self.scene_scale = 1.0
         try:
-            if groom is not None:
-                groom = self._groom_to_metres(groom)
-            if head is not None:
-                head = self._mesh_to_metres(head)
             self.load_scene(groom, head)
         except BaseException:
             self.close()
@@ -415,16 +410,14 @@ class Viewer:
                     groom = None
                 if groom is not None:
                     n = groom.num_strands
-                    groom = self._groom_to_metres(groom)
-                    note = " (centimetres, scaled to metres)" if self.scene_scale != 1.0 else ""
                     self.load_scene(groom, self.head if self.groom is not None and self._head_is_users else None)
                     self.error = None
-                    self.status = f"loaded {path.name}: {n} strands{note}" + (
+                    self.status = f"loaded {path.name}: {n} strands" + (
                         f" ({self.groom.num_strands} simulated)" if self.groom.num_strands != n else "")
                     return True
             if suffix in MESH_FORMATS:
                 # a head stored in the groom's frame gets the groom's transform (mane.io.units)
-                mesh = self._mesh_to_metres(load_mesh(path, like=self.groom))
+                mesh = load_mesh(path, like=self.groom)
                 self._head_is_users = True
                 self.load_scene(self.groom, mesh)
                 self.error = None
@@ -439,21 +432,6 @@ class Viewer:
         return False
 
     _head_is_users = False
-
-    def _groom_to_metres(self, groom):
-        """mane works in metres: a groom more than 3 m across is taken to be in centimetres."""
-        lo, hi = groom.bbox()
-        if float(np.linalg.norm(hi - lo)) > 3.0:
-            self.scene_scale = 0.01
-            self.status = "the groom is more than 3 m across: taken as centimetres (scaled by 0.01)"
-            return groom.scaled(0.01)
-        self.scene_scale = 1.0
-        return groom
-
-    def _mesh_to_metres(self, mesh):
-        lo, hi = mesh.bbox()
-        scale = self.scene_scale if self.scene_scale != 1.0 else (0.01 if float(np.linalg.norm(hi - lo)) > 3.0 else 1.0)
-        return mesh.transformed(np.diag([scale, scale, scale, 1.0])) if scale != 1.0 else mesh
 
     # ------------------------------------------------------------------ simulation controls
     def _apply_motion(self, t: float) -> None:
