@@ -13,17 +13,13 @@ import time
 from pathlib import Path
 
 from ..errors import UsageError
-from .render import SHADINGS, _load_scene, _size
+from .render import SHADINGS, _load_scene, add_scene_arguments
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     from ..render.settings import INTERPOLATIONS
 
-    parser.add_argument("groom", nargs="?", help="hair file (default: the procedural default groom)")
-    parser.add_argument("--head", help="head mesh (.obj .ply .glb ...), 'default' or 'none' "
-                                       "(default: the default head with the default groom, none with a file)")
-    parser.add_argument("--out", default="reference.png", help="output .png (sRGB) or .npy (linear float32)")
-    parser.add_argument("--size", type=_size, default=(640, 480), help="WxH pixels (default 640x480)")
+    add_scene_arguments(parser, "reference.png", "output .png (sRGB) or .npy (linear float32)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     parser.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     parser.add_argument("--max-depth", type=int, default=64, help="longest light path (default 64)")

@@ -59,14 +59,20 @@ def _size(text: str) -> tuple[int, int]:
     return w, h
 
 
-def add_arguments(parser: argparse.ArgumentParser) -> None:
-    from ..render.settings import GEOMETRIES, INTERPOLATIONS, SHADOWS
-
+def add_scene_arguments(parser: argparse.ArgumentParser, out: str, out_help: str) -> None:
+    """The scene and the picture, as every command that draws a groom takes them: GROOM, --head,
+    --out, --size (``render``, ``reference``)."""
     parser.add_argument("groom", nargs="?", help="hair file (default: the procedural default groom)")
     parser.add_argument("--head", help="head mesh (.obj .ply .glb ...), 'default' or 'none' "
                                        "(default: the default head with the default groom, none with a file)")
-    parser.add_argument("--out", default="render.png", help="output .png (one frame) or .mp4 (default render.png)")
+    parser.add_argument("--out", default=out, help=out_help)
     parser.add_argument("--size", type=_size, default=(640, 480), help="WxH pixels (default 640x480)")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    from ..render.settings import GEOMETRIES, INTERPOLATIONS, SHADOWS
+
+    add_scene_arguments(parser, "render.png", "output .png (one frame) or .mp4 (default render.png)")
     parser.add_argument("--frames", type=int, default=1, help="frames to render (>1 needs an .mp4, default 1)")
     parser.add_argument("--fps", type=float, default=30.0, help="video frame rate (default 30)")
     parser.add_argument("--simulate", action="store_true",
