@@ -194,6 +194,8 @@ class DatasetSpec:
         # the spec's colours decide a sample's look, not a groom file's own colours
         kw = {"shadows": "deep_opacity", "use_file_colors": False, **self.render, "size": tuple(self.size), "rasterizer": "compute",
               "pipeline": "compute"}
+        # a material per sample: its tables from the absorption grid (ms), not built (~1 s each)
+        kw["shading_options"] = {"tables": "interpolated", **dict(kw.get("shading_options") or {})}
         try:
             settings = RenderSettings(**kw)
         except TypeError as exc:

@@ -42,6 +42,7 @@ from __future__ import annotations
 import functools
 import math
 import weakref
+from collections import OrderedDict
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -73,6 +74,7 @@ MODELS: dict[str, int] = {
 FIBRE_MODELS = ("chiang", "marschner", "marschner_lut")
 COLOUR_MODELS = ("kajiya_kay", "sadeghi", "scheuermann", "karis")
 MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
+TABLES = ("exact", "interpolated")
 
 # Texture units bind() uses. The renderer's: 0-2 shadow map and head, 3 deep opacity, 4 ADSM,
 # 5 density, 8-15 opacity shadow maps (32 slices), 16-23 extra shadow-casting lights.
@@ -81,6 +83,7 @@ LUT_UNIT_M = 24
 LUT_UNIT_N = 25
 LUT_UNIT_DUAL = 7
 LUT_UNIT_CHIANG = 26
+TEXTURES_PER_CONTEXT = 16   # of each kind of table
 
 
 def _glsl_float(x: float) -> str:
@@ -128,6 +131,10 @@ class ShadingSettings:
     dual_max_hairs  cap on the number of fibres met towards the light, -log t (transmittance
                     0, e.g. the head's shadow, gives this many)
     dual_size       dual-scattering table resolution (texels per row, 7 rows)
+    tables          "exact" (the Chiang and dual-scattering tables built for this material,
+                    ~1 s of NumPy each new material) or "interpolated" (from tables at a fixed
+                    grid of absorptions, built once per machine: for materials that change every
+                    frame, as in a data set; table_family.py, within 2% of exact)
     """
 
     model: str = "chiang"
@@ -154,6 +161,7 @@ class ShadingSettings:
     dual_density_back: float = 0.7
     dual_max_hairs: float = 64.0
     dual_size: int = 64
+    tables: str = "exact"
 
     def __post_init__(self):
         if self.model not in MODELS:
@@ -176,6 +184,8 @@ class ShadingSettings:
             raise ValueError("beta_n (Chiang's azimuthal roughness) must be in (0, 1]")
         if int(self.chiang_size) < 8:
             raise ValueError("chiang_size must be >= 8")
+        if self.tables not in TABLES:
+            raise ValueError(f"tables must be one of {', '.join(TABLES)}, got {self.tables!r}")
         if self.color is not None:
             if len(tuple(self.color)) != 3:
                 raise ValueError("color must be linear R, G, B")
@@ -278,7 +288,12 @@ class ShadingSettings:
 
     def chiang_table(self) -> np.ndarray:
         """(chiang_size, 6 chiang_size, 4) float32 data of ``hair_chiang_n`` (chiang.py), cached."""
-        return _chiang_table(self.chiang_key())
+        key = self.chiang_key()
+        if self.tables == "interpolated":
+            from .table_family import interpolated
+
+            return interpolated("chiang", key[1:], key[0], lambda s: _chiang_table((tuple(s),) + key[1:]))
+        return _chiang_table(key)
 
     @property
     def beta_m(self) -> float:
@@ -312,6 +327,11 @@ class ShadingSettings:
         """(8, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
         from .dual_scattering import build_dual_lut
 
+        key = self.dual_key()
+        if self.tables == "interpolated":
+            from .table_family import interpolated
+
+            return interpolated("dual", key[1:], key[0], lambda s: build_dual_lut(_dual_tables((tuple(s),) + key[1:])))
         return build_dual_lut(self.dual_tables())
 
     def bind(self, program, ctx, *, prefix: str = "u_material", unit_m: int = LUT_UNIT_M,
@@ -353,24 +373,29 @@ _chiang_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 def _table_texture(ctx, caches, key, make):
     """An RGBA32F texture of the (rows, columns, 4) table ``make()``, linear filtering, clamped;
-    cached per context (``caches``: a WeakKeyDictionary) and ``key``."""
+    cached per context (``caches``: a WeakKeyDictionary) and ``key``, the TEXTURES_PER_CONTEXT
+    last used (a frame binds its material's textures when it draws, so an evicted one is unused)."""
     import moderngl
 
-    cache = caches.setdefault(ctx, {})
-    if key not in cache:
-        data = make()
-        tex = ctx.texture((data.shape[1], data.shape[0]), 4, np.ascontiguousarray(data, np.float32).tobytes(),
-                          dtype="f4")
-        tex.repeat_x = tex.repeat_y = False
-        tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
-        cache[key] = tex
-    return cache[key]
+    cache = caches.setdefault(ctx, OrderedDict())
+    if key in cache:
+        cache.move_to_end(key)
+        return cache[key]
+    data = make()
+    tex = ctx.texture((data.shape[1], data.shape[0]), 4, np.ascontiguousarray(data, np.float32).tobytes(),
+                      dtype="f4")
+    tex.repeat_x = tex.repeat_y = False
+    tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
+    cache[key] = tex
+    while len(cache) > TEXTURES_PER_CONTEXT:   # a material per sample must not fill the GPU
+        cache.popitem(last=False)[1].release()
+    return tex
 
 
 def chiang_texture(ctx, settings: ShadingSettings):
     """The ``hair_chiang_n`` texture: (6 chiang_size x chiang_size) RGBA32F; cached per context
     and ``settings.chiang_key()``."""
-    return _table_texture(ctx, _chiang_cache, settings.chiang_key(), settings.chiang_table)
+    return _table_texture(ctx, _chiang_cache, (settings.tables,) + settings.chiang_key(), settings.chiang_table)
 
 
 @functools.lru_cache(maxsize=32)
@@ -391,7 +416,7 @@ _dual_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 def dual_lut_texture(ctx, settings: ShadingSettings):
     """The ``hair_dual_lut`` moderngl texture: (dual_size x 8) RGBA32F; cached per context and
     ``settings.dual_key()``."""
-    return _table_texture(ctx, _dual_cache, settings.dual_key(), settings.dual_lut)
+    return _table_texture(ctx, _dual_cache, (settings.tables,) + settings.dual_key(), settings.dual_lut)
 
 
 _lut_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
@@ -400,9 +425,11 @@ _lut_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 def lut_textures(ctx, settings: ShadingSettings):
     """(hair_lut_m, hair_lut_n) moderngl textures, RGBA16F, linear filtering, clamped; cached
     per context and ``settings.lut_key()``."""
-    cache = _lut_cache.setdefault(ctx, {})
+    cache = _lut_cache.setdefault(ctx, OrderedDict())
     key = settings.lut_key()
-    if key not in cache:
+    if key in cache:
+        cache.move_to_end(key)
+    else:
         m_lut, n_lut = settings.luts()
         textures = []
         for arr in (m_lut, n_lut):
@@ -414,6 +441,9 @@ def lut_textures(ctx, settings: ShadingSettings):
             tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
             textures.append(tex)
         cache[key] = tuple(textures)
+        while len(cache) > TEXTURES_PER_CONTEXT:
+            for tex in cache.popitem(last=False)[1]:
+                tex.release()
     return cache[key]
 
 
