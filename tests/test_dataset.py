@@ -324,3 +324,29 @@ def test_example_specs_are_valid():
     assert 1e9 < estimate_bytes(big)["total"] < 1e12
     sheet = load_spec(ex.parent / "docs" / "dataset_contact_sheet.toml")
     assert {"rgb", "mask", "depth", "orientation"} <= set(sheet.outputs)
+
+
+def test_shard_bytes_are_webdataset_tarwriter_bytes(tmp_path):
+    """ShardFile writes each sample in one call; the file is byte for byte what webdataset's
+    TarWriter (the library the readers use) writes for the same samples."""
+    import io
+
+    from webdataset import TarWriter
+
+    from mane.dataset.shards import ShardFile
+
+    rng = np.random.default_rng(3)
+    samples = [{"__key__": f"{i:06d}", "rgb.png": rng.bytes(int(n)), "camera.json": '{"a": 1}'.encode(),
+                "depth.npy": rng.bytes(1000 + 7 * i), "_meta": b"skipped"} for i, n in enumerate([1, 511, 512, 20000])]
+    mine = ShardFile(tmp_path, 0)
+    for s in samples:
+        mine.write(dict(s))
+    sha, size = mine.close()
+    ref = io.BytesIO()
+    w = TarWriter(ref, encoder=False, mtime=0, user="mane", group="mane", mode=0o444)
+    for s in samples:
+        w.write(dict(s))
+    w.close()
+    data = (tmp_path / "shard-000000.tar").read_bytes()
+    assert data == ref.getvalue()
+    assert size == len(data) and sha == hashlib.sha256(data).hexdigest()

@@ -40,51 +40,61 @@ def sha256_file(path, chunk: int = 1 << 20) -> str:
 class ShardFile:
     """One shard being written: samples streamed into ``.shard-N.tar.tmp-PID`` in order; ``close``
     syncs it, renames it to its name and returns (sha256, bytes). A writer that dies leaves
-    only the temporary."""
+    only the temporary.
+
+    The bytes are those of the webdataset library's TarWriter (USTAR members named
+    ``key.ext`` in sorted order, mode 0o444, owner mane, time 0; tests check them byte for byte),
+    but a sample's members are joined and hashed and written in one call: TarWriter's stream
+    hands the file 10 KiB at a time, ~700 Python-level writes for a 7 MB sample, which measured
+    42 ms a sample on the H200 host and bounded a GPU worker to 25 samples/s."""
+
+    USER = GROUP = "mane"
+    MODE = 0o444
 
     def __init__(self, out_dir, k: int):
-        from webdataset import TarWriter
-
         self.path = Path(out_dir) / shard_name(k)
         self.tmp = Path(out_dir) / f".{shard_name(k)}{TMP_MARK}{os.getpid()}"
-        self._f = open(self.tmp, "wb")
-        self._h = _HashingFile(self._f)
-        self._w = TarWriter(self._h, encoder=False, mtime=0, user="mane", group="mane", mode=0o444)
+        self._f = open(self.tmp, "wb", buffering=0)
+        self._h = hashlib.sha256()
+        self.size = 0
         self.samples = 0
 
+    def _put(self, b) -> None:
+        self._h.update(b)       # both release the GIL for large buffers
+        self._f.write(b)
+        self.size += len(b)
+
     def write(self, files: dict) -> None:
-        self._w.write(files)
+        key = files["__key__"]
+        parts = []
+        for name in sorted(files):
+            if name.startswith("_"):
+                continue
+            data = files[name]
+            data = data.encode("utf-8") if isinstance(data, str) else data
+            if not isinstance(data, (bytes, bytearray, memoryview)):
+                raise ValueError(f"{name} of sample {key} is {type(data).__name__}, not bytes")
+            ti = tarfile.TarInfo(f"{key}.{name}")
+            ti.size, ti.mtime, ti.mode, ti.uname, ti.gname = len(data), 0, self.MODE, self.USER, self.GROUP
+            parts += [ti.tobuf(tarfile.USTAR_FORMAT, "utf-8", "surrogateescape"), data,
+                      bytes(-len(data) % tarfile.BLOCKSIZE)]
+        self._put(b"".join(parts))
         self.samples += 1
 
     def close(self) -> tuple[str, int]:
-        self._w.close()
-        self._f.flush()
+        end = 2 * tarfile.BLOCKSIZE          # the end-of-archive blocks, the last record filled
+        end += -(self.size + end) % tarfile.RECORDSIZE
+        self._put(bytes(end))
         os.fsync(self._f.fileno())
         self._f.close()
         os.replace(self.tmp, self.path)
-        return self._h.hexdigest(), self._h.size
+        return self._h.hexdigest(), self.size
 
     def abort(self) -> None:
         try:
             self._f.close()
         finally:
             self.tmp.unlink(missing_ok=True)
-
-
-class _HashingFile(io.RawIOBase):
-    def __init__(self, f):
-        self.f, self.h, self.size = f, hashlib.sha256(), 0
-
-    def writable(self):
-        return True
-
-    def write(self, b):
-        self.h.update(b)
-        self.size += len(b)
-        return self.f.write(b)
-
-    def hexdigest(self):
-        return self.h.hexdigest()
 
 
 # ---------------------------------------------------------------------- manifest
