@@ -72,7 +72,11 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
             "and compiling")
         sr = SampleRenderer(spec, ctx=ctx, cache=2)
         try:
-            raws = [sr.render(sample_params(spec, i)) for i in range(2)]   # warm: groom, programs
+            # warm: the groom, the programs, and each colour's tables (a first sample of each)
+            firsts = {}
+            for i in range(min(spec.samples, 64)):
+                firsts.setdefault(sample_params(spec, i).color_preset, i)
+            raws = [sr.render(sample_params(spec, i)) for i in sorted(set(firsts.values()) | {0, 1})][-2:]
             for k in sr.timings:
                 sr.timings[k] = 0.0
             n = int(cfg["stage_samples"])
