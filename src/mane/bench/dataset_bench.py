@@ -164,7 +164,8 @@ def format_text(result: dict) -> str:
         f"{r['samples']} samples of {r['name']}, {r['rendered_strands']} strands, outputs {', '.join(r['outputs'])}: "
         f"{r['samples_per_s']:.2f} samples/s with 1 GPU worker and {r['encoders']} encoders "
         f"({r['bytes_per_sample'] / 1e6:.2f} MB a sample)",
-        f"  stages alone, ms a sample: prepare {ms(st, 'prepare')}, gpu {ms(st, 'gpu')}, readback "
+        f"  stages alone, ms a sample: prepare {ms(st, 'prepare')}, gpu {ms(st, 'gpu')} (of which the CPU issuing "
+        f"the frame {ms(st, 'issue')}), readback "
         f"{ms(st, 'readback')}, .npy/.json/.npz {ms(st, 'encode_arrays')}, pickle of the PNG job {ms(st, 'pickle')}, "
         f"PNGs {ms(st, 'encode_png_one_core')} (one core)",
         f"  in the pipeline, GPU process ms a sample: prepare {ms(pp, 'prepare')}, gpu {ms(pp, 'gpu')}, readback "

@@ -71,7 +71,8 @@ class SampleRenderer:
         self._cache = int(cache)
         self._current = None   # (groom key, head) on the renderer now
         self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
-        self.timings = {"prepare": 0.0, "gpu": 0.0, "readback": 0.0}
+        # gpu: issuing the frame and waiting for it (ctx.finish); issue: of which the CPU's issuing
+        self.timings = {"prepare": 0.0, "gpu": 0.0, "issue": 0.0, "readback": 0.0}
 
     # ------------------------------------------------------------------ scene pieces
     def head(self, name: str):
@@ -168,6 +169,7 @@ class SampleRenderer:
         lights = [Light("directional", tuple(d), tuple(c), float(i)) for d, c, i, _ in p.lights]
         t1 = time.perf_counter()
         r.render(cam, lights)
+        t_issued = time.perf_counter()
         self.aux.finish()
         t2 = time.perf_counter()
         raw = {"key": p.key, "index": p.index, "rgb": r.read_image(), **self.aux.read()}
@@ -199,6 +201,7 @@ class SampleRenderer:
             raw["strands"] = {"points": pts[:, :3].astype(np.float32), "counts": groom.counts.astype(np.int32)}
         self.timings["prepare"] += t1 - t0
         self.timings["gpu"] += t2 - t1
+        self.timings["issue"] += t_issued - t1
         self.timings["readback"] += t3 - t2
         return raw
 
