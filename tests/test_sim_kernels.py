@@ -1,4 +1,4 @@
-"""Every strand-solver kernel against its NumPy twin (tests/reference/sim_reference.py)."""
+"""Every strand-solver kernel against its NumPy twin (mane/twins/sim.py)."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,7 @@ import pytest
 from mane import Groom
 from mane.sim import Capsule, Ellipsoid, SimSettings, Simulator, Sphere, WindSettings, head_motion
 from mane.sim.wind import gust_field
-from reference import sim_reference as ref
+from mane.twins import sim as ref
 
 pytestmark = pytest.mark.gpu
 

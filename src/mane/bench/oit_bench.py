@@ -20,7 +20,7 @@ Sections:
     the issue's goal: the DBK-buffer with deep opacity maps at 1920x1080, 50,000 strands,
     at most 6 ms of GPU time a frame (one row per rasterizer).
 
-Workloads (procedural, no files): the default head and groom (``mane.render.scene``) with
+Workloads (procedural, no files): the default head and groom (``mane.grooming.scene``) with
 50,000 rendered strands (guides x 16), 24 segments a strand, seen from the side (Hunz's
 view); "wavy" and "curly" add the renderer's curl (radius 4 mm x 3 turns, 7 mm x 8 turns).
 Strand opacity 0.5 (Hunz's k = 6 example: 0.5^6 ~ 1.6 %).
@@ -111,7 +111,7 @@ class Bench(BenchRows):
 
     def scene(self):
         if self._groom is None:
-            from ..render.scene import default_groom, default_head
+            from ..grooming.scene import default_groom, default_head
 
             self._head = default_head(4)  # the 5,120-triangle bust the benchmarks were measured on
             guides = max(1, int(round(self.cfg["strands"] / SPG)))

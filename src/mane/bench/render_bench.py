@@ -2,7 +2,7 @@
 
     result = run(ctx, "default")          # the JSON object; format_text(result) for tables
 
-Workloads come from the procedural default scene (``mane.render.scene``: grooming's default
+Workloads come from the procedural default scene (``mane.grooming.scene``: grooming's default
 head and a groom grown on its scalp, ``grow`` when grooming has it): one groom of the most
 guides a sweep needs is grown per guide point count, and each configuration renders its first
 G guides (a random, evenly spread subset), each multiplied into ``strands_per_guide`` rendered
@@ -270,13 +270,13 @@ class Workloads:
     @property
     def head(self):
         if self._head is None:
-            from ..render.scene import default_head
+            from ..grooming.scene import default_head
 
             self._head = default_head(4)  # the 5,120-triangle bust the benchmarks were measured on
         return self._head
 
     def groom(self, guides: int, points: int):
-        from ..render.scene import default_groom
+        from ..grooming.scene import default_groom
 
         points, guides = int(points), int(guides)
         master = self._masters.get(points)
@@ -758,7 +758,7 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
     }
     settings = {k: ([list(x) if isinstance(x, tuple) else x for x in v] if isinstance(v, list)
                     else list(v) if isinstance(v, tuple) else v) for k, v in cfg.items()}
-    settings["workload"] = (f"procedural default scene (mane.render.scene: default head, groom from "
+    settings["workload"] = (f"procedural default scene (mane.grooming.scene: default head, groom from "
                             f"{bench.work.source or 'default_groom'}); a configuration renders the first G guides")
     settings["render_settings_fields"] = list(settings_fields())
     return {"meta": envelope(ctx, target="render", mode=mode, settings=settings, timing=timing),

@@ -732,6 +732,13 @@ class Simulator(GpuOwner):
         return (state or self.state).velocities()
 
     @property
+    def friction_grid(self) -> GridFriction | None:
+        """The hair-hair friction grid (``GridFriction``: mass per node in ``.grid``, its box in
+        ``.bounds``) once a step has built it; None before that or with friction off. The
+        renderer's density shadows read it in place."""
+        return self._grid
+
+    @property
     def nan_recoveries(self) -> int:
         """Strands the NaN guard has reset since the last reset."""
         return self.state.recoveries

@@ -44,7 +44,7 @@ Memory (``oit_bytes``): K-buffer K x 8 + 24 B a pixel; DBK-buffer K x 8 + 12 + 4
 
 ``capture = True`` on a method (tests) also records every fragment of the frame (pixel,
 depth, segment, premultiplied colour) into ``captured``: the exact reference, sorted on the
-CPU by tests/reference/oit_reference.py.
+CPU by mane/twins/oit.py.
 """
 from __future__ import annotations
 
@@ -53,10 +53,10 @@ import math
 import numpy as np
 
 from ...errors import GLFeatureError
+from ...gpu.capabilities import has_atomic64
 from ...gpu.glsl import compute_shader
 from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
 from ..passes.expand import EXPANDED_BINDING
-from ..passes.hair_compute import has_atomic64
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
 from .dbk_buffer import AutoShift

@@ -28,6 +28,7 @@ import re
 import numpy as np
 
 from ...gpu.buffers import check_allocation
+from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
 from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 from .expand import EXPANDED_BINDING
@@ -59,13 +60,6 @@ def auto_rasterizer(ctx) -> str:
     from ...gpu.context import renderer_name
 
     return "compute" if FEW_RASTER_UNITS.search(renderer_name(ctx) or "") else "hardware"
-
-
-def has_atomic64(ctx) -> bool:
-    """64-bit integer atomics on shader storage (GL_NV_shader_atomic_int64 + 64-bit ints)."""
-    from ...gpu.capabilities import get_capabilities
-
-    return get_capabilities(ctx).available("kbuffer_int64")
 
 
 class HairComputePass(Pass):
