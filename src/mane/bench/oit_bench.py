@@ -189,7 +189,7 @@ class Bench(BenchRows):
 
     def methods(self) -> None:
         # the rasteriser "auto" picks on this GPU first, so that a time budget spent on the other
-        # (the raster units of an H200 take ~100 ms a frame here) leaves its sweep whole
+        # (on a GPU with few raster units, far slower) leaves its sweep whole
         from ..render.passes.hair_compute import auto_rasterizer
 
         variants = self.variants()
@@ -246,8 +246,8 @@ class Bench(BenchRows):
 
     def warm_up(self) -> None:
         """Frames of the target's scene for ``gpu_warmup_s`` seconds before anything is timed: a
-        GPU's clocks take a while to ramp up (on an H200 the first configuration measured cold
-        ran every pass, head and shadow map included, 1.5-2.4x slower than later ones)."""
+        GPU's clocks take a while to ramp up (the first configuration measured cold ran every
+        pass, head and shadow map included, markedly slower than later ones)."""
         seconds = float(self.cfg.get("gpu_warmup_s", 0.0))
         if seconds <= 0:
             return

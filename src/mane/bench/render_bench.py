@@ -112,7 +112,7 @@ MODE_CONFIG = {
         woodhouse_size=(1280, 720), woodhouse_spg=16),
 }
 
-# What the seeds report, for comparison in the JSON (see /work/shared/research).
+# What the seeds report, for comparison in the JSON (see ../shared/research, beside the repository).
 REFERENCES = {
     "target": "Issue 4: 50,000 strands x 32 segments, 1920x1080, Marschner LUTs, deep opacity maps "
               "(3 layers, 512^2), 4x MSAA in at most 4 ms of GPU time on an H100/H200.",

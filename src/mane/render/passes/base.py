@@ -129,8 +129,8 @@ def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:
     capture, a pass's own geometry stage or a hardware OIT method (those keep the tessellation
     pipeline). The distance LOD is expanded too (strand_expand.comp), once per camera position."""
     s = renderer.settings
-    return (getattr(s, "pipeline", "tessellation") == "compute" and not capture
-            and geometry_file is None and getattr(s, "oit", "none") == "none")
+    return (s.pipeline == "compute" and not capture
+            and geometry_file is None and s.oit == "none")
 
 
 def subdivisions(settings, points_per_strand: int) -> int:
