@@ -1,5 +1,5 @@
 """Chiang et al. 2016 hair fibre (HAIR_MODEL_CHIANG): the GLSL (analytic M_p, h-averaged
-azimuthal table) against its NumPy twin (mane/twins/chiang.py, which integrates
+azimuthal table) against its NumPy twin (src/mane/twins/chiang.py, which integrates
 over h itself), the twin's white furnace, the twin against Mitsuba 3's own ``hair`` BSDF, the
 melanin presets and the settings.
 """

@@ -1,5 +1,5 @@
 """The data set's ground-truth maps (mane.render.aux_maps, aux_maps.comp) against their NumPy
-twin (mane/twins/aux.py), and a data set sample's maps against the same
+twin (src/mane/twins/aux.py), and a data set sample's maps against the same
 strands projected with the camera it writes (camera.json's OpenCV K and extrinsics)."""
 from __future__ import annotations
 

@@ -3,7 +3,7 @@ mane.render.oit.compute) against the exact reference of the compute rasteriser's
 every fragment recorded by an append-only capture (no per-pixel structure), sorted per pixel
 and blended in float64 on the CPU (mane.twins.oit.compute_reference). The
 capture's fragments are checked against the NumPy twin of the scan conversion
-(mane/twins/raster.py); each method's image against the exact one and against
+(src/mane/twins/raster.py); each method's image against the exact one and against
 a NumPy twin of the method written from its definition (K nearest sorted + tail, ShortCut's
 formula, the DBK layer over its nearest hair behind); the K-buffer's insertion cascade against
 a NumPy twin on a few pixels. Both key forms run where the GPU has them (64-bit atomics:

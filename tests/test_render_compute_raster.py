@@ -1,5 +1,5 @@
 """The compute rasteriser (settings.rasterizer="compute"; passes/hair_compute.py) against its
-NumPy twin (mane/twins/raster.py) and against the hardware rasteriser, and the
+NumPy twin (src/mane/twins/raster.py) and against the hardware rasteriser, and the
 deep opacity maps it builds against the hardware-built ones."""
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""Hair shadow methods against an exact CPU ray cast (mane/twins/shadow.py).
+"""Hair shadow methods against an exact CPU ray cast (src/mane/twins/shadow.py).
 
 A small groom (a curtain of 50 wavy guides x 4 strands, 1 mm wide, 6600 rendered segments)
 lit from the side; 2000 sample points (1500 within 2..8 mm of a strand, 500 anywhere in the

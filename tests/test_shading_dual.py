@@ -1,6 +1,6 @@
 """Zinke et al. 2008 dual scattering (HAIR_MULTIPLE_SCATTERING 2): the precomputed tables
 (dual_scattering.py) and hair_ms_dual (dual_scattering.glsl) against its NumPy twin
-(mane/twins/shading.py ms_dual).
+(src/mane/twins/shading.py ms_dual).
 
 Tolerance GLSL vs NumPy: |glsl - ref| <= 1e-3 * max(|ref|, floor), floor = 1e-3 * max(ref)
 over the batch (float32 GPU against float64 NumPy on the same float32 inputs and table).

@@ -1,4 +1,4 @@
-"""Every strand-solver kernel against its NumPy twin (mane/twins/sim.py)."""
+"""Every strand-solver kernel against its NumPy twin (src/mane/twins/sim.py)."""
 from __future__ import annotations
 
 import math

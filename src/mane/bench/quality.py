@@ -12,12 +12,12 @@ Sections (each ``{"status": "ok" | "skipped" | "error", "reason", ...}``):
     (1e-3 of the batch peak). Image: GLSL | NumPy | |difference| per model over the sweep.
 ``shadows``
     every shadow method's light-0 visibility (``mane.render.shadow_probe``) against the exact
-    transmittance of a ray cast through the drawn segments (``mane/twins/shadow.py``)
+    transmittance of a ray cast through the drawn segments (``src/mane/twins/shadow.py``)
     on a curtain of wavy strands lit from the side: mean / max absolute error, bias, and the
     no-shadow baseline. Image: a slice through the curtain, exact | each method | error.
 ``oit``
     every OIT method's image against the exact sort (every fragment from an unbounded A-buffer,
-    sorted and blended in float64, ``mane/twins/oit.py``): mean / max / p99 absolute
+    sorted and blended in float64, ``src/mane/twins/oit.py``): mean / max / p99 absolute
     difference (of 255) and pixels off by more than 1/255. Image: reference | method | 4x difference.
 ``simulation``
     invariants over a short run of the solver on a scalp of strands with the head nodding (package

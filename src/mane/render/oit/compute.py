@@ -44,7 +44,7 @@ Memory (``oit_bytes``): K-buffer K x 8 + 24 B a pixel; DBK-buffer K x 8 + 12 + 4
 
 ``capture = True`` on a method (tests) also records every fragment of the frame (pixel,
 depth, segment, premultiplied colour) into ``captured``: the exact reference, sorted on the
-CPU by mane/twins/oit.py.
+CPU by src/mane/twins/oit.py.
 """
 from __future__ import annotations
 
