@@ -1,18 +1,22 @@
 # mane: two commands set everything up on a fresh Debian/Ubuntu machine.
 #   make demo   the main job       make test   the test suite
+#   make test-fast   the suite without the tests marked slow (pytest -m 'not slow')
 PYTHON ?= python3
 VENV   := .venv
 PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 APT_PKGS := libegl1 libegl-mesa0 libgl1 libgl1-mesa-dri libgles2 xvfb xauth
 
-.PHONY: demo test system-deps install clean
+.PHONY: demo test test-fast system-deps install clean
 
 demo: $(STAMP)
 	$(VENV)/bin/mane demo
 
 test: $(STAMP)
 	$(PY) -m pytest -q
+
+test-fast: $(STAMP)
+	$(PY) -m pytest -q -m 'not slow'
 
 install: $(STAMP)
 

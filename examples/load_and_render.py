@@ -20,7 +20,7 @@ def load_scene():
         groom = mane.load(hair)
         head = mane.load_mesh(bust, like=groom)
         return groom, head, "Sintel (c) Blender Foundation, CC BY 3.0"
-    from mane.render.scene import default_scene
+    from mane.grooming.scene import default_scene
 
     groom, head = default_scene()
     return groom, head, "the procedural default groom"

@@ -17,7 +17,7 @@ def main():
     from mane.errors import GroomError
     from mane.render import Renderer
     from mane.render.lights import default_lights
-    from mane.render.scene import SINTEL_CREDIT, sintel_render_settings, sintel_scene
+    from mane.presets import SINTEL_CREDIT, sintel_render_settings, sintel_scene
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--size", default="960x540", help="WxH of each view")

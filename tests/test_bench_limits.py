@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from mane.render import Renderer, RenderSettings
-from mane.render.scene import default_scene
+from mane.grooming.scene import default_scene
 
-from reference.raster_reference import project, scan_segment
+from mane.twins.raster import project, scan_segment
 from test_render_tessellation import wavy_groom
 
 pytestmark = pytest.mark.gpu

@@ -1,5 +1,5 @@
 """Chiang et al. 2016 hair fibre (HAIR_MODEL_CHIANG): the GLSL (analytic M_p, h-averaged
-azimuthal table) against its NumPy twin (tests/reference/chiang_reference.py, which integrates
+azimuthal table) against its NumPy twin (src/mane/twins/chiang.py, which integrates
 over h itself), the twin's white furnace, the twin against Mitsuba 3's own ``hair`` BSDF, the
 melanin presets and the settings.
 """
@@ -15,8 +15,8 @@ from mane.render.shading import PRESETS, ShadingSettings, evaluate_glsl, hair_pr
 from mane.render.shading.chiang import (azimuthal_table, beta_m_from_roughness, logistic_scale,
                                         roughness_from_beta_m)
 from mane.render.shading.melanin import fibre_color, melanin_to_sigma_a, sigma_a_to_color
-from reference import chiang_reference as C
-from reference import shading_reference as R
+from mane.twins import chiang as C
+from mane.twins import shading as R
 
 N = 1024
 

@@ -29,7 +29,7 @@ TINY = {
 @pytest.fixture(scope="module")
 def spec_dir(tmp_path_factory):
     from mane import save
-    from mane.render.scene import default_scene
+    from mane.grooming.scene import default_scene
 
     d = tmp_path_factory.mktemp("spec")
     groom, _ = default_scene(num_guides=24, points=8, subdivisions=3)

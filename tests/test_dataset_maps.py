@@ -1,5 +1,5 @@
 """The data set's ground-truth maps (mane.render.aux_maps, aux_maps.comp) against their NumPy
-twin (tests/reference/aux_reference.py), and a data set sample's maps against the same
+twin (src/mane/twins/aux.py), and a data set sample's maps against the same
 strands projected with the camera it writes (camera.json's OpenCV K and extrinsics)."""
 from __future__ import annotations
 
@@ -10,9 +10,9 @@ import pytest
 
 from mane.render import Renderer, RenderSettings
 from mane.render.aux_maps import AuxMaps
-from mane.render.scene import default_scene
+from mane.grooming.scene import default_scene
 
-from reference.aux_reference import aux_maps
+from mane.twins.aux import aux_maps
 
 pytestmark = pytest.mark.gpu
 

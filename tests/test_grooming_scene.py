@@ -130,7 +130,7 @@ def test_default_camera_frames_head_and_shoulders(gl):
     NumPy of what the camera sees); the bust is cut at mid-chest, not shown whole."""
     from mane.render import Renderer, RenderSettings
     from mane.render.renderer import DEFAULT_HEAD_FRAME_FLOOR
-    from mane.render.scene import default_groom
+    from mane.grooming.scene import default_groom
 
     head = default_head(4)
     groom = default_groom(head, num_guides=1000)

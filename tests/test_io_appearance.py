@@ -155,7 +155,7 @@ def test_a_file_groom_look_does_not_outlive_it(gl, tmp_path):
     from dataclasses import replace
 
     from mane.render import Renderer, RenderSettings
-    from mane.render.scene import default_scene
+    from mane.grooming.scene import default_scene
 
     groom, _ = default_scene(num_guides=8, points=6, subdivisions=2)
     red = replace(groom, colors=np.tile(np.float32([0.9, 0.1, 0.1]), (groom.num_points, 1)))

@@ -1,9 +1,9 @@
 """The OIT methods on the compute rasteriser (settings.rasterizer="compute";
 mane.render.oit.compute) against the exact reference of the compute rasteriser's fragments:
 every fragment recorded by an append-only capture (no per-pixel structure), sorted per pixel
-and blended in float64 on the CPU (tests/reference/oit_reference.compute_reference). The
+and blended in float64 on the CPU (mane.twins.oit.compute_reference). The
 capture's fragments are checked against the NumPy twin of the scan conversion
-(tests/reference/raster_reference.py); each method's image against the exact one and against
+(src/mane/twins/raster.py); each method's image against the exact one and against
 a NumPy twin of the method written from its definition (K nearest sorted + tail, ShortCut's
 formula, the DBK layer over its nearest hair behind); the K-buffer's insertion cascade against
 a NumPy twin on a few pixels. Both key forms run where the GPU has them (64-bit atomics:
@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 from mane.render import Renderer, RenderSettings
-from tests.reference.oit_reference import (blend_fragments, compute_reference, display, image_error,
+from mane.twins.oit import (blend_fragments, compute_reference, display, image_error,
                                            per_pixel_sorted, reference)
-from tests.reference.raster_reference import project, scan_segment
+from mane.twins.raster import project, scan_segment
 from tests.test_oit_methods import BASE, CAM, DENSE, LIGHTS, curtain_groom, sphere, two_frames_with_a_small_pool
 
 pytestmark = pytest.mark.gpu

@@ -15,7 +15,7 @@ import pytest
 from mane.errors import UsageError
 from mane.groom import Groom
 from mane.render import Camera, Light, Renderer, RenderSettings
-from tests.reference.oit_reference import image_error, reference
+from mane.twins.oit import image_error, reference
 
 pytestmark = pytest.mark.gpu
 

@@ -188,7 +188,7 @@ def test_sintel_scenes_are_in_metres(shared_data):
     """The Sintel scene of the examples and of ``mane bench fidelity`` read the TressFX
     centimetres as metres once (she is ~27 cm of hair; x0.01 twice made her 2.7 mm)."""
     from mane.bench.fidelity import SCENES, load_scene
-    from mane.render.scene import sintel_scene
+    from mane.presets import sintel_scene
 
     groom, head = sintel_scene(shared_data)
     bench_groom, _ = load_scene(SCENES["sintel_brown"])

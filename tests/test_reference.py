@@ -217,7 +217,7 @@ def test_reference_hair_matches_the_compute_rasterisers_coverage(mi, gl, tmp_pat
     from mane.bench.fidelity import realtime_linear
     from mane.grooming import grow
     from mane.render import Renderer
-    from mane.render.scene import default_head
+    from mane.grooming.scene import default_head
 
     head = default_head()
     groom = grow(head, num_strands=30, style="wavy", points_per_strand=12, seed=3)

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from reference import curve_reference as cr
+from mane.twins import curve as cr
 
 
 def test_vulkan_bezier_is_catmull_rom():

@@ -1,5 +1,5 @@
 """The compute rasteriser (settings.rasterizer="compute"; passes/hair_compute.py) against its
-NumPy twin (tests/reference/raster_reference.py) and against the hardware rasteriser, and the
+NumPy twin (src/mane/twins/raster.py) and against the hardware rasteriser, and the
 deep opacity maps it builds against the hardware-built ones."""
 from __future__ import annotations
 
@@ -8,9 +8,9 @@ import pytest
 
 from mane.render import Renderer, RenderSettings
 from mane.render.passes.hair_compute import sample_grid, wants_compute
-from mane.render.scene import default_scene
+from mane.grooming.scene import default_scene
 
-from reference.raster_reference import deep_opacity, rasterize, scan_segment
+from mane.twins.raster import deep_opacity, rasterize, scan_segment
 from test_render_tessellation import wavy_groom
 
 pytestmark = pytest.mark.gpu

@@ -4,7 +4,7 @@ import pytest
 
 from mane import Groom, UsageError
 from mane.render import Renderer, RenderSettings
-from mane.render.scene import default_head
+from mane.grooming.scene import default_head
 
 
 def _skin_centroid(img: np.ndarray, background: np.ndarray) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Hair shadow methods against an exact CPU ray cast (tests/reference/shadow_reference.py).
+"""Hair shadow methods against an exact CPU ray cast (src/mane/twins/shadow.py).
 
 A small groom (a curtain of 50 wavy guides x 4 strands, 1 mm wide, 6600 rendered segments)
 lit from the side; 2000 sample points (1500 within 2..8 mm of a strand, 500 anywhere in the
@@ -27,7 +27,7 @@ from mane.render import Light, RenderSettings
 from mane.render.capture import capture_segments
 from mane.render.shadow_probe import probe_visibility
 
-from reference.shadow_reference import crossings, exact_transmittance, segments_for_reference
+from mane.twins.shadow import crossings, exact_transmittance, segments_for_reference
 
 pytestmark = pytest.mark.gpu
 

@@ -92,12 +92,12 @@ def test_budget_setting_lowers_the_driver_figure(gl, monkeypatch):
 @pytest.mark.gpu
 def test_software_budget_is_at_most_half_the_ram(gl, monkeypatch):
     from mane.gpu.buffers import memory_budget
-    from mane.gpu.capabilities import _system_ram, get_capabilities
+    from mane.gpu.capabilities import system_ram, get_capabilities
 
     monkeypatch.delenv("MANE_GPU_MEMORY", raising=False)
     if not get_capabilities(gl).is_software:
         pytest.skip("a hardware GPU reports its own memory")
-    total, _ = _system_ram()
+    total, _ = system_ram()
     b = memory_budget(gl)
     assert b.available is not None and b.available <= total // 2
 
@@ -264,7 +264,7 @@ def test_grow_numbers_out_of_range(tmp_path, capsys, argv, words):
     (["--strands-per-guide", "-3"], "--strands-per-guide"),
 ])
 def test_render_numbers_out_of_range(tmp_path, capsys, argv, words, monkeypatch):
-    import mane.render.scene as scene
+    import mane.grooming.scene as scene
 
     monkeypatch.setattr(scene, "default_head", lambda *a, **k: pytest.fail("work started"))
     argv = [a.replace("{d}", str(tmp_path)) for a in argv]

@@ -1,6 +1,6 @@
 """Zinke et al. 2008 dual scattering (HAIR_MULTIPLE_SCATTERING 2): the precomputed tables
 (dual_scattering.py) and hair_ms_dual (dual_scattering.glsl) against its NumPy twin
-(tests/reference/shading_reference.py ms_dual).
+(src/mane/twins/shading.py ms_dual).
 
 Tolerance GLSL vs NumPy: |glsl - ref| <= 1e-3 * max(|ref|, floor), floor = 1e-3 * max(ref)
 over the batch (float32 GPU against float64 NumPy on the same float32 inputs and table).
@@ -16,7 +16,7 @@ import pytest
 from mane.render.shading import MULTIPLE_SCATTERING, ShadingSettings, evaluate_glsl
 from mane.render.shading.luts import marschner_lobes
 from mane.render.shading.dual_scattering import back_scattering, precompute_dual
-from reference import shading_reference as R
+from mane.twins import shading as R
 
 N = 2048
 MATERIALS = {

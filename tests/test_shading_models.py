@@ -16,7 +16,7 @@ from mane.render.shading import MODELS, ShadingSettings, evaluate_glsl, melanin_
 from mane.render.shading.luts import marschner_lobes
 from mane.render.shading.melanin import (EUMELANIN_SIGMA_A, PHEOMELANIN_SIGMA_A, color_to_sigma_a,
                                          sigma_a_to_color)
-from reference import shading_reference as R
+from mane.twins import shading as R
 
 pytestmark = pytest.mark.gpu
 

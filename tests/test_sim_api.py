@@ -14,7 +14,7 @@ from mane import Groom, GPUMemoryError, UsageError
 from mane.sim import (Capsule, MeshCollider, SimSettings, Simulator, Sphere, WindSettings,
                       estimate_bytes, head_motion, iteration_stiffness)
 from mane.sim.settings import MAX_DT
-from reference import sim_reference as ref
+from mane.twins import sim as ref
 
 pytestmark = pytest.mark.gpu
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from mane.errors import UsageError
-from mane.sim.bounds import GridBounds
+from mane.gpu.bounds import GridBounds
 from mane.sim.flip import FLUID, FlipVolume
 from mane.sim.flip_cpu import flip_numpy, grid_geometry
 

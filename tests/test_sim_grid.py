@@ -5,9 +5,9 @@ import numpy as np
 import pytest
 
 from mane.errors import UsageError
-from mane.sim.bounds import GridBounds, padded_box
+from mane.gpu.bounds import GridBounds, padded_box
 from mane.sim.grid_friction import GridFriction
-from reference import grid_reference as ref
+from mane.twins import grid as ref
 
 pytestmark = pytest.mark.gpu
 

@@ -1,4 +1,4 @@
-"""Every strand-solver kernel against its NumPy twin (tests/reference/sim_reference.py)."""
+"""Every strand-solver kernel against its NumPy twin (src/mane/twins/sim.py)."""
 from __future__ import annotations
 
 import math
@@ -10,7 +10,7 @@ import pytest
 from mane import Groom
 from mane.sim import Capsule, Ellipsoid, SimSettings, Simulator, Sphere, WindSettings, head_motion
 from mane.sim.wind import gust_field
-from reference import sim_reference as ref
+from mane.twins import sim as ref
 
 pytestmark = pytest.mark.gpu
 
@@ -238,10 +238,10 @@ def test_velocity_matches_twin(gl, rest):
 
 
 @pytest.mark.parametrize("method, defines", [("dftl", {}), ("pbd", {}),
-                                             ("dftl", {"CULL_PRIMS": 0, "PREFETCH": 1, "FAST_ROTATION": 0})])
+                                             ("dftl", {"CULL_PRIMS": 0})])
 def test_steps_match_twin(gl, method, defines):
     """k full steps of the GPU solver against k steps of the twin, from the same start (DFTL: the
-    per-strand kernel's defaults, and its earlier form: no culling, prefetching, rotations from K^2)."""
+    per-strand kernel's defaults, and without culling the primitives out of a strand's reach)."""
     # curly strands: with straight ones every joint's bending plane is float32 noise, which
     # the non-converged PBD amplifies step after step (a conditioning issue, not a bug)
     rest = ref.helix_strands(S=4, N=12, radius=0.03, pitch=0.1, turns=1.0, spacing=0.03)
@@ -423,11 +423,9 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
     assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
 
 
-@pytest.mark.parametrize("defines", [{}, {"CULL_PRIMS": 0}, {"PREFETCH": 1}, {"FAST_ROTATION": 0},
-                                     {"CULL_PRIMS": 0, "PREFETCH": 1, "FAST_ROTATION": 0}])
+@pytest.mark.parametrize("defines", [{}, {"CULL_PRIMS": 0}])
 def test_strand_kernel_switches_match_twin(gl, defines):
-    """The per-strand kernel with each of its switches (primitives out of a strand's reach culled
-    or not, the next vertex's loads prefetched or not, rotations from n n^T or from K^2) against
+    """The per-strand kernel with primitives out of a strand's reach culled or not, against
     the twin: the hair is pressed into a sphere, a capsule and an ellipsoid; two more capsules and
     an ellipsoid lie beyond the reach of every strand, or of some, from its root (culled)."""
     settings = SimSettings(local_shape_stiffness=0.2, bending_stiffness=0.3, shape_iterations=2, dftl_damping=0.7)

@@ -9,7 +9,7 @@ import pytest
 
 from mane import Groom
 from mane.sim import Capsule, Ellipsoid, SimSettings, Simulator, Sphere, WindSettings, head_motion
-from reference import sim_reference as ref
+from mane.twins import sim as ref
 
 pytestmark = pytest.mark.gpu
 

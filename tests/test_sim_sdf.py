@@ -209,7 +209,7 @@ def test_collide_with_a_state_object(gl, sphere_sdf):
 
 
 def test_flip_solid_cells_from_sdf(gl, sphere_sdf):
-    from mane.sim.bounds import GridBounds
+    from mane.gpu.bounds import GridBounds
     from mane.sim.flip import SOLID, FlipVolume
     from mane.sim.flip_cpu import flip_numpy
 

@@ -318,7 +318,7 @@ def test_settings_editor_refuses_bad_values(viewer):
 
 def test_dropped_files_load_or_show_an_error(viewer, tmp_path, shared_data_or_none):
     from mane import Groom, save
-    from mane.render.scene import default_head
+    from mane.grooming.scene import default_head
 
     v = viewer
     bad = tmp_path / "broken.tfx"

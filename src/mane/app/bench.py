@@ -1,9 +1,8 @@
 """``mane bench TARGET [--json] [--out FILE] [--quick | --full]``: run a benchmark.
 
-Targets live in ``TARGETS`` (name -> module, help); a target module has
+Targets live in ``mane.bench.targets.TARGETS`` (name -> module, help); a target module has
 ``run(ctx, mode, progress=None) -> dict`` (``{"meta", "results", ...}``) and
-``format_text(result) -> str``. Add ``render``, ``oit`` (and an ``all`` that runs every
-target) by adding entries here.
+``format_text(result) -> str``. A new target is a new entry there.
 
 Progress goes to stderr; stdout has the tables, or with ``--json`` the JSON object only.
 ``--out FILE`` writes the JSON there as well (whatever is printed).
@@ -12,33 +11,14 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import sys
 from pathlib import Path
 
+from ..bench.common import sanitise, to_json
+from ..bench.targets import TARGETS
 from ..errors import UsageError
 
 HELP = "run benchmarks (sim, render, oit, quality, limits, fidelity, dataset, all) and print or write JSON"
-
-# target -> (module, one-line help)
-TARGETS: dict[str, tuple[str, str]] = {
-    "sim": ("mane.bench.sim_bench", "strand solver: GPU ms per pass and per step, grids, FLIP, bandwidth"),
-    "render": ("mane.bench.render_bench", "strand renderer: GPU ms per pass and per frame; the seeds' sweeps "
-                                          "(strands x shading, shadows x map x PCF, guides, divisions, LOD, MSAA)"),
-    "oit": ("mane.bench.oit_bench", "hair transparency: GPU ms and bytes per OIT method x shadow method x "
-                                    "viewport x groom (Hunz Figs. 41-42); the DBK-buffer target"),
-    "quality": ("mane.bench.quality", "validation figures: shading GLSL vs equations, shadows vs an exact ray cast, "
-                                      "OIT vs the exact sort, simulation invariants (--out DIR: quality.json + images)"),
-    "limits": ("mane.bench.limits", "the GPU's measured limits: DRAM copy bandwidth, raster units' peak (triangles "
-                                    "and samples per second, 1x and 4x MSAA), atomicMin throughput (32/64-bit)"),
-    "fidelity": ("mane.bench.fidelity", "every shading model and shadow method against a path-traced reference "
-                                        "(Mitsuba 3, the reference extra): luminance, colour, falloff, MAE, FLIP "
-                                        "(--out DIR: fidelity.json + side-by-side images)"),
-    "dataset": ("mane.bench.dataset_bench", "mane dataset's pipeline: samples per second (default 512x512, every map, "
-                                            "50k strands) and where the time goes (GPU, read-back, encoding, writing)"),
-    "all": ("mane.bench.all_bench", "every target in turn (--out DIR: JSON, CSV per table, plots/*.png beside the "
-                                    "seeds' published figures, summary.md; --only, --baseline)"),
-}
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -73,37 +53,6 @@ def _size(text: str):
     return size(text)
 
 
-def _json_default(obj):
-    import numpy as np
-
-    if isinstance(obj, np.generic):
-        return obj.item()
-    if isinstance(obj, np.ndarray):
-        return obj.tolist()
-    if isinstance(obj, (set, frozenset, tuple)):
-        return list(obj)
-    if isinstance(obj, Path):
-        return str(obj)
-    return str(obj)
-
-
-def to_json(result: dict) -> str:
-    return json.dumps(result, indent=2, default=_json_default, allow_nan=False)
-
-
-def _sanitise(obj):
-    """NaN / inf -> None, so the JSON is strict."""
-    import math
-
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, dict):
-        return {k: _sanitise(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_sanitise(v) for v in obj]
-    return obj
-
-
 def run(args) -> int:
     from ..gpu import get_context
 
@@ -129,7 +78,7 @@ def run(args) -> int:
             print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True)
     ctx = get_context()
     try:
-        result = _sanitise(module.run(ctx, mode, progress=progress))
+        result = sanitise(module.run(ctx, mode, progress=progress))
     finally:
         if bar is not None:
             bar.close()

@@ -68,9 +68,9 @@ def strand_budget(strands: int, budget: int | None, flag: str) -> None:
 
 def host_memory(nbytes: float, what: str, reduce: str) -> None:
     """Refuse work whose host memory (``nbytes``) exceeds the RAM available now."""
-    from ..gpu.capabilities import _system_ram
+    from ..gpu.capabilities import system_ram
 
-    total, avail = _system_ram()
+    total, avail = system_ram()
     limit = avail if avail is not None else total
     if limit is not None and nbytes > limit:
         raise UsageError(f"{what} needs about {nbytes / 2**30:.1f} GiB of memory but "

@@ -12,99 +12,22 @@ import json
 import math
 import time
 import dataclasses
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-# Workloads: what a CPU rasteriser renders at interactive rates, and what a GPU shows off.
-@dataclass(frozen=True)
-class Quality:
-    name: str
-    guides: int
-    strands_per_guide: int
-    points: int
-    segments: int
-    size: tuple[int, int]
-    seconds: float
-    fps: float
-    msaa: int
-    shading: str = "chiang"
-    shadows: str = "deep_opacity"
-    shadow_map_size: int = 512
-    pcf: int = 2
-    sim_dt: float = 1.0 / 120.0
-    friction: float = 0.05
-    viewer_sim_dt: float | None = None
-    """the viewer's simulation step (None: ``sim_dt``): the viewer's frame rate, not the clip's."""
-    head_subdivisions: int = 5
-    """detail of the default bust (5: 20,480 triangles; 4: 5,120, a quarter of llvmpipe's head pass)."""
-    hair: str = "brown"
-    """the hair colour preset (mane.render.shading.PRESETS): melanin drives the colour."""
-    specular: float = 1.0
-    """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
-    multiple_scattering: str = "auto"
-    """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
-
-    def render_settings(self, **changes):
-        from ..render import RenderSettings
-
-        from ..render.shading import hair_preset
-
-        base = dict(size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
-                    msaa=self.msaa, shading=self.shading, shadows=self.shadows,
-                    shadow_map_size=self.shadow_map_size, pcf=self.pcf,
-                    shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
-                                     "multiple_scattering": self.multiple_scattering})
-        base.update(changes)
-        return RenderSettings(**base)
-
-
-# llvmpipe on 2 CPU cores: 960x540 at 15+ frames per second (simulation and rendering) with a
-# shadow map instead of deep opacity, Kajiya-Kay instead of Marschner, fewer rendered strands
-# and segments (12 points a guide: 11 segments, one per guide segment), and 48 Hz simulation
-# steps (2 per frame of the 24 fps clip) without hair-hair friction; the viewer, at 15-20
-# frames per second, steps at 30 Hz (2 steps a frame: each costs ~3.5 ms on llvmpipe, nearly
-# all of it dispatch overhead). ``_calibrate`` (and the viewer) step further down
-# (SOFTWARE_LADDER) on a machine slower than that.
-SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
-                   shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
-                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
-                   multiple_scattering="none")   # Kajiya-Kay's diffuse term stands for it; 15 fps
-GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
-# Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
-# guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
-# shadow look-ups of the head and the hair cost more than their shading).
-SOFTWARE_LADDER = (
-    ("2 strands per guide", dict(strands_per_guide=2)),
-    ("1-texel shadow filter", dict(pcf=1)),   # bilinear: 4 texel reads instead of 9
-    ("no shadows", dict(shadows="none")),
-    ("1 strand per guide", dict(strands_per_guide=1)),
+from ..presets import (  # noqa: F401  (the quality levels and the demo scene: mane.presets)
+    GPU,
+    HEADROOM,
+    SOFTWARE,
+    SOFTWARE_LADDER,
+    TARGET_FPS,
+    Quality,
+    demo_scene,
+    demo_sim_settings,
 )
-TARGET_FPS = 15.0
-HEADROOM = 1.05      # scale until a little above the target: the clip's loop also encodes video
+
 PROFILE_EVERY = 4    # on a software renderer, time every 4th frame (CPU timing drains the pipeline)
-
-
-def demo_scene(q: Quality):
-    """(groom, head): the procedural default with ``q.guides`` strands of ``q.points`` points."""
-    from ..render.scene import default_scene
-
-    return default_scene(num_guides=q.guides, points=q.points, subdivisions=q.head_subdivisions)
-
-
-def demo_sim_settings(q: Quality, wind: bool = True, dt: float | None = None):
-    """The demo's simulation: soft long hair, gusts from the front-left (wind acts through drag).
-    ``dt``: the step (default ``q.sim_dt``)."""
-    from ..sim import SimSettings, WindSettings
-
-    return SimSettings(
-        # Enough shape to keep the groomed parting and waves (and the face clear) while the
-        # head nods and the wind blows; the tips still swing by a centimetre or two.
-        dt=q.sim_dt if dt is None else float(dt), friction=q.friction, local_shape_stiffness=0.3, global_shape_stiffness=0.1,
-        global_shape_range=0.6, drag=1.0 if wind else 0.0,
-        wind=WindSettings(velocity=(0.6, 0.0, 1.2), gust=1.0, turbulence=0.6) if wind else WindSettings(),
-    )
 
 
 FORMATS = (".npz", ".hair", ".ply", ".usda", ".data", ".abc", ".tfx")
@@ -131,7 +54,7 @@ def _table(rows: list[list[str]]) -> str:
 
 
 def _round_trip(groom, out: Path) -> list[list[str]]:
-    from .. import load, save
+    from ..io import load, save
 
     rows = [["format", "bytes", "write ms", "read ms", "points identical"]]
     for suffix in FORMATS:

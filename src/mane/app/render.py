@@ -164,7 +164,7 @@ def _check_arguments(args, video: bool) -> None:
 
 
 def _load_scene(args):
-    from ..render.scene import default_groom, default_head
+    from ..grooming.scene import default_groom, default_head
     from .options import load_groom, load_head
 
     head = None

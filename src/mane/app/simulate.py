@@ -69,22 +69,9 @@ def _load_scene(args):
         groom = load_groom(args, args.groom)
         return groom, (load_head(args, args.head, groom) if args.head else None)
     head = load_head(args, args.head) if args.head else None
-    if args.groom == "default":
-        try:
-            from .. import grooming
-        except ImportError:
-            grooming = None
-        make = getattr(grooming, "default_groom", None) if grooming is not None else None
-        if make is None:
-            raise UsageError("'default' needs mane.grooming's default groom, which this build lacks; "
-                             "give a hair file instead")
-        made = make()
-        groom, default_head = made if isinstance(made, tuple) else (made, None)
-        if head is None:
-            if default_head is None and hasattr(grooming, "default_head"):
-                default_head = grooming.default_head()
-            head = default_head
-        return groom, head
+    from ..grooming import default_head, simulation_groom
+
+    return simulation_groom(), (head if head is not None else default_head())
 
 
 def _check_arguments(args) -> int:

@@ -2,9 +2,8 @@
 
 Each target is a module with ``run(ctx, mode, progress=None) -> dict`` (the JSON object,
 ``{"meta": ..., "results": [...], ...}``) and ``format_text(result) -> str``; the command
-(``mane.app.bench``) keeps a dict of them, so ``render``, ``oit`` and ``all`` can be added
-beside ``sim``. ``mane.bench.common`` holds the shared pieces: the JSON envelope, timing
-statistics and table formatting.
+(``mane bench``) finds them in ``mane.bench.targets.TARGETS``. ``mane.bench.common`` holds the
+shared pieces: the JSON envelope and writer, timing statistics and table formatting.
 """
 from __future__ import annotations
 

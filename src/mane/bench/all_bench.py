@@ -3,7 +3,7 @@ benchmark in turn, and the files for the performance and quality documents.
 
     result = run(ctx, "quick", out_dir="out/bench")      # the index object (DIR/all.json)
 
-Runs each registered target of ``mane bench`` (``mane.app.bench.TARGETS`` other than ``all``:
+Runs each registered target of ``mane bench`` (``mane.bench.targets.TARGETS`` other than ``all``:
 sim, render, oit, quality, limits, in that order, those whose module imports), with a progress bar over
 the targets' sections, and writes into DIR:
 
@@ -47,6 +47,8 @@ import time
 import traceback
 from pathlib import Path
 
+from .common import sanitise, to_json
+
 ORDER = ("sim", "render", "oit", "quality", "limits")
 NOT_IN_ALL = ("dataset",)   # a pipeline of processes writing shards: run it alone (mane bench dataset)
 STATS_KEYS = ("mean", "median", "p95", "min", "max", "n")
@@ -57,7 +59,7 @@ SKIP_KEYS = {"traceback", "settings", "renderer_stats", "warnings", "oit_bytes_d
 # --------------------------------------------------------------------------- targets
 def targets(only=None) -> list[str]:
     """The targets ``all`` runs: TARGETS of ``mane bench`` but ``all``, in ORDER, whose module exists."""
-    from ..app.bench import TARGETS
+    from .targets import TARGETS
 
     names = [t for t in ORDER if t in TARGETS] + [t for t in TARGETS if t not in ORDER + NOT_IN_ALL and t != "all"]
     out = []
@@ -237,18 +239,11 @@ class _Progress:
 
 
 # --------------------------------------------------------------------------- run
-def _sanitise(obj):
-    from ..app.bench import _sanitise as s
-
-    return s(obj)
-
-
 def _dump(path, obj) -> str:
-    from ..app.bench import to_json
     from ..io.atomic import atomic_write_path
 
     with atomic_write_path(path) as tmp:
-        Path(tmp).write_text(to_json(_sanitise(obj)) + "\n")
+        Path(tmp).write_text(to_json(sanitise(obj)) + "\n")
     return str(path)
 
 
@@ -270,7 +265,7 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
 
     ``progress``: a callable for text lines (as the other targets take); ``bar``: a tqdm bar on
     stderr instead."""
-    from ..app.bench import TARGETS
+    from .targets import TARGETS
     from . import plots as P
     from . import scaling as SC
     from . import seed_figures as SF
@@ -307,7 +302,7 @@ def run(ctx, mode: str = "default", progress=None, *, out_dir=None, only=None, b
                 kw["image_dir"] = out / name
             t0 = time.perf_counter()
             try:
-                res = _sanitise(module.run(ctx, mode, progress=cb, **kw))
+                res = sanitise(module.run(ctx, mode, progress=cb, **kw))
                 status, reason = "ok", None
             except Exception as exc:   # the other targets still run
                 status, reason = "error", f"{type(exc).__name__}: {exc}"
@@ -840,7 +835,6 @@ def format_text(result: dict) -> str:
 
 def run_cli(args) -> int:
     """``mane bench all``: --out DIR (default ./mane-bench), --quick / --full, --only, --baseline, --json."""
-    from ..app.bench import to_json
     from ..gpu import get_context
 
     mode = "quick" if args.quick else "full" if args.full else "default"
@@ -849,7 +843,7 @@ def run_cli(args) -> int:
                  baseline=getattr(args, "baseline", None), bar=not args.quiet)
     result.pop("_results", None)
     if args.json:
-        print(to_json(_sanitise(result)))
+        print(to_json(sanitise(result)))
     else:
         print(format_text(result))
         print(f"\nwritten to {out_dir}/: summary.md, all.json, <target>.json, *.csv, plots/*.png, quality/*.png")

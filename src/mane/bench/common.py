@@ -1,4 +1,4 @@
-"""Shared benchmark pieces: the JSON envelope (``meta``), timing loops and statistics, rows, tables.
+"""Shared benchmark pieces: the JSON envelope (``meta``) and writer (``sanitise``, ``to_json``), timing loops and statistics, rows, tables.
 
     meta = envelope(ctx, target="sim", mode="quick", settings={...}, timing={...})
     wall, submit = time_each(ctx, sim.step, 30, prof, "step")   # ms lists, ctx.finish() around each
@@ -9,6 +9,7 @@
 from __future__ import annotations
 
 import datetime as _dt
+import json
 import math
 import os
 import platform
@@ -16,6 +17,7 @@ import sys
 import time
 import traceback
 from contextlib import contextmanager
+from pathlib import Path
 
 from ..errors import GLFeatureError, GPUMemoryError
 
@@ -166,6 +168,36 @@ def _versions() -> dict:
         except Exception:
             out[name] = None
     return out
+
+
+def _json_default(obj):
+    import numpy as np
+
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, (set, frozenset, tuple)):
+        return list(obj)
+    if isinstance(obj, Path):
+        return str(obj)
+    return str(obj)
+
+
+def to_json(result: dict) -> str:
+    """Strict JSON (``sanitise`` first: NaN is refused), 2-space indent; NumPy values as numbers and lists."""
+    return json.dumps(result, indent=2, default=_json_default, allow_nan=False)
+
+
+def sanitise(obj):
+    """NaN / inf -> None, so the JSON is strict."""
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, dict):
+        return {k: sanitise(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [sanitise(v) for v in obj]
+    return obj
 
 
 def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,

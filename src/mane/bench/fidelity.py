@@ -34,7 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fidelity_metrics as fm
-from .common import envelope, fmt, table, title_line
+from .common import envelope, fmt, sanitise, table, title_line, to_json
 
 SINTEL = "tressfx/sintel_hair.tfx"
 LIGHT = ("directional", (0.35, 0.8, 0.5), (1.0, 1.0, 1.0), 3.0)
@@ -92,7 +92,7 @@ def load_scene(scene: Scene, curly_guides: int = 300):
             raise UsageError(f"Sintel's groom ({SINTEL}) was not found under ../shared/data or $MANE_SHARED_DATA")
         return load(root / SINTEL, units="cm", up="y"), None   # TressFX: centimetres, Y up
     from ..grooming import grow
-    from ..render.scene import default_head
+    from ..grooming.scene import default_head
 
     head = default_head()
     return grow(head, num_strands=int(curly_guides), style="curly", points_per_strand=16, seed=0), head
@@ -308,7 +308,6 @@ def format_markdown(result: dict) -> str:
 
 def run_cli(args) -> int:
     """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png."""
-    from ..app.bench import _sanitise, to_json
     from ..gpu import get_context
     from ..io.atomic import atomic_write_path
 
@@ -319,7 +318,7 @@ def run_cli(args) -> int:
     def listed(text):
         return [t.strip() for t in text.split(",") if t.strip()] if text else None
 
-    result = _sanitise(run(get_context(), mode, progress, image_dir=(out_dir / "fidelity") if out_dir else None,
+    result = sanitise(run(get_context(), mode, progress, image_dir=(out_dir / "fidelity") if out_dir else None,
                            size=getattr(args, "size", None), spp=getattr(args, "spp", None),
                            scenes=listed(getattr(args, "scenes", None)), models_=listed(getattr(args, "models", None)),
                            shadows=listed(getattr(args, "shadows", None)), cache_dir=getattr(args, "cache", None),

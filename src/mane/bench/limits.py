@@ -183,8 +183,8 @@ class Bench(BenchRows):
 
     # ------------------------------------------------------------------ atomics
     def atomics(self) -> None:
+        from ..gpu.capabilities import has_atomic64
         from ..gpu.microbench import AtomicKernel
-        from ..render.passes.hair_compute import has_atomic64
 
         threads, ops = int(self.cfg["atomic_threads"]), int(self.cfg["atomic_ops"])
         words = SAMPLE_GRID_WORDS

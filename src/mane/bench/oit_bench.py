@@ -20,7 +20,7 @@ Sections:
     the issue's goal: the DBK-buffer with deep opacity maps at 1920x1080, 50,000 strands,
     at most 6 ms of GPU time a frame (one row per rasterizer).
 
-Workloads (procedural, no files): the default head and groom (``mane.render.scene``) with
+Workloads (procedural, no files): the default head and groom (``mane.grooming.scene``) with
 50,000 rendered strands (guides x 16), 24 segments a strand, seen from the side (Hunz's
 view); "wavy" and "curly" add the renderer's curl (radius 4 mm x 3 turns, 7 mm x 8 turns).
 Strand opacity 0.5 (Hunz's k = 6 example: 0.5^6 ~ 1.6 %).
@@ -111,7 +111,7 @@ class Bench(BenchRows):
 
     def scene(self):
         if self._groom is None:
-            from ..render.scene import default_groom, default_head
+            from ..grooming.scene import default_groom, default_head
 
             self._head = default_head(4)  # the 5,120-triangle bust the benchmarks were measured on
             guides = max(1, int(round(self.cfg["strands"] / SPG)))
@@ -189,7 +189,7 @@ class Bench(BenchRows):
 
     def methods(self) -> None:
         # the rasteriser "auto" picks on this GPU first, so that a time budget spent on the other
-        # (the raster units of an H200 take ~100 ms a frame here) leaves its sweep whole
+        # (on a GPU with few raster units, far slower) leaves its sweep whole
         from ..render.passes.hair_compute import auto_rasterizer
 
         variants = self.variants()
@@ -246,8 +246,8 @@ class Bench(BenchRows):
 
     def warm_up(self) -> None:
         """Frames of the target's scene for ``gpu_warmup_s`` seconds before anything is timed: a
-        GPU's clocks take a while to ramp up (on an H200 the first configuration measured cold
-        ran every pass, head and shadow map included, 1.5-2.4x slower than later ones)."""
+        GPU's clocks take a while to ramp up (the first configuration measured cold ran every
+        pass, head and shadow map included, markedly slower than later ones)."""
         seconds = float(self.cfg.get("gpu_warmup_s", 0.0))
         if seconds <= 0:
             return

@@ -6,19 +6,18 @@ Sections (each ``{"status": "ok" | "skipped" | "error", "reason", ...}``):
 
 ``shading``
     every shading model's GLSL (``mane.render.shading.evaluate_glsl``, the compute harness) against
-    its NumPy twin written from the published equations (``tests/reference/shading_reference.py``,
-    loaded from the source tree when it is there; skipped otherwise), on random unit directions and
-    on a (theta_o, phi) sweep; ``marschner_lut`` against the analytic GLSL Marschner (the LUT
-    builder is ``shading/luts.py``). Max and 99th-percentile relative error with the tests' floor
+    its NumPy twin written from the published equations (``mane.twins.shading``), on random unit
+    directions and on a (theta_o, phi) sweep; ``marschner_lut`` against the analytic GLSL Marschner
+    (the LUT builder is ``shading/luts.py``). Max and 99th-percentile relative error with the tests' floor
     (1e-3 of the batch peak). Image: GLSL | NumPy | |difference| per model over the sweep.
 ``shadows``
     every shadow method's light-0 visibility (``mane.render.shadow_probe``) against the exact
-    transmittance of a ray cast through the drawn segments (``tests/reference/shadow_reference.py``)
+    transmittance of a ray cast through the drawn segments (``src/mane/twins/shadow.py``)
     on a curtain of wavy strands lit from the side: mean / max absolute error, bias, and the
     no-shadow baseline. Image: a slice through the curtain, exact | each method | error.
 ``oit``
     every OIT method's image against the exact sort (every fragment from an unbounded A-buffer,
-    sorted and blended in float64, ``tests/reference/oit_reference.py``): mean / max / p99 absolute
+    sorted and blended in float64, ``src/mane/twins/oit.py``): mean / max / p99 absolute
     difference (of 255) and pixels off by more than 1/255. Image: reference | method | 4x difference.
 ``simulation``
     invariants over a short run of the solver on a scalp of strands with the head nodding (package
@@ -26,13 +25,11 @@ Sections (each ``{"status": "ok" | "skipped" | "error", "reason", ...}``):
     ``kinetic_energy`` / ``nan_recoveries``), and a hanging chain settling (energy decays).
     Image: the invariants against time.
 
-The reference implementations live under ``tests/reference`` and are not part of the installed
-package; this module loads them by path when the source tree is present and otherwise records
-the section as skipped, with the reason. Nothing of them is reimplemented here.
+The references are the NumPy twins in ``mane.twins`` (the tests' golden values too); nothing of
+them is reimplemented here.
 """
 from __future__ import annotations
 
-import importlib.util
 import math
 import sys
 import time
@@ -41,9 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import title_line, Skip, envelope, fmt, table
-
-REFERENCE_DIR = Path(__file__).resolve().parents[3] / "tests" / "reference"
+from .common import Skip, envelope, fmt, sanitise, table, title_line, to_json
 
 MODE_CONFIG = {
     "quick": dict(shading_random=1024, sweep=(48, 96), shadow_slice=(40, 100), shadow_near=600,
@@ -56,22 +51,6 @@ MODE_CONFIG = {
                  shadow_map_size=1024, oit_size=(240, 180), sim_strands=1000, sim_points=32, sim_steps=240,
                  chain_steps=300),
 }
-
-
-def load_reference(name: str):
-    """tests/reference/<name>.py as a module, or Skip (with the reason) when the source tree is absent."""
-    path = REFERENCE_DIR / f"{name}.py"
-    if not path.is_file():
-        raise Skip(f"reference implementation {path} not found (the tests folder is not installed with the "
-                   "package; run from a source checkout)")
-    modname = f"_mane_quality_reference_{name}"
-    if modname in sys.modules:
-        return sys.modules[modname]
-    spec = importlib.util.spec_from_file_location(modname, path)
-    mod = importlib.util.module_from_spec(spec)
-    sys.modules[modname] = mod
-    spec.loader.exec_module(mod)
-    return mod
 
 
 def relative_error(got, ref, floor: float = 1e-3) -> np.ndarray:
@@ -141,7 +120,7 @@ def shading(ctx, cfg, image_dir, log) -> dict:
 
     from ..render.shading import MODELS, ShadingSettings, evaluate_glsl
 
-    R = load_reference("shading_reference")
+    from ..twins import shading as R
     rng = np.random.default_rng(7)
     n = int(cfg["shading_random"])
     T, V, L, rand = _unit(rng, n), _unit(rng, n), _unit(rng, n), rng.random(n).astype(np.float32)
@@ -158,13 +137,13 @@ def shading(ctx, cfg, image_dir, log) -> dict:
                 fn = getattr(R, model)
                 ref = fn(T.astype(float), V.astype(float), L.astype(float), R.material(s, rand.astype(float)))
                 refs = fn(ST.astype(float), SV.astype(float), SL.astype(float), R.material(s))
-                row["against"] = f"NumPy twin tests/reference/shading_reference.{model} (published equations)"
+                row["against"] = f"NumPy twin mane.twins.shading.{model} (published equations)"
             elif model == "chiang":
-                C = load_reference("chiang_reference")
+                from ..twins import chiang as C
                 m = {**R.material(s), "beta_n": s.beta_n}
                 ref = C.chiang(T.astype(float), V.astype(float), L.astype(float), m, n_h=512)
                 refs = C.chiang(ST.astype(float), SV.astype(float), SL.astype(float), m, n_h=512)
-                row["against"] = ("NumPy twin tests/reference/chiang_reference.chiang (Chiang 2016 / pbrt, "
+                row["against"] = ("NumPy twin mane.twins.chiang.chiang (Chiang 2016 / pbrt, "
                                   "integrated over h; itself within 1 % of Mitsuba 3's hair BSDF)")
             elif model == "marschner_lut":
                 a = dataclasses.replace(s, model="marschner")
@@ -280,7 +259,7 @@ def shadows(ctx, cfg, image_dir, log) -> dict:
     from ..render.shadow_probe import probe_visibility
     from .render_bench import shadow_methods
 
-    ref = load_reference("shadow_reference")
+    from ..twins import shadow as ref
     light = shadow_light()
     base = shadow_settings(cfg["shadow_map_size"])
     groom = curtain_groom()
@@ -365,7 +344,7 @@ def oit(ctx, cfg, image_dir, log) -> dict:
     from ..render.oit import METHODS
     from ..render.oit.compute import COMPUTE_METHODS
 
-    ref = load_reference("oit_reference")
+    from ..twins import oit as ref
     rng = np.random.default_rng(3)
     t = np.linspace(0.0, 1.0, 8)[:, None]
     strands = []
@@ -536,7 +515,7 @@ def run(ctx, mode: str = "default", progress=None, image_dir=None, sections=None
             body[name]["image"] = _note_figure(Path(image_dir) / f"{name}.png",
                                                f"{name}: {body[name]['status']}: {body[name].get('reason')}")
     settings = {k: (list(v) if isinstance(v, tuple) else v) for k, v in cfg.items()}
-    settings["reference_dir"] = str(REFERENCE_DIR)
+    settings["reference"] = "mane.twins"
     meta = envelope(ctx, target="quality", mode=mode, settings=settings,
                     timing={"total_seconds": time.perf_counter() - started})
     return {"meta": meta, **body}
@@ -589,12 +568,11 @@ def run_cli(args) -> int:
     """``mane bench quality --out DIR``: DIR/quality.json, DIR/quality/*.png, the tables on stdout."""
     from ..gpu import get_context
     from ..io.atomic import atomic_write_path
-    from ..app.bench import _sanitise, to_json
 
     mode = "quick" if args.quick else "full" if args.full else "default"
     out_dir = Path(args.out) if args.out else None
     progress = None if args.quiet else (lambda msg: print(f"mane bench quality: {msg}", file=sys.stderr, flush=True))
-    result = _sanitise(run(get_context(), mode, progress,
+    result = sanitise(run(get_context(), mode, progress,
                            image_dir=(out_dir / "quality") if out_dir is not None else None))
     text = to_json(result)
     if out_dir is not None:
@@ -607,4 +585,4 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["run", "format_text", "run_cli", "load_reference", "relative_error", "MODE_CONFIG", "SECTIONS"]
+__all__ = ["run", "format_text", "run_cli", "relative_error", "MODE_CONFIG", "SECTIONS"]

@@ -2,7 +2,7 @@
 
     result = run(ctx, "default")          # the JSON object; format_text(result) for tables
 
-Workloads come from the procedural default scene (``mane.render.scene``: grooming's default
+Workloads come from the procedural default scene (``mane.grooming.scene``: grooming's default
 head and a groom grown on its scalp, ``grow`` when grooming has it): one groom of the most
 guides a sweep needs is grown per guide point count, and each configuration renders its first
 G guides (a random, evenly spread subset), each multiplied into ``strands_per_guide`` rendered
@@ -112,7 +112,7 @@ MODE_CONFIG = {
         woodhouse_size=(1280, 720), woodhouse_spg=16),
 }
 
-# What the seeds report, for comparison in the JSON (see /work/shared/research).
+# What the seeds report, for comparison in the JSON (see ../shared/research, beside the repository).
 REFERENCES = {
     "target": "Issue 4: 50,000 strands x 32 segments, 1920x1080, Marschner LUTs, deep opacity maps "
               "(3 layers, 512^2), 4x MSAA in at most 4 ms of GPU time on an H100/H200.",
@@ -270,13 +270,13 @@ class Workloads:
     @property
     def head(self):
         if self._head is None:
-            from ..render.scene import default_head
+            from ..grooming.scene import default_head
 
             self._head = default_head(4)  # the 5,120-triangle bust the benchmarks were measured on
         return self._head
 
     def groom(self, guides: int, points: int):
-        from ..render.scene import default_groom
+        from ..grooming.scene import default_groom
 
         points, guides = int(points), int(guides)
         master = self._masters.get(points)
@@ -758,7 +758,7 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
     }
     settings = {k: ([list(x) if isinstance(x, tuple) else x for x in v] if isinstance(v, list)
                     else list(v) if isinstance(v, tuple) else v) for k, v in cfg.items()}
-    settings["workload"] = (f"procedural default scene (mane.render.scene: default head, groom from "
+    settings["workload"] = (f"procedural default scene (mane.grooming.scene: default head, groom from "
                             f"{bench.work.source or 'default_groom'}); a configuration renders the first G guides")
     settings["render_settings_fields"] = list(settings_fields())
     return {"meta": envelope(ctx, target="render", mode=mode, settings=settings, timing=timing),

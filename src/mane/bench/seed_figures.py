@@ -1,7 +1,8 @@
 """The seeds' published performance numbers, as data, for the plots and tables of ``mane bench all``.
 
-Every value comes from the research digests in ``/work/shared/research/seed-*.md`` (section 2
-of each), which copy the theses' tables and text. Each ``Point`` carries its source; values the
+Every value comes from the research digests ``../shared/research/seed-*.md`` (paths relative to
+the repository, beside it as ``../shared/data`` is; section 2 of each), which copy the theses'
+tables and text. Each ``Point`` carries its source; values the
 digest marks as derived (e.g. ms computed from a published FPS) or read by eye from a chart
 say so (``derived`` / ``approx``), and the plot labels repeat it. Values a digest reports as
 garbled or missing are left out (the ``omitted`` notes say which), never guessed.
@@ -14,10 +15,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 DIGESTS = {
-    "woodhouse": "/work/shared/research/seed-000-woodhouse.md §2",
-    "chen": "/work/shared/research/seed-001-chen.md §2",
-    "hunz": "/work/shared/research/seed-002-hunz.md §2",
-    "vulkan": "/work/shared/research/seed-003-vulkan.md §2",
+    "woodhouse": "../shared/research/seed-000-woodhouse.md §2",
+    "chen": "../shared/research/seed-001-chen.md §2",
+    "hunz": "../shared/research/seed-002-hunz.md §2",
+    "vulkan": "../shared/research/seed-003-vulkan.md §2",
 }
 
 

@@ -374,7 +374,7 @@ class Bench(BenchRows):
         voxels (raster: the FBO clear that ``splat`` does first; atomic: a clear dispatch on the
         accumulator, which mane otherwise fuses into normalise).
         """
-        from ..sim.bounds import GridBounds
+        from ..gpu.bounds import GridBounds
         from ..sim.grid_friction import GridFriction
 
         ctx, prof = self.ctx, self.prof

@@ -31,10 +31,10 @@ def load_head(base_dir: str, name: str):
     if name == "none":
         return None
     if name == "default":
-        from ..render.scene import default_head
+        from ..grooming.scene import default_head
 
         return default_head()
-    from .. import load_mesh
+    from ..io import load_mesh
 
     return load_mesh(Path(base_dir) / name)
 
@@ -48,7 +48,7 @@ def make_groom(spec: DatasetSpec, p: SampleParams):
 
         head = load_head(spec.base_dir, p.head if p.head != "none" else "default")
         return grow(head, src.strands, src.style, src.points, p.groom_seed, **src.style_options)
-    from .. import load
+    from ..io import load
 
     g = load(Path(spec.base_dir) / p.groom_file)
     return g.scaled(src.scale) if src.scale != 1.0 else g

@@ -13,5 +13,5 @@ from .context import (  # noqa: F401
 )
 from .glsl import clear_cache, compute_shader, load_source, program  # noqa: F401
 from .capabilities import Capabilities, Feature, GPUMemory, get_capabilities, gpu_memory  # noqa: F401
-from .buffers import Struct, buffer, check_allocation  # noqa: F401
+from .buffers import buffer, check_allocation  # noqa: F401
 from .profiler import GpuProfiler  # noqa: F401

@@ -217,7 +217,7 @@ class GPUMemory:
         return {"total": self.total, "available": self.available, "source": self.source}
 
 
-def _system_ram() -> tuple[int | None, int | None]:
+def system_ram() -> tuple[int | None, int | None]:
     total = avail = None
     try:
         with open("/proc/meminfo") as f:
@@ -254,7 +254,7 @@ def gpu_memory(ctx, extensions=None, software: bool | None = None) -> GPUMemory:
             if free is not None:
                 return GPUMemory(None, free[0] * 1024, "GL_ATI_meminfo")
     if soft:  # llvmpipe's "GPU memory" is the machine's RAM
-        total, avail = _system_ram()
+        total, avail = system_ram()
         if total is not None or avail is not None:
             return GPUMemory(total, avail, "system RAM (software renderer)")
     return GPUMemory(None, None, "unknown")
@@ -549,3 +549,8 @@ def get_capabilities(ctx) -> Capabilities:
     if caps is None:
         caps = _cached[ctx] = Capabilities.query(ctx)
     return caps
+
+
+def has_atomic64(ctx) -> bool:
+    """64-bit integer atomics on shader storage (GL_NV_shader_atomic_int64 + 64-bit ints)."""
+    return get_capabilities(ctx).available("kbuffer_int64")

@@ -25,19 +25,21 @@ from .guides import (  # noqa: F401
     select_guides,
 )
 from .head import default_head, head_sdf, scalp_faces, scalp_mask, scalp_weight  # noqa: F401
+from .scene import default_scene  # noqa: F401
 from .styles import PRESETS, StyleSettings, grow, style_settings  # noqa: F401
 
 
-def default_groom(num_strands: int = 1000, style: str = "straight", points_per_strand: int = 16,
-                  seed: int = 0):
-    """A groom grown on the default head's scalp (a small one, sized for simulation)."""
+def simulation_groom(num_strands: int = 1000, style: str = "straight", points_per_strand: int = 16,
+                     seed: int = 0):
+    """A groom grown on the default head's scalp (a small one, sized for simulation: ``mane
+    simulate default``). The rendered default scene is ``mane.grooming.scene.default_scene``."""
     return grow(default_head(), num_strands, style, points_per_strand, seed)
 
 
 __all__ = [
     "default_head", "head_sdf", "scalp_weight", "scalp_mask", "scalp_faces",
     "Follicles", "sample_follicles", "frame_from_normal", "VertexColorRegion", "NormalCone",
-    "AbovePlane", "AllOf", "StyleSettings", "PRESETS", "style_settings", "grow", "default_groom",
+    "AbovePlane", "AllOf", "StyleSettings", "PRESETS", "style_settings", "grow", "simulation_groom", "default_scene",
     "GuideWeights", "select_guides", "compute_guide_weights", "make_guides", "reconstruct",
     "root_frames",
 ]

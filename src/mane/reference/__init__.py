@@ -9,7 +9,7 @@
 Needs the optional extra ``pip install mane[reference]`` (Mitsuba 3.9, FLIP); without it
 ``render`` raises ``ReferenceUnavailableError`` (a ManeError) saying so. See render.py for
 what is drawn and the units, scene.py for the curves and the material mapping.
-(tests/reference/ is something else: the NumPy twins of the GPU kernels.)
+(mane.twins is something else: the NumPy twins of the GPU kernels.)
 """
 from __future__ import annotations
 

@@ -23,7 +23,7 @@ def render_image(groom=None, head=None, *, settings: RenderSettings | None = Non
     notebook displays: it has ``_repr_png_``)."""
     settings = (settings or RenderSettings()).replace(**overrides) if overrides else (settings or RenderSettings())
     if groom is None:
-        from .scene import default_scene
+        from ..grooming.scene import default_scene
 
         groom, default = default_scene()
         head = head if head is not None else default

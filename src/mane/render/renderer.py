@@ -116,7 +116,7 @@ class Renderer(GpuOwner):
         if self.samples < int(self.settings.msaa):
             self.warnings.append(f"{self.settings.msaa}x MSAA asked for; this OpenGL gives at most "
                                  f"{max_samples} samples, using {self.samples}")
-        if getattr(self.settings, "oit", "none") != "none" and self.samples > 1:
+        if self.settings.oit != "none" and self.samples > 1:
             # the OIT methods keep fragments per pixel: single-sampled (coverage alpha anti-aliases)
             self.samples = 1
         self._renderer_string = renderer_name(self.ctx)
@@ -484,7 +484,7 @@ class Renderer(GpuOwner):
         lights = list(lights) if lights is not None else default_lights()
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
-        one = getattr(self.settings, "oit", "none") != "none" or (self.compute_raster and not self.settings.head_msaa)
+        one = self.settings.oit != "none" or (self.compute_raster and not self.settings.head_msaa)
         if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
         self._hdr_resolved = False

@@ -119,9 +119,9 @@ class RenderSettings:
     hardware."""
     head_msaa: bool = True
     """With the compute rasteriser: draw the head with ``msaa`` samples (its silhouette
-    antialiased) or with one. On H100/H200-class GPUs the multisampled clear and resolve cost
-    ~1.9 ms a frame at 1920x1080 (their raster units are few); the hair's own samples do not
-    depend on it."""
+    antialiased) or with one. On GPUs with few raster units (H100/H200 class) the multisampled
+    clear and resolve cost more than the whole hair (docs/performance.md); the hair's own
+    samples do not depend on it."""
     depth_prepass: bool = True
     """With MSAA: draw the hair's depth first (its coverage as a sample mask), then shade it with
     the depth test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible

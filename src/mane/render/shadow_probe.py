@@ -6,7 +6,7 @@
 A compute shader (``passes/shadow_probe.comp``) includes ``lighting.glsl`` with the renderer's
 SHADOWS method, binds the last frame's maps exactly as the hair pass does and writes
 ``light0_visibility(P)`` per point to a buffer. For validation against an exact ray cast
-(tests/reference/shadow_reference.py) and debugging.
+(src/mane/twins/shadow.py) and debugging.
 """
 from __future__ import annotations
 

@@ -23,8 +23,8 @@ Each step, on the GPU only:
          serialise in L2. With float atomics (``aggregate``, on by default there) each
          invocation's run of sorted particles, mostly consecutive particles of a strand, is
          summed in registers while it stays in one cell, and goes to the tile when the cell
-         changes: fewer shared atomics (0.39 -> 0.36 ms at 64^3 on an H200), the same sums up
-         to float rounding.
+         changes: fewer shared atomics (faster: docs/performance.md), the same sums up to float
+         rounding.
        * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
          (``splat_atomic.comp``).
    - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
@@ -34,10 +34,9 @@ Each step, on the GPU only:
      geometry shader emits the 8 points), and GL_ONE/GL_ONE additive blending sums (m v, m)
      in float32. Its cost is the blending: every point is a read-modify-write of a 16-byte
      RGBA32F pixel in primitive order, so the thousands of points that land on one node near
-     the scalp are blended one after another. At 100k x 32 (3.2M particles, 25.6M points) on
-     an H200 the draw takes 78 / 104 / 141 ms at 16^3 / 32^3 / 64^3 whether the layer comes
-     from the vertex or the geometry shader (the draw is blend-bound, not geometry-bound),
-     against 0.4-0.5 ms for the binned atomic splat. Kept for comparison (Woodhouse 2017).
+     the scalp are blended one after another: the draw is blend-bound, not geometry-bound, and
+     two orders of magnitude slower than the binned atomic splat (docs/performance.md). Kept
+     for comparison (Woodhouse 2017).
 2. **normalise**: node velocity V = sum(m w v) / sum(m w) (zero where there is no mass).
 3. **gather**: v <- (1 - f) v + f V(x), V(x) trilinear. Pinned particles (w = 0) keep their
    velocity (they still splat, with ``pinned_mass``).
@@ -65,9 +64,8 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
-CHUNK = 1024          # binned splat: sorted particles per work group (H200, 3.2M particles at
-                      # 64^3, float atomics: without aggregation 0.35-0.39 ms at 2048, 0.36-0.38 at
-                      # 1024, 0.44 at 4096, 0.54 at 8192; aggregated 0.33 at 1024, 0.36-0.37 at 2048)
+CHUNK = 1024          # binned splat: sorted particles per work group (the fastest measured:
+                      # docs/performance.md)
 
 
 def _extensions(ctx) -> frozenset:

@@ -407,29 +407,24 @@ class Simulator(GpuOwner):
     # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp)
     shape_pipeline = 1
     """shape iterations pipelined in one pass over a strand (1..4; the others take a pass
-    each, through memory). More stages mean more registers per thread: on an H200 at 100k x
-    32 (full solver, 2 iterations) 1 was fastest: fused length pass 0.62 ms, 0.80 with 2."""
+    each, through memory). More stages mean more registers per thread; 1 was the fastest
+    measured (docs/performance.md)."""
     strand_group_size = 32
-    """work group size of the per-strand kernels (one thread per strand). H200, 100k x 32, full
-    solver (2026-11-22): fused length pass 0.506 ms at 32, 0.523 at 64, 0.526 at 128."""
+    """work group size of the per-strand kernels (one thread per strand); 32 was the fastest
+    measured (docs/performance.md)."""
     strand_defines: dict = {}
-    """extra defines of the per-strand kernel, 0 or 1 each, over its defaults (strand_solve.comp):
-    ``CULL_PRIMS`` (default 1: the primitives out of a strand's reach are not tested),
-    ``PREFETCH`` (default 0: 1 loads the next vertex while one is solved), ``FAST_ROTATION``
-    (default 1: axis rotations from n n^T instead of K^2). Same results to float round-off; the
-    defaults were the fastest on an H200 (100k x 32, full solver, 2026-11-22: fused length pass
-    0.597 ms with none of them, 0.523 with culling, 0.491 with all three and groups of 32)."""
+    """extra defines of the per-strand kernel over its defaults (strand_solve.comp):
+    ``CULL_PRIMS`` (default 1: the primitives out of a strand's reach are not tested; the same
+    results, faster: docs/performance.md)."""
     keep_corrections = False
     """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
     corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
     fold_integrate = False
     """True: with DFTL and ``fused_strand_solve`` the fused strand solve also does integrate's
     work as it first reads each vertex (``folded_passes`` then lists integrate -> length).
-    Off by default: on an H200 at 100k x 32 (full solver, 2026-11-22) it saved nothing
-    measurable: integrate's own pass took 0.09-0.10 ms and the fused length pass grew by as
-    much (0.58 -> 0.67 ms), as one thread per strand reads and writes the particle buffers
-    with a stride of NV vec4s (uncoalesced) where integrate's per-particle pass is coalesced;
-    kernels 1.262 -> 1.257 ms, back to back 1.224 -> 1.222 ms per step."""
+    Off by default: it saved nothing measurable (docs/performance.md), as one thread per strand
+    reads and writes the particle buffers with a stride of NV vec4s (uncoalesced) where
+    integrate's per-particle pass is coalesced."""
 
     def _shape_on(self) -> bool:
         s = self.settings
@@ -730,6 +725,13 @@ class Simulator(GpuOwner):
 
     def velocities(self, state: SimState | None = None) -> np.ndarray:
         return (state or self.state).velocities()
+
+    @property
+    def friction_grid(self) -> GridFriction | None:
+        """The hair-hair friction grid (``GridFriction``: mass per node in ``.grid``, its box in
+        ``.bounds``) once a step has built it; None before that or with friction off. The
+        renderer's density shadows read it in place."""
+        return self._grid
 
     @property
     def nan_recoveries(self) -> int:

@@ -60,8 +60,6 @@
 //    a failed strand goes back to its start-of-step positions (prev_positions, when they pass
 //    the same position tests; else the rest pose under the head) with zero velocity, and is
 //    counted in guard[0] (guard[1]: the largest recovered strand + 1). Saves the guard's pass.
-//  PREFETCH (0/1, default 0): load the next vertex's data while one is solved (more registers;
-//    slower on an H200). FAST_ROTATION (0/1, default 1): see axis_rotation.
 #include "sim_common.glsl"
 #include "collide.glsl"
 #include "contact.glsl"
@@ -98,17 +96,11 @@
 #ifndef CULL_PRIMS
 #define CULL_PRIMS 1
 #endif
-#ifndef PREFETCH
-#define PREFETCH 0
-#endif
 #ifndef GUARD
 #define GUARD 0
 #endif
 #if GUARD && !(DFTL && VELOCITY)
 #error "GUARD needs DFTL and VELOCITY"
-#endif
-#ifndef FAST_ROTATION
-#define FAST_ROTATION 1
 #endif
 
 layout(local_size_x = LOCAL_SIZE) in;
@@ -211,20 +203,14 @@ float angle_of(float sn, float cs) {  // atan2(sn, cs) for sn >= 0
     return 1.5707963267948966;
 }
 
-// Rotation by angle (radians) about the unit axis (Rodrigues).
-// FAST_ROTATION (0/1): 1 writes it as c I + s K + (1 - c) n n^T (K^2 = n n^T - I for a unit axis
-// n), column by column, instead of forming K^2: the same matrix to float round-off, fewer operations.
+// Rotation by angle (radians) about the unit axis (Rodrigues), written as c I + s K + (1 - c) n n^T
+// (K^2 = n n^T - I for a unit axis n), column by column: fewer operations than forming K^2.
 mat3 axis_rotation(vec3 axis, float angle) {
     float c = cos(angle), s = sin(angle);
-#if FAST_ROTATION
     vec3 tn = (1.0 - c) * axis, sn = s * axis;
     return mat3(tn.x * axis + vec3(c, sn.z, -sn.y),
                 tn.y * axis + vec3(-sn.z, c, sn.x),
                 tn.z * axis + vec3(sn.y, -sn.x, c));
-#else
-    mat3 K = mat3(vec3(0.0, axis.z, -axis.y), vec3(-axis.z, 0.0, axis.x), vec3(axis.y, -axis.x, 0.0));
-    return mat3(1.0) + s * K + (1.0 - c) * (K * K);
-#endif
 }
 
 // Rotation by the fraction f of the angle from a to b, about a x b.
@@ -459,54 +445,20 @@ void solve(uint s) {
     bool vfree = rest_positions[base].w > 0.0;
 #endif
 #endif
-    // the last pass: the remaining sweeps, DFTL, collisions, velocities; with PREFETCH the next
-    // vertex's data is loaded while this one is worked on (else where it is used: fewer registers)
-    vec4 nx, nrest, ninfo, nref, nprev;
-#if PREFETCH
-    nx = positions[base + 1u];
-    nrest = rest_positions[base + 1u];
-    ninfo = rest_info[base + 1u];
-#if SHAPE
-    nref = shape_refs[base + 1u];
-#endif
-#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
-    nprev = prev_positions[base + 1u];
-#endif
-#endif
+    // the last pass: the remaining sweeps, DFTL, collisions, velocities; each vertex's data is
+    // loaded where it is used (prefetching the next one measured slower: docs/performance.md)
     for (uint k = 1u; k < uint(NV); ++k) {
         uint i = base + k;
-#if !PREFETCH
-        nx = positions[i];
-        nrest = rest_positions[i];
-        ninfo = rest_info[i];
+        vec4 x = positions[i], rest = rest_positions[i], info = rest_info[i];
 #if SHAPE
-        nref = shape_refs[i];
-#endif
-#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
-        nprev = prev_positions[i];
-#endif
-#endif
-        vec4 x = nx, rest = nrest, info = ninfo;
-#if SHAPE
-        vec3 ref = nref.xyz;
+        vec3 ref = shape_refs[i].xyz;
 #endif
 #if INTEGRATE == 1
         vec3 x0;  // start of the step
         x = vec4(integrate_vertex(k, i, x.xyz, rest, wind, x0), rest.w);
 #elif DFTL && (CONTACT || VELOCITY)
-        vec3 x0 = nprev.xyz;
+        vec3 x0 = prev_positions[i].xyz;
 #endif
-        if (PREFETCH != 0 && k + 1u < uint(NV)) {
-            nx = positions[i + 1u];
-            nrest = rest_positions[i + 1u];
-            ninfo = rest_info[i + 1u];
-#if SHAPE
-            nref = shape_refs[i + 1u];
-#endif
-#if DFTL && (CONTACT || VELOCITY) && INTEGRATE != 1
-            nprev = prev_positions[i + 1u];
-#endif
-        }
         bool free_ = rest.w > 0.0;
         vec3 xp = x.xyz;  // predicted position
 #if SHAPE

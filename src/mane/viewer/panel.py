@@ -380,7 +380,7 @@ def draw_panel(v) -> None:
     """The viewer's window of controls (``v``: a mane.viewer.Viewer)."""
     from imgui_bundle import imgui
 
-    from .window import PANEL_WIDTH
+    from .choices import PANEL_WIDTH
 
     if v.editor is None:
         v.editor = SettingsEditor()
@@ -420,7 +420,8 @@ def ed_open(v) -> None:
 
 
 def _simulation(v, ed, imgui) -> None:
-    from .window import MOTIONS, STYLE_PRESETS
+    from ..presets import STYLE_PRESETS
+    from .choices import MOTIONS
 
     ed_open(v)
     if not imgui.collapsing_header("Simulation", imgui.TreeNodeFlags_.default_open):
@@ -545,7 +546,7 @@ def _hair_colour(v, imgui) -> None:
 
 
 def _rendering(v, ed, imgui) -> None:
-    from .window import AA_CHOICES
+    from .choices import AA_CHOICES
 
     ed_open(v)
     if not imgui.collapsing_header("Rendering", imgui.TreeNodeFlags_.default_open):

@@ -25,34 +25,19 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GPUError, ManeError, UsageError
+from ..presets import SOFTWARE_LADDER, STYLE_PRESETS, TARGET_FPS, demo_scene, demo_sim_settings, quality_named
 from ..render.gizmos import GizmoPass, handle_color  # noqa: F401  (GizmoPass, handle_color: re-exported)
 from ..render.present import Presenter
 from .camera_control import OrbitControl
+from .choices import AA_CHOICES, MOTIONS, PANEL_WIDTH
 from .picking import PlaneDrag, SphereDrag, in_front, keyboard_offset, pixel_ray, project, ray_sphere
 
-MOTIONS = ("none", "nod", "shake", "turn")
-AA_CHOICES = ("none", "coverage", "msaa2", "msaa4", "msaa8", "ssaa2", "msaa4+ssaa2")
 SWEEP_PERIOD = 4.0   # seconds per turn of the demo's sphere
-PANEL_WIDTH = 380    # pixels
 HANDLE_PIXELS = 7.0  # a light handle's radius on screen
 PICK_PIXELS = 12.0   # how near the cursor must be to a light handle's centre to grab it
 STEP_UP = 1.6        # the auto-scaler takes a step back at this many times its target frame rate
 SETTLE_MARGIN = 1.1  # ... and settles this far above it: the rate wanders by a few per cent as the hair,
                      # the sphere and the head move and the panel changes
-
-# style presets: (simulation changes, render changes)
-STYLE_PRESETS: dict[str, tuple[dict, dict]] = {
-    "demo (soft, long)": (dict(local_shape_stiffness=0.05, global_shape_stiffness=0.02, global_shape_range=0.3,
-                               bending_stiffness=0.0, damping=1.0), dict(curl_radius=0.0, clump_radius=0.006)),
-    "loose and flowing": (dict(local_shape_stiffness=0.01, global_shape_stiffness=0.0, bending_stiffness=0.0,
-                               damping=0.5), dict(curl_radius=0.0, stray_fraction=0.5)),
-    "styled (stiff)": (dict(local_shape_stiffness=0.3, global_shape_stiffness=0.1, global_shape_range=0.6,
-                            bending_stiffness=0.2, damping=2.0), dict(curl_radius=0.0, stray_fraction=0.2)),
-    "curly": (dict(local_shape_stiffness=0.15, bending_stiffness=0.1, damping=1.5),
-              dict(curl_radius=0.004, curl_frequency=8.0, clump_radius=0.004)),
-    "wet (clumped)": (dict(local_shape_stiffness=0.02, damping=4.0),
-                      dict(clump_radius=0.002, clump_tip=0.2, stray_fraction=0.05, curl_radius=0.0)),
-}
 
 def display_available() -> bool:
     """True when an X11 or Wayland display is named and GLFW can initialise on it."""
@@ -141,7 +126,6 @@ class Viewer:
         self.out_dir = Path(out_dir)
         self.demo = bool(demo)
         self.quality = self._quality(quality)
-        from ..app.demo import TARGET_FPS
 
         # on a software renderer: step down SOFTWARE_LADDER while the frame rate is below target
         self.auto_quality = self.software if auto_quality is None else bool(auto_quality)
@@ -231,13 +215,7 @@ class Viewer:
 
     # ------------------------------------------------------------------ set-up
     def _quality(self, name: str):
-        from ..app import demo as demo_app
-
-        if name == "auto":
-            return demo_app.SOFTWARE if self.software else demo_app.GPU
-        if name not in ("software", "gpu"):
-            raise UsageError(f"quality must be auto, software or gpu; got {name!r}")
-        return demo_app.SOFTWARE if name == "software" else demo_app.GPU
+        return quality_named(name, self.software)
 
     def _make_current(self) -> None:
         """Make the window's GL context current (another, headless one may have been since)."""
@@ -279,13 +257,12 @@ class Viewer:
     def load_scene(self, groom=None, head=None) -> None:
         """Simulate and draw ``groom`` (None: the default groom) on ``head`` (None: the default
         head with the default groom, no head with a given groom)."""
-        from ..app.demo import demo_scene, demo_sim_settings
         from ..render.lights import default_lights
         from ..sim import MeshCollider, Simulator, Sphere
 
         q = self.quality
         if groom is None and head is not None:     # grow the default groom on the given head
-            from ..render.scene import default_groom
+            from ..grooming.scene import default_groom
 
             try:
                 groom = default_groom(head, num_guides=q.guides, points=q.points).resampled(q.points)
@@ -601,8 +578,6 @@ class Viewer:
         three checks running (the machine was busy when it stepped down, say), take the last
         step back, unless that level has fallen below the target twice.
         ``auto_quality_state`` and ``status`` say where it stands."""
-        from ..app.demo import SOFTWARE_LADDER
-
         recent = np.asarray(self.frame_ms_history[-20:], float)
         if len(recent) < 20 or self.recorder is not None:
             return

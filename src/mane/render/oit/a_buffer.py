@@ -11,7 +11,7 @@ plus a quarter (bounded by ``oit_max_bytes`` and the GPU's SSBO limit); ``stats(
 the overflow. A pool four times larger than the frames use for 8 frames in a row shrinks. Resolve: the ``oit_k`` nearest sorted, the rest of the list blended unsorted
 behind them; ``oit_k = 0`` blends every fragment in depth order (exact).
 
-``read_fragments()`` reads the lists back (the exact reference of tests/reference).
+``read_fragments()`` reads the lists back (the exact reference of mane.twins.oit).
 """
 from __future__ import annotations
 

@@ -44,7 +44,7 @@ Memory (``oit_bytes``): K-buffer K x 8 + 24 B a pixel; DBK-buffer K x 8 + 12 + 4
 
 ``capture = True`` on a method (tests) also records every fragment of the frame (pixel,
 depth, segment, premultiplied colour) into ``captured``: the exact reference, sorted on the
-CPU by tests/reference/oit_reference.py.
+CPU by src/mane/twins/oit.py.
 """
 from __future__ import annotations
 
@@ -53,10 +53,10 @@ import math
 import numpy as np
 
 from ...errors import GLFeatureError
+from ...gpu.capabilities import has_atomic64
 from ...gpu.glsl import compute_shader
 from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
 from ..passes.expand import EXPANDED_BINDING
-from ..passes.hair_compute import has_atomic64
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
 from .dbk_buffer import AutoShift
@@ -81,7 +81,7 @@ B_FRONT, B_BEHIND, B_RECORDS, B_MEASURE, B_BEHIND_OPTICAL = 13, 14, 15, 16, 17
 def uses_compute(renderer) -> bool:
     """Whether the renderer's OIT method runs on the compute rasteriser: a ported method, and
     the renderer draws with compute shaders (``Renderer.compute_raster``)."""
-    return getattr(renderer.settings, "oit", "none") in COMPUTE_METHODS and bool(
+    return renderer.settings.oit in COMPUTE_METHODS and bool(
         getattr(renderer, "compute_raster", False))
 
 
@@ -123,7 +123,7 @@ class ComputeOit(OitMethod):
         self._dirty = False
 
     def _pick_keys(self) -> bool:
-        wanted = getattr(self.settings, "oit_kbuffer", "auto")
+        wanted = self.settings.oit_kbuffer
         have = has_atomic64(self.ctx)
         if wanted == "atomic32":
             return False
@@ -537,7 +537,7 @@ class ComputeABuffer(ComputeOit, PPLLMethod):
     method_id = 3
     cm = CM_IDS["a_buffer"]
     node_bytes = COMPUTE_NODE_BYTES
-    resolve_group = 8       # H200 at 1080p: its resolve 7.9 ms at 8 x 8 in one run, 12.4 at 16 x 16 in another
+    resolve_group = 8       # 8 x 8 tiles: faster than 16 x 16 at 1080p (docs/performance.md)
 
     @property
     def slots_k(self) -> int:

@@ -112,8 +112,6 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     frag = HERE / "hair.frag"
     if fragment_file is not None:
         frag = fragment_file
-    from .expand import pulls
-
     if pulls(renderer, capture=capture, geometry_file=geometry_file):
         # pipeline="compute": vertex pulling from the expanded strands (passes/expand.py)
         prog = program(renderer.ctx, vertex=HERE / "hair_pull.vert", fragment=frag, defines=defines,
@@ -124,6 +122,15 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     return program(renderer.ctx, vertex=HERE / "hair.vert", tess_control=HERE / "hair.tesc",
                    tess_evaluation=HERE / "hair.tese", geometry=geom, fragment=frag,
                    defines=defines, include_dirs=[RENDER_DIR])
+
+
+def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:
+    """Whether the hair is drawn from the expanded buffer (pipeline="compute"): not with a
+    capture, a pass's own geometry stage or a hardware OIT method (those keep the tessellation
+    pipeline). The distance LOD is expanded too (strand_expand.comp), once per camera position."""
+    s = renderer.settings
+    return (s.pipeline == "compute" and not capture
+            and geometry_file is None and s.oit == "none")
 
 
 def subdivisions(settings, points_per_strand: int) -> int:

@@ -17,7 +17,8 @@ import math
 import numpy as np
 
 from ...gpu.glsl import compute_shader
-from .base import HERE, STRAND_TABLE_BINDING, Frame, Pass, set_strand_uniforms, subdivisions
+from .base import (HERE, STRAND_TABLE_BINDING, Frame, Pass, pulls,  # noqa: F401  (pulls: here too)
+                   set_strand_uniforms, subdivisions)
 
 EXPANDED_BINDING = 3
 LOCAL_SIZE = 128
@@ -138,15 +139,6 @@ def run_1d(cs, n: int) -> None:
         return
     gx = min(groups, MAX_GROUPS_X)
     cs.run(gx, math.ceil(groups / gx))
-
-
-def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:
-    """Whether the hair is drawn from the expanded buffer (pipeline="compute"): not with a
-    capture, a pass's own geometry stage or a hardware OIT method (those keep the tessellation
-    pipeline). The distance LOD is expanded too (strand_expand.comp), once per camera position."""
-    s = renderer.settings
-    return (getattr(s, "pipeline", "tessellation") == "compute" and not capture
-            and geometry_file is None and getattr(s, "oit", "none") == "none")
 
 
 def _ids():

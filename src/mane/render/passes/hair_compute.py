@@ -28,6 +28,7 @@ import re
 import numpy as np
 
 from ...gpu.buffers import check_allocation
+from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
 from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 from .expand import EXPANDED_BINDING
@@ -48,7 +49,7 @@ def sample_grid(msaa: int) -> int:
 
 def wants_compute(settings, renderer_string: str) -> bool:
     """Whether settings.rasterizer asks for the compute rasteriser on this GPU."""
-    r = getattr(settings, "rasterizer", "hardware")
+    r = settings.rasterizer
     if r == "auto":
         return bool(FEW_RASTER_UNITS.search(renderer_string or ""))
     return r == "compute"
@@ -59,13 +60,6 @@ def auto_rasterizer(ctx) -> str:
     from ...gpu.context import renderer_name
 
     return "compute" if FEW_RASTER_UNITS.search(renderer_name(ctx) or "") else "hardware"
-
-
-def has_atomic64(ctx) -> bool:
-    """64-bit integer atomics on shader storage (GL_NV_shader_atomic_int64 + 64-bit ints)."""
-    from ...gpu.capabilities import get_capabilities
-
-    return get_capabilities(ctx).available("kbuffer_int64")
 
 
 class HairComputePass(Pass):
@@ -86,7 +80,7 @@ class HairComputePass(Pass):
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
-        return r.strands is not None and r.compute_raster and getattr(r.settings, "oit", "none") == "none"
+        return r.strands is not None and r.compute_raster and r.settings.oit == "none"
 
     # ------------------------------------------------------------------ buffers
     def sample_size(self) -> tuple[int, int]:
@@ -227,9 +221,9 @@ def unsupported_reason(renderer) -> str | None:
     from ..oit.compute import COMPUTE_METHODS
 
     s = renderer.settings
-    if getattr(s, "pipeline", "compute") != "compute":
+    if s.pipeline != "compute":
         return "the compute rasteriser needs pipeline='compute'; the hair is drawn by hardware"
-    oit = getattr(s, "oit", "none")
+    oit = s.oit
     if oit != "none" and oit not in COMPUTE_METHODS:
         return (f"the OIT method {oit!r} has no compute form (those with one: {', '.join(COMPUTE_METHODS)}); "
                 "the hair is drawn by hardware")

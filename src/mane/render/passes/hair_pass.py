@@ -19,12 +19,12 @@ class HairPass(Pass):
 
     def enabled(self, frame: Frame) -> bool:   # OIT: OitPass draws the hair; compute: HairComputePass
         r = self.renderer
-        return r.strands is not None and getattr(r.settings, "oit", "none") == "none" and not r.compute_raster
+        return r.strands is not None and r.settings.oit == "none" and not r.compute_raster
 
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         msaa = r.samples > 1
-        prepass = msaa and bool(getattr(r.settings, "depth_prepass", False))
+        prepass = msaa and bool(r.settings.depth_prepass)
         prog = hair_program(r, PASS_SHADE)
         r.shading.bind(prog, ctx, r.settings)
         bind_lighting(r, prog, frame)

@@ -23,7 +23,7 @@ class OitPass(Pass):
         self.capture_under = False
 
     def enabled(self, frame: Frame) -> bool:
-        return self.renderer.strands is not None and getattr(self.renderer.settings, "oit", "none") != "none"
+        return self.renderer.strands is not None and self.renderer.settings.oit != "none"
 
     def current(self):
         """The method object of the current settings (made, or remade when the name changed)."""
@@ -51,7 +51,7 @@ class OitPass(Pass):
 
     def stats(self) -> dict:
         s = self.renderer.settings
-        if getattr(s, "oit", "none") == "none":
+        if s.oit == "none":
             return {"oit": "none", "oit_bytes": 0}
         m = self.current()
         return m.stats()   # "rasterizer": the method's own (hardware methods keep the renderer's)

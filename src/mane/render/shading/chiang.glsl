@@ -1,5 +1,5 @@
 // Chiang et al. 2016 (pbrt-v4 HairBxDF / Mitsuba 3 `hair`), real-time form (chiang.py has the
-// equations and the table layout; tests/reference/chiang_reference.py is the NumPy twin):
+// equations and the table layout; src/mane/twins/chiang.py is the NumPy twin):
 //
 //   hair_bsdf = sum_{p=0..3} M_p(theta_i, theta_o^p) Nbar_p(phi, |theta_o|)
 //

@@ -1,7 +1,7 @@
 """Chiang, Bitterli, Tappan and Burley 2016, "A Practical and Controllable Hair and Fur Model
 for Production Path Tracing" (the model of pbrt-v4's HairBxDF and Mitsuba 3's ``hair``), in a
 real-time form: the azimuthal part averaged over the fibre offset h in a small table, the
-longitudinal part analytic in the shader (chiang.glsl). tests/reference/chiang_reference.py is
+longitudinal part analytic in the shader (chiang.glsl). src/mane/twins/chiang.py is
 the NumPy twin (from the equations, integrating over h itself); it matches Mitsuba 3.9's own
 ``hair`` BSDF evaluation to 0.5 % (tests/test_chiang.py).
 
@@ -15,7 +15,7 @@ This is exactly pbrt's ``fsum`` averaged over h: A_p and N_p depend on h and on 
 inclination theta_o (Fresnel at cos theta_o cos gamma_o, the Bravais index eta', the path
 2 cos gamma_t / cos theta_t) but not on the light's, and M_p does not depend on h, so the average
 factors into M_p times a table over (phi, theta_o). Equations (Chiang 2016 eqs. 3-12, d'Eon
-et al. 2011 eq. 7; chiang_reference.py's docstring has them in full):
+et al. 2011 eq. 7; src/mane/twins/chiang.py's docstring has them in full):
 
 * M_p: d'Eon's longitudinal lobe with variance v_p (low-variance log form for v <= 0.1),
   v_0 = (2 roughness)^2 (mane's ``roughness`` is Marschner's beta_R, the R lobe's standard

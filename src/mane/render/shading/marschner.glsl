@@ -1,6 +1,6 @@
 // Marschner et al. 2003, analytic (Hunz 2016 sec. 3.3 and Algorithm 1). The equations,
 // conventions and the two documented deviations (M normalised over theta_o, the energy
-// clamp) are in luts.py's docstring; tests/reference/shading_reference.py is the NumPy twin.
+// clamp) are in luts.py's docstring; src/mane/twins/shading.py is the NumPy twin.
 //
 //   hair_bsdf = cos(theta_i) / cos^2(theta_d) * (specular M_R N_R + M_TT N_TT + M_TRT N_TRT)
 //

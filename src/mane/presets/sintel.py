@@ -1,40 +1,6 @@
-"""The procedural default scene: grooming's default head and long wavy hair grown on its scalp."""
+"""Sintel's scene (Blender Foundation, CC BY 3.0): her TressFX groom on her bust, from files that are
+not part of mane, and the render settings that fill her 228 guides out."""
 from __future__ import annotations
-
-from functools import lru_cache
-
-from ..groom import Groom
-
-DEFAULT_STYLE = "long_wavy"
-
-
-@lru_cache(maxsize=4)
-def _head(subdivisions: int):
-    from ..grooming.head import default_head
-
-    return default_head(subdivisions)
-
-
-def default_head(subdivisions: int = 5):
-    """The default bust (cached per subdivision level; 5 gives 20,480 triangles: enough for the
-    lips, nose and eyes)."""
-    return _head(int(subdivisions))
-
-
-def default_groom(head=None, num_guides: int = 600, points: int = 16, style: str = DEFAULT_STYLE,
-                  seed: int = 0) -> Groom:
-    """``num_guides`` guide strands of ``points`` points grown on the head's scalp."""
-    from ..grooming import grow
-
-    head = head if head is not None else default_head()
-    return grow(head, num_strands=num_guides, style=style, points_per_strand=points, seed=seed)
-
-
-def default_scene(num_guides: int = 600, points: int = 16, subdivisions: int = 5):
-    """(groom, head) of the procedural default."""
-    head = default_head(subdivisions)
-    return default_groom(head, num_guides, points), head
-
 
 SINTEL_CREDIT = "Sintel: (c) Blender Foundation, CC BY 3.0"
 SINTEL_STRANDS_PER_GUIDE = 64
@@ -64,7 +30,7 @@ def sintel_scene(data_dir):
 
 def sintel_render_settings(**changes):
     """RenderSettings for Sintel at full density: clumps sized for her 228 guides."""
-    from .settings import RenderSettings
+    from ..render.settings import RenderSettings
 
     base = dict(strands_per_guide=SINTEL_STRANDS_PER_GUIDE, clump_radius=0.012, clump_tip=0.6,
                 width=0.0004)

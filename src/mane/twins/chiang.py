@@ -172,7 +172,7 @@ def _vec_angles(T, V, L):
 
 def chiang(T, V, L, m, n_h=256):
     """hair_bsdf of HAIR_MODEL_CHIANG for unit T, V, L (N, 3) and the material dict of
-    shading_reference.material() (plus "beta_n")."""
+    shading.material() (plus "beta_n")."""
     ti, to, phi = _vec_angles(np.asarray(T, float), np.asarray(V, float), np.asarray(L, float))
     return fibre(ti, to, phi, m["sigma_a"], roughness=m["roughness"], shift=m["shift"], beta_n=m["beta_n"],
                  eta=m["eta"], n_h=n_h) * np.array([1.0, 1.0, 1.0])

@@ -1,4 +1,4 @@
-"""NumPy twins of the grid kernels (test-only), written from the equations, in float64."""
+"""NumPy twins of the grid kernels, written from the equations, in float64."""
 from __future__ import annotations
 
 import numpy as np

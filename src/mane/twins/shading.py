@@ -105,7 +105,7 @@ def ms_karis(T, V, L, m, transmittance):
 # ------------------------------------------------------------------------------ Marschner
 
 def marschner(T, V, L, m, energy_clamp=True):
-    from mane.render.shading.luts import marschner_bsdf_angles
+    from ..render.shading.luts import marschner_bsdf_angles
 
     a = angles(T, V, L)
     return marschner_bsdf_angles(

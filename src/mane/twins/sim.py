@@ -1,4 +1,4 @@
-"""NumPy twins of the strand solver's kernels (test-only), written from the equations.
+"""NumPy twins of the strand solver's kernels, written from the equations.
 
 Arrays are float64 and padded: (S, N, 3) positions, (S, N) inverse masses. Each function
 is one compute pass of ``mane.sim.simulator``; ``step`` chains them in the simulator's

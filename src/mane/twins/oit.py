@@ -73,7 +73,7 @@ def resolve_display(hdr, background=(0.0, 0.0, 0.0), exposure: float = 1.0, tone
 def collect_fragments(settings, groom, head, camera, lights, ctx, max_tries: int = 6) -> dict:
     """Render with an A-buffer (triangles: rasterizer="hardware") whose pool grows until nothing
     overflows; the fragments and the HDR colour under the hair."""
-    from mane.render import Renderer
+    from ..render import Renderer
 
     r = Renderer(settings.replace(oit="a_buffer", oit_k=0, rasterizer="hardware"), ctx=ctx, profile=False)
     try:
@@ -118,7 +118,7 @@ def collect_compute_fragments(settings, groom, head, camera, lights, ctx) -> dic
     segment) pair in front of the head) with its premultiplied colour, recorded by the compute
     OIT's capture pass (an append of every fragment, no per-pixel structure), and the HDR
     colour under the hair."""
-    from mane.render import Renderer
+    from ..render import Renderer
 
     r = Renderer(settings.replace(oit="a_buffer", oit_k=0, rasterizer="compute"), ctx=ctx, profile=False)
     try:

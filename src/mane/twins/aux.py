@@ -1,5 +1,5 @@
 """NumPy twin of mane/render/aux_maps.comp (the data set's ground-truth maps), written from its
-definition on top of the compute rasteriser's twin (raster_reference.py), in float64:
+definition on top of the compute rasteriser's twin (raster.py), in float64:
 per sample the nearest segment (smallest window depth; equal depths: the larger id, as the
 32-bit path's atomicMax), per pixel the sample with the smallest depth (first in row order),
 the depth at the pixel centre on that segment (perspective-correct), the screen angle in
@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from .raster_reference import nearest_samples
+from .raster import nearest_samples
 
 
 def screen_angle(pr, i) -> float:

@@ -1,0 +1,83 @@
+"""Quality levels: the demo's and the viewer's workloads (``SOFTWARE`` for a CPU rasteriser, ``GPU``),
+and the ladder of cheaper settings both step down on a software renderer below ``TARGET_FPS``
+(the demo once before its clip, ``_calibrate``; the viewer while it runs, ``_adapt_quality``)."""
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from ..errors import UsageError
+
+# Workloads: what a CPU rasteriser renders at interactive rates, and what a GPU shows off.
+@dataclass(frozen=True)
+class Quality:
+    name: str
+    guides: int
+    strands_per_guide: int
+    points: int
+    segments: int
+    size: tuple[int, int]
+    seconds: float
+    fps: float
+    msaa: int
+    shading: str = "chiang"
+    shadows: str = "deep_opacity"
+    shadow_map_size: int = 512
+    pcf: int = 2
+    sim_dt: float = 1.0 / 120.0
+    friction: float = 0.05
+    viewer_sim_dt: float | None = None
+    """the viewer's simulation step (None: ``sim_dt``): the viewer's frame rate, not the clip's."""
+    head_subdivisions: int = 5
+    """detail of the default bust (5: 20,480 triangles; 4: 5,120, a quarter of llvmpipe's head pass)."""
+    hair: str = "brown"
+    """the hair colour preset (mane.render.shading.PRESETS): melanin drives the colour."""
+    specular: float = 1.0
+    """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
+    multiple_scattering: str = "auto"
+    """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
+
+    def render_settings(self, **changes):
+        from ..render import RenderSettings
+        from ..render.shading import hair_preset
+
+        base = dict(size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
+                    msaa=self.msaa, shading=self.shading, shadows=self.shadows,
+                    shadow_map_size=self.shadow_map_size, pcf=self.pcf,
+                    shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
+                                     "multiple_scattering": self.multiple_scattering})
+        base.update(changes)
+        return RenderSettings(**base)
+
+
+# llvmpipe on 2 CPU cores: 960x540 at 15+ frames per second (simulation and rendering) with a
+# shadow map instead of deep opacity, Kajiya-Kay instead of Marschner, fewer rendered strands
+# and segments (12 points a guide: 11 segments, one per guide segment), and 48 Hz simulation
+# steps (2 per frame of the 24 fps clip) without hair-hair friction; the viewer, at 15-20
+# frames per second, steps at 30 Hz (2 steps a frame: each costs ~3.5 ms on llvmpipe, nearly
+# all of it dispatch overhead). ``_calibrate`` (and the viewer) step further down
+# (SOFTWARE_LADDER) on a machine slower than that.
+SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
+                   shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
+                   multiple_scattering="none")   # Kajiya-Kay's diffuse term stands for it; 15 fps
+GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
+# Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
+# guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
+# shadow look-ups of the head and the hair cost more than their shading).
+SOFTWARE_LADDER = (
+    ("2 strands per guide", dict(strands_per_guide=2)),
+    ("1-texel shadow filter", dict(pcf=1)),   # bilinear: 4 texel reads instead of 9
+    ("no shadows", dict(shadows="none")),
+    ("1 strand per guide", dict(strands_per_guide=1)),
+)
+TARGET_FPS = 15.0
+HEADROOM = 1.05      # scale until a little above the target: the clip's loop also encodes video
+
+
+def quality_named(name: str, software: bool) -> Quality:
+    """``SOFTWARE`` or ``GPU`` by name; ``"auto"``: by the renderer (``software``: a CPU rasteriser)."""
+    if name == "auto":
+        return SOFTWARE if software else GPU
+    if name not in ("software", "gpu"):
+        raise UsageError(f"quality must be auto, software or gpu; got {name!r}")
+    return SOFTWARE if name == "software" else GPU

@@ -1,1 +1,0 @@
-"""NumPy twins of GPU kernels, used only by the tests."""
