@@ -16,6 +16,7 @@ from mane.bench import all_bench, plots, quality
 pytestmark = pytest.mark.gpu
 
 
+@pytest.mark.slow
 def test_bench_all_quick_writes_every_file(gl, tmp_path):
     from mane.app.cli import main
 

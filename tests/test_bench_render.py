@@ -35,6 +35,7 @@ def _rows(result, bench, status=None):
     return [r for r in result["results"] if r["bench"] == bench and (status is None or r["status"] == status)]
 
 
+@pytest.mark.slow
 def test_envelope_and_top_level(quick):
     result, file_text, stderr = quick
     assert set(result) == {"meta", "results", "targets", "sweeps"}
@@ -52,6 +53,7 @@ def test_envelope_and_top_level(quick):
     assert "hunz_shading" in stderr                 # progress goes to stderr, not into the JSON
 
 
+@pytest.mark.slow
 def test_every_sweep_present_with_measured_rows(quick):
     result = quick[0]
     assert set(result["sweeps"]) == set(render_bench.SECTIONS)
@@ -71,6 +73,7 @@ def test_every_sweep_present_with_measured_rows(quick):
             assert r["traceback"]
 
 
+@pytest.mark.slow
 def test_timings_positive(quick):
     for r in quick[0]["results"]:
         if r["status"] != "ok":
@@ -92,6 +95,7 @@ def test_timings_positive(quick):
         assert isinstance(r["settings"], dict) and r["settings"]["size"] == r["size"]
 
 
+@pytest.mark.slow
 def test_sweeps_cover_the_seeds_parameters(quick):
     result = quick[0]
     cfg = render_bench.MODE_CONFIG["quick"]
@@ -131,6 +135,7 @@ def test_sweeps_cover_the_seeds_parameters(quick):
     assert all(r["renderer_stats"]["msaa"] == r["msaa"] for r in wood)
 
 
+@pytest.mark.slow
 def test_targets(quick):
     t = quick[0]["targets"]
     assert t["target_ms"] == render_bench.TARGET_MS == 4.0
@@ -145,6 +150,7 @@ def test_targets(quick):
     assert row["rendered_segments"] == row["rendered_strands"] * 32
 
 
+@pytest.mark.slow
 def test_text_output(quick):
     text = render_bench.format_text(quick[0])
     for title in ("Hunz Fig. 33", "Hunz Fig. 36", "Vulkan: guide strands", "Chen Table 5", "Woodhouse", "target:"):

@@ -32,6 +32,7 @@ def _positive(x) -> bool:
     return isinstance(x, (int, float)) and math.isfinite(x) and x > 0
 
 
+@pytest.mark.slow
 def test_envelope_and_top_level(quick):
     result, file_text, stderr = quick
     assert set(result) == {"meta", "results", "targets", "bandwidth"}
@@ -45,6 +46,7 @@ def test_envelope_and_top_level(quick):
     assert "dftl_core" in stderr                    # progress goes to stderr, not into the JSON
 
 
+@pytest.mark.slow
 def test_profiler_pass_names_match_the_simulator(quick):
     from mane.sim import PASSES
 
@@ -54,6 +56,7 @@ def test_profiler_pass_names_match_the_simulator(quick):
     assert {"integrate", "length", "velocity", "shape", "sdf", "friction", "volume"} <= set(timing["pass_names"])
 
 
+@pytest.mark.slow
 def test_every_section_measured_with_positive_timings(quick):
     rows = quick[0]["results"]
     assert not [r for r in rows if r["status"] == "error"], [r["reason"] for r in rows if r["status"] == "error"]
@@ -76,6 +79,7 @@ def test_every_section_measured_with_positive_timings(quick):
     assert {(r["strands"], r["vertices"]) for r in core} == {(256, 16), (1000, 16), (256, 32), (1000, 32)}
 
 
+@pytest.mark.slow
 def test_full_solver_runs_every_pass(quick):
     rows = [r for r in quick[0]["results"] if r["bench"] == "full_solver" and r["status"] == "ok"]
     assert {r["grid_method"] for r in rows} == {"atomic", "raster"}
@@ -85,6 +89,7 @@ def test_full_solver_runs_every_pass(quick):
         assert r["nan_recoveries"] == 0
 
 
+@pytest.mark.slow
 def test_woodhouse_and_grid_rows(quick):
     rows = quick[0]["results"]
     wood = [r for r in rows if r["bench"] == "woodhouse" and r["status"] == "ok"]
@@ -101,6 +106,7 @@ def test_woodhouse_and_grid_rows(quick):
             assert _positive(r[key]), (r["name"], key)
 
 
+@pytest.mark.slow
 def test_flip_rows_and_cpu_comparison(quick):
     rows = [r for r in quick[0]["results"] if r["bench"] == "flip" and r["status"] == "ok"]
     assert {r["resolution"] for r in rows} == {16, 32, 64}
@@ -118,6 +124,7 @@ def test_flip_rows_and_cpu_comparison(quick):
         assert r["share"]["volume_method"] > 0
 
 
+@pytest.mark.slow
 def test_targets_and_bandwidth(quick):
     result = quick[0]
     t = result["targets"]
@@ -134,6 +141,7 @@ def test_targets_and_bandwidth(quick):
         assert 0 < bw["fraction_of_peak"]
 
 
+@pytest.mark.slow
 def test_text_output(quick):
     text = sim_bench.format_text(quick[0])
     for title in ("DFTL core", "Full solver", "Woodhouse", "Grid friction", "FLIP volume", "Chen Table 4",

@@ -202,6 +202,7 @@ def test_verify_catches_a_truncated_shard(local_set, tmp_path):
 
 
 @pytest.mark.gpu
+@pytest.mark.slow
 def test_resume_after_a_killed_worker_gives_the_same_set(tiny, local_set, tmp_path, monkeypatch):
     from mane.dataset.local import run_local
     from mane.dataset.shards import verify
@@ -228,6 +229,7 @@ def test_resume_after_a_killed_worker_gives_the_same_set(tiny, local_set, tmp_pa
 
 @pytest.mark.gpu
 @pytest.mark.ray
+@pytest.mark.slow
 def test_ray_with_two_workers_gives_the_same_shards(tiny, local_set, tmp_path):
     pytest.importorskip("ray")
     from mane.dataset.ray_runner import run_ray
@@ -277,6 +279,7 @@ def test_simulated_samples_move_the_hair_before_capture(gl, spec_dir):
 
 
 @pytest.mark.gpu
+@pytest.mark.slow
 def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
     from mane.bench import dataset_bench
 

@@ -2,11 +2,13 @@
 import json
 
 import numpy as np
+import pytest
 
 from mane import load
 from mane.app.cli import main
 
 
+@pytest.mark.slow
 def test_demo_writes_video_sheet_animation_and_timings(tmp_path, capsys):
     out = tmp_path / "demo"
     assert main(["demo", "--out", str(out), "--seconds", "0.25", "--quality", "software", "--headless",

@@ -24,6 +24,7 @@ def test_examples_folder_has_the_four_scripts():
     assert {"load_and_render.py", "simulate.py", "turntable.py", "export_usd.py"} <= names
 
 
+@pytest.mark.slow
 def test_load_and_render(tmp_path):
     from PIL import Image
 
@@ -33,11 +34,13 @@ def test_load_and_render(tmp_path):
     assert img.size == (160, 120)
 
 
+@pytest.mark.slow
 def test_simulate(tmp_path):
     out = run_example("simulate.py", "--seconds", "0.2", "--fps", "20", cwd=tmp_path)
     assert "root error" in out and "inside the sphere" in out
 
 
+@pytest.mark.slow
 def test_turntable(tmp_path):
     import imageio.v2 as imageio
 
@@ -48,6 +51,7 @@ def test_turntable(tmp_path):
     assert len(frames) == 4 and frames[0].shape == (96, 160, 3)
 
 
+@pytest.mark.slow
 def test_export_usd(tmp_path):
     import mane
 
@@ -56,6 +60,7 @@ def test_export_usd(tmp_path):
     assert mane.load(tmp_path / "a.usda").metadata["usd"]["num_time_samples"] == 3
 
 
+@pytest.mark.slow
 def test_sintel(tmp_path, shared_data):
     from PIL import Image
 

@@ -133,6 +133,7 @@ HAIR = [
 
 
 @pytest.mark.parametrize("name,key,magic", HAIR, ids=[h[1] for h in HAIR])
+@pytest.mark.slow
 def test_fuzz_hair_loader(name, key, magic):
     path = TMP / name
 
@@ -144,6 +145,7 @@ def test_fuzz_hair_loader(name, key, magic):
     run()
 
 
+@pytest.mark.slow
 def test_fuzz_tfxproj():
     folder = TMP / "proj"
     folder.mkdir(exist_ok=True)
@@ -163,6 +165,7 @@ MESH = [("f.obj", ".obj", b"v "), ("f.stl", ".stl", b"solid "), ("f.glb", ".glb"
 
 
 @pytest.mark.parametrize("name,key,magic", MESH, ids=[m[1] for m in MESH])
+@pytest.mark.slow
 def test_fuzz_mesh_loader(name, key, magic):
     folder = TMP / "mesh"
     folder.mkdir(exist_ok=True)
@@ -182,6 +185,7 @@ def test_fuzz_mesh_loader(name, key, magic):
     ("f.usdc", ".usdc", b"PXR-USDC", usd_curves.read),
     ("f.abc", ".abc", b"Ogawa\xff\x00\x01", alembic_curves.read),
 ], ids=[".usda", ".usdc", ".abc"])
+@pytest.mark.slow
 def test_fuzz_library_loader(name, key, magic, reader):
     path = TMP / name
 

@@ -19,6 +19,7 @@ def tiny(monkeypatch):
     return cfg
 
 
+@pytest.mark.slow
 def test_bench_runs_every_method_and_reports_bytes(gl, tiny):
     result = oit_bench.run(gl, "quick")
     json.dumps(result, default=str, allow_nan=False)

@@ -363,6 +363,7 @@ def test_shortcut_against_its_twin(gl, scene, cref, form, capsys):
 
 @pytest.mark.parametrize("tail_shaded", [True, False])
 @pytest.mark.parametrize("form", ["atomic32", "atomic64"])
+@pytest.mark.slow
 def test_dbk_buffer_auto_shift_is_close_to_the_reference(gl, scene, dense_cref, form, tail_shaded, capsys):
     """The denser curtain (~50 fragments deep): the automatic shift (the hardware DBK's
     measurement) keeps about k fragments; the image is its twin's (the layer at the shift

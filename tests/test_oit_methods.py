@@ -118,6 +118,7 @@ def dense_ref(gl, scene):
     return reference(RenderSettings(**{**BASE, **DENSE}), groom, head, CAM, LIGHTS, gl)
 
 
+@pytest.mark.slow
 def test_dbk_buffer_auto_shift_is_close_to_the_reference(gl, scene, dense_ref, capsys):
     """On a denser curtain (~50 fragments deep) the automatic shift keeps about k fragments
     ((1 - alpha)^k < oit_threshold) and the image stays close to the exact one."""

@@ -62,6 +62,7 @@ def _close(g, r, rel=1e-3, floor=1e-3):
 @pytest.mark.gpu
 @pytest.mark.parametrize("material,model", [(m, "marschner") for m in MATERIALS]
                          + [("brown", "chiang"), ("white", "chiang")])
+@pytest.mark.slow
 def test_dual_glsl_matches_numpy(gl, dirs, material, model):
     T, V, L, n = dirs
     s = _settings(material, model)
@@ -96,6 +97,7 @@ def _albedo(theta_i, n_o=300, n_phi=160, **kw):
 
 
 @pytest.mark.parametrize("beta_deg", [5.0, 7.5, 10.0])
+@pytest.mark.slow
 def test_forward_plus_backward_attenuation_at_most_one_without_absorption(beta_deg):
     tb = precompute_dual((0.0, 0.0, 0.0), beta_r=math.radians(beta_deg))
     total = tb.a_f + tb.a_b
@@ -145,6 +147,7 @@ def test_back_scattering_formulas_limits():
     assert A_b.max() <= 0.625
 
 
+@pytest.mark.slow
 def test_lut_layout_and_integration_converged():
     s = _settings("blond", dual_size=16)
     lut = s.dual_lut()
@@ -230,6 +233,7 @@ def test_direct_back_scattering_normalisation():
 
 
 @pytest.mark.gpu
+@pytest.mark.slow
 def test_no_hairs_towards_the_light_only_local_back_scattering(gl, dirs):
     """n = 0 (t = 1): the global term vanishes, leaving d_b f_direct_back cos theta_i."""
     T, V, L, _ = dirs

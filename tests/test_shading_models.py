@@ -201,6 +201,7 @@ def _degenerate():
 
 
 @pytest.mark.parametrize("model", list(MODELS))
+@pytest.mark.slow
 def test_degenerate_directions_finite_and_non_negative(gl, model):
     T, V, L = _degenerate()
     s = ShadingSettings(model=model, melanin=(1.0, 0.2))

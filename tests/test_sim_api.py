@@ -316,6 +316,7 @@ def test_mesh_collider_runs_or_warns(gl):
     assert padded(sim)[:, :, 1].min() > 0.8 - 0.01  # resting on the box, not through it
 
 
+@pytest.mark.slow
 def test_profiling_reports_pass_times(gl, rest):
     sim = Simulator(groom_of(rest), [Sphere(center=(0, 0.9, 0.1), radius=0.03)],
                     settings=SimSettings(local_shape_stiffness=0.1), ctx=gl, profile=True)

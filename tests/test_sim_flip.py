@@ -215,6 +215,7 @@ def _occupied(p, h=0.02):
     return len(np.unique(np.floor(np.asarray(p, np.float64) / h).astype(np.int64), axis=0))
 
 
+@pytest.mark.slow
 def test_volume_keeps_the_rest_volume_under_a_shake(gl):
     """Chen's volume method with its target taken from the rest state: an afro shaken for 2/3 s
     keeps its occupied volume within 10% of rest; without the volume pass (and with it but no

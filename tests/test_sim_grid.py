@@ -173,6 +173,7 @@ def test_atomic_and_raster_agree_and_fixed_point_is_deterministic(gl):
 
 @pytest.mark.parametrize("variant", ["binned-fixed", "binned-float", "binned-float-run"])
 @pytest.mark.parametrize("R,n,chunk", [(16, 1, 4096), (64, 5000, 256), (97, 20000, 1024), (129, 3000, 4096)])
+@pytest.mark.slow
 def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
     """Tiles at the grid's far faces (R - 1 not a multiple of 8), chunks across several tiles,
     a single particle, hot nodes (a clump of identical positions), NaN particles left out,

@@ -126,6 +126,7 @@ def test_shape_matches_twin(gl, local_k, bend_k):
 
 
 @pytest.mark.parametrize("S, N", [(70, 16), (33, 64), (40, 3)])
+@pytest.mark.slow
 def test_shape_and_dftl_match_twins_across_work_groups(gl, S, N):
     """More strands than one work group, a last group that is partly empty, long strands
     (64 points), and a pinned particle mid-strand (it leads DFTL and stops the shape sweep's
@@ -239,6 +240,7 @@ def test_velocity_matches_twin(gl, rest):
 
 @pytest.mark.parametrize("method, defines", [("dftl", {}), ("pbd", {}),
                                              ("dftl", {"CULL_PRIMS": 0})])
+@pytest.mark.slow
 def test_steps_match_twin(gl, method, defines):
     """k full steps of the GPU solver against k steps of the twin, from the same start (DFTL: the
     per-strand kernel's defaults, and without culling the primitives out of a strand's reach)."""
@@ -366,6 +368,7 @@ def test_dftl_collides_inside_the_sweep(gl):
 
 @pytest.mark.parametrize("iterations, pipeline, group", [(2, 1, 64), (2, 2, 64), (3, 2, 32), (5, 1, 128),
                                                        (5, 4, 64), (1, 4, 64)])
+@pytest.mark.slow
 def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
     """One kernel (integrate's prediction, shape sweeps pipelined, more of them through
     memory, DFTL with the collisions, velocities) against the twins of the separate passes,
@@ -424,6 +427,7 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
 
 
 @pytest.mark.parametrize("defines", [{}, {"CULL_PRIMS": 0}])
+@pytest.mark.slow
 def test_strand_kernel_switches_match_twin(gl, defines):
     """The per-strand kernel with primitives out of a strand's reach culled or not, against
     the twin: the hair is pressed into a sphere, a capsule and an ellipsoid; two more capsules and
@@ -462,6 +466,7 @@ def test_strand_kernel_switches_match_twin(gl, defines):
                  scale=float(np.abs(want).max()) / h)
 
 
+@pytest.mark.slow
 def test_fused_integrate_penalty_and_nan(gl, rest):
     """The fused kernel's prediction with penalty colliders (integrate.comp's twin), and a
     non-finite start position: prev_positions keeps its last valid value."""

@@ -97,6 +97,7 @@ def test_pbd_compliance_stretches_as_the_closed_form(gl):
         assert np.abs(seg - want).max() < 0.02 * stretch.max(), (n, seg - L / (N - 1), stretch)
 
 
+@pytest.mark.slow
 def test_pbd_holds_sintel_lengths_with_a_nodding_head(gl, shared_data):
     """Sintel's hair (every fourth strand, 16 points) on her head mesh, nodding, bending and
     local shape on: PBD at its default iterations keeps every segment within 1% (the old
@@ -140,6 +141,7 @@ def test_roots_follow_the_head(gl, motion):
     assert worst < 2e-6  # float32 of a rigid transform
 
 
+@pytest.mark.slow
 def test_projection_leaves_no_particle_inside(gl):
     rest = ref.straight_strands(S=12, N=16, length=0.3, direction=(0, -1, 0.05), spacing=0.008,
                                 origin=(-0.045, 1.0, 0.0))
@@ -338,6 +340,7 @@ def sdf_depth(collider, sim, pts):
 
 @pytest.mark.parametrize("method", ["dftl", "pbd"])
 @pytest.mark.parametrize("head", ["sphere", "mesh"])
+@pytest.mark.slow
 def test_hair_draped_over_a_head_keeps_lengths_and_stays_out(gl, method, head):
     """Roots on the head's surface, hair lying on it, 60 steps of gravity and a nod: the
     collisions happen inside the length solve, so DFTL keeps every segment's length (1e-3)
@@ -377,6 +380,7 @@ def test_hair_draped_over_a_head_keeps_lengths_and_stays_out(gl, method, head):
     assert worst_pen <= tol, worst_pen
 
 
+@pytest.mark.slow
 def test_roots_inside_a_collider_keep_lengths(gl):
     """A sphere over the roots (as a hand on the scalp): no position is both outside it and
     at its length from the root; DFTL keeps the lengths (the old collide-after-length

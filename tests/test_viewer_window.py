@@ -134,6 +134,7 @@ def _drag_target(v):
     return cand[int(np.argmax(dense))]
 
 
+@pytest.mark.slow
 def test_drag_sphere_into_hair_pushes_every_particle_out(viewer):
     from mane.viewer.picking import project
 
@@ -316,6 +317,7 @@ def test_settings_editor_refuses_bad_values(viewer):
     assert ok and new.damping == 2.0 and ed.error is None
 
 
+@pytest.mark.slow
 def test_dropped_files_load_or_show_an_error(viewer, tmp_path, shared_data_or_none):
     from mane import Groom, save
     from mane.grooming.scene import default_head
@@ -396,6 +398,7 @@ def test_screenshot_and_recording(viewer, tmp_path):
     assert "recorded 5 frames" in v.status
 
 
+@pytest.mark.slow
 def test_demo_and_view_commands_open_the_window(x_display, tmp_path):
     """``mane demo`` opens the viewer when there is a display; ``mane view --frames``."""
     shot = tmp_path / "view.png"
@@ -412,6 +415,7 @@ def test_demo_and_view_commands_open_the_window(x_display, tmp_path):
     assert "the viewer on" in r.stdout and "frames per second" in r.stdout
 
 
+@pytest.mark.slow
 def test_scales_quality_down_below_the_target_frame_rate(viewer):
     v = viewer
     before = v.renderer.settings
@@ -627,6 +631,7 @@ finally:
 """
 
 
+@pytest.mark.slow
 def test_demo_viewer_scales_itself_and_reports_it(x_display, tmp_path):
     """``mane demo``'s viewer (demo scene, auto quality) under Xvfb, in a process of its own
     (closing a GLFW window ends GLFW): within its first frames the scaler settles (at or above
