@@ -18,10 +18,9 @@ import numpy as np
 import math
 
 from ...gpu.glsl import compute_shader, program
+from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
 from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, Pass, begin_light_depth,
                    draw_hair, hair_program, light_depth_target, read_f32, set_uniform, set_view)
-
-Z0_BINDING, LAYERS_BINDING, DOM_IMAGE_UNIT = 11, 12, 1
 
 
 class DeepOpacityPass(Pass):
@@ -59,7 +58,7 @@ class DeepOpacityPass(Pass):
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         prog = hair_program(r, PASS_DOM_OPACITY)
-        self.z0.use(3)
+        self.z0.use(TEX_DOM_Z0)
         set_uniform(prog, "u_dom_depth", 3)
         set_uniform(prog, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
         set_uniform(prog, "u_strand_opacity", float(r.settings.strand_opacity))
@@ -96,8 +95,8 @@ class DeepOpacityPass(Pass):
             layers.write(bytes(n * n * 12))
             self._counters = (z0, layers)
         z0, layers = self._counters
-        z0.bind_to_storage_buffer(Z0_BINDING)
-        layers.bind_to_storage_buffer(LAYERS_BINDING)
+        z0.bind_to_storage_buffer(B_DOM_Z0)
+        layers.bind_to_storage_buffer(B_DOM_LAYERS)
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         for dom_pass in (0, 1):
@@ -107,7 +106,7 @@ class DeepOpacityPass(Pass):
         pack = compute_shader(ctx, HERE / "dom_pack.comp", include_dirs=[RENDER_DIR])
         set_uniform(pack, "u_size", n)
         set_uniform(pack, "u_far", float(FAR))
-        self.opacity.bind_to_image(DOM_IMAGE_UNIT, read=False, write=True)
+        self.opacity.bind_to_image(IMG_DOM, read=False, write=True)
         pack.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
         frame.targets["dom"] = self.opacity
@@ -125,7 +124,7 @@ class DeepOpacityPass(Pass):
 def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
                       strand_opacity: float = 0.0) -> None:
     """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
-    buffers at Z0_BINDING and, for pass 1, LAYERS_BINDING bound by the caller): pass 0 the
+    buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
     cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])

@@ -5,9 +5,9 @@
 // are > 0: the light's eye is outside the scene). DOM_PASS 1: strand_opacity x coverage added
 // (fixed point, 1/DOM_SCALE) to the fragment's layer and every layer behind it.
 layout(local_size_x = 128) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
-layout(std430, binding = 11) buffer DomZ0 { uint dom_z0[]; };
-layout(std430, binding = 12) buffer DomLayers { uint dom_layers[]; };   // 3 per texel
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_DOM_Z0) buffer DomZ0 { uint dom_z0[]; };
+layout(std430, binding = B_DOM_LAYERS) buffer DomLayers { uint dom_layers[]; };   // 3 per texel
 uniform int u_points_per_strand;
 uniform int u_num_segments;
 uniform vec3 u_dom_layers_abs;   // layer ends after z0 (m)

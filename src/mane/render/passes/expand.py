@@ -17,9 +17,9 @@ import math
 import numpy as np
 
 from ...gpu.glsl import compute_shader
-from .base import HERE, STRAND_TABLE_BINDING, Frame, Pass, set_strand_uniforms, subdivisions
+from ..bindings import B_EXPANDED, B_STRAND_TABLE
+from .base import HERE, Frame, Pass, set_strand_uniforms, subdivisions
 
-EXPANDED_BINDING = 3
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
 
@@ -63,7 +63,7 @@ class ExpandPass(Pass):
         cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
         if multi:
             table = r.strand_table()
-            table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+            table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
             strands = int(table.count)
             set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
             _set(cs, "u_num_render", strands)
@@ -84,7 +84,7 @@ class ExpandPass(Pass):
             self.buffer = ctx.buffer(reserve=nbytes)
         _set(cs, "u_num_strands", strands)
         st.bind()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         run_1d(cs, strands * points)
         ctx.memory_barrier()
         self.points, self.strands, self._key = points, strands, key
@@ -96,10 +96,10 @@ class ExpandPass(Pass):
 
     def dispatch_segments(self, cs) -> None:
         """Run compute shader ``cs`` (local_size_x = LOCAL_SIZE) with one invocation per expanded
-        segment: the buffer at EXPANDED_BINDING, u_points_per_strand and u_num_segments set (the
+        segment: the buffer at B_EXPANDED, u_points_per_strand and u_num_segments set (the
         compute rasteriser's scan conversions)."""
         self.ensure()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         _set(cs, "u_points_per_strand", int(self.points))
         _set(cs, "u_num_segments", int(self.segments))
         run_1d(cs, self.segments)
@@ -115,7 +115,7 @@ class ExpandPass(Pass):
         import moderngl
 
         self.ensure()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         _set(prog, "u_points_per_strand", self.points)
         vao = self.renderer.empty_vao(prog)
         if lines:

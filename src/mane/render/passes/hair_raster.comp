@@ -5,7 +5,7 @@
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform sampler2D u_scene_depth;   // the head's window depth per pixel
 uniform int u_points_per_strand;
 uniform int u_num_segments;         // rendered strands x (points - 1)
@@ -18,7 +18,7 @@ uint g_id;
 #if RASTER_STATS
 // statistics, off by default (HairComputePass.count_samples): per slot (work group mod 64),
 // samples scanned, samples in front of the scene (RASTER_PASS 0 / VIS64) and the pass-1 id atomics
-layout(std430, binding = 11) buffer RasterStats { uint raster_stats[]; };
+layout(std430, binding = B_RASTER_STATS) buffer RasterStats { uint raster_stats[]; };
 uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u;
 #endif
 

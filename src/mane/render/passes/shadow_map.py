@@ -12,11 +12,10 @@ import math
 import numpy as np
 
 from ...gpu.glsl import compute_shader, program
+from ..bindings import B_DOM_Z0, IMG_SHADOW
 from .base import (HERE, PASS_SHADOW_DEPTH, RENDER_DIR, Frame, Pass, begin_light_depth, draw_hair, hair_program,
                    light_depth_target, read_f32, set_uniform, set_view)
-from .deep_opacity import Z0_BINDING, scan_light_depths
-
-SHADOW_IMAGE_UNIT = 1
+from .deep_opacity import scan_light_depths
 
 
 class ShadowMapPass(Pass):
@@ -53,11 +52,11 @@ class ShadowMapPass(Pass):
         n = int(r.settings.shadow_map_size)
         if self._z0 is None:
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
-        self._z0.bind_to_storage_buffer(Z0_BINDING)
+        self._z0.bind_to_storage_buffer(B_DOM_Z0)
         scan_light_depths(r, frame.light_view, n, 0)
         merge = compute_shader(ctx, HERE / "shadow_merge.comp", include_dirs=[RENDER_DIR])
         set_uniform(merge, "u_size", n)
-        self.texture.bind_to_image(SHADOW_IMAGE_UNIT, read=True, write=True)
+        self.texture.bind_to_image(IMG_SHADOW, read=True, write=True)
         merge.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
 
