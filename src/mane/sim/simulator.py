@@ -613,6 +613,12 @@ class Simulator(GpuOwner):
     """keyword arguments of the friction pass's ``GridFriction`` (``float_atomics``, ``splat``,
     ``chunk``, ``aggregate``); replace the dict (do not mutate it) to change them."""
 
+    @property
+    def friction_grid(self) -> GridFriction | None:
+        """The friction pass's grid once a step has built it, else None (the renderer's density
+        shadows read it in place)."""
+        return self._grid
+
     def _friction_grid(self) -> GridFriction:
         s = self.settings
         key = (s.grid_resolution, s.grid_method, tuple(sorted(self.grid_options.items())))

@@ -129,7 +129,7 @@ class OitMethod:
     def fbo(self, key: str, colors: list, depth: bool = True):
         """A framebuffer of ``colors`` (textures) and, with ``depth``, the HDR target's depth
         (the head's: the fill passes test against it and never write it)."""
-        depth_rb = self.r._targets["hdr"][2] if depth else None
+        depth_rb = self.r.hdr_target().depth if depth else None
         ident = (key, tuple(id(c) for c in colors), id(depth_rb))
         f = self._fbos.get(ident)
         if f is None:

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 from pathlib import Path
 
 import moderngl
@@ -30,6 +31,14 @@ def shadow_defines(settings) -> dict:
     """lighting.glsl's defines: SHADOWS (light 0's method) and XSHADOWS (whether lights 1.. cast:
     0 compiles their look-ups out)."""
     return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1)}
+
+
+class Target(NamedTuple):
+    """A render target: its framebuffer, colour and depth attachments (Renderer.hdr_target)."""
+
+    fbo: object
+    color: object
+    depth: object
 
 
 @dataclass

@@ -36,7 +36,7 @@ def simulator_grid(renderer):
     """The simulator's GridFriction when the strands come from a simulator that has built one."""
     st = renderer.strands
     sim = getattr(st, "source", None) if st is not None else None
-    grid = getattr(sim, "_grid", None) if sim is not None and hasattr(sim, "state") else None
+    grid = getattr(sim, "friction_grid", None) if sim is not None and hasattr(sim, "state") else None
     return grid if grid is not None and hasattr(grid, "grid") and hasattr(grid, "bounds") else None
 
 

@@ -46,7 +46,7 @@ class ExpandPass(Pass):
     def key(self):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
-        return (id(r.strands), id(r.settings), id(r._strand_table), getattr(r, "_geometry_version", 0), eye)
+        return (id(r.strands), id(r.settings), r.geometry_version, eye)
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
