@@ -26,8 +26,8 @@ import numpy as np
 from ...errors import UsageError
 from ...gpu.glsl import compute_shader
 from ..bindings import B_DENSITY_ACC, B_DENSITY_BOX, B_SIM_GRID, IMG_DENSITY
-from .base import (HERE, PASS_SHADOW_DEPTH, Frame, Pass, draw_hair, hair_program,
-                   set_uniform)
+from .base import HERE, PASS_SHADOW_DEPTH, Frame, draw_hair, hair_program, set_uniform
+from .light_depth import LightDepthPass
 
 FIXED_SCALE = 65536.0
 
@@ -40,8 +40,12 @@ def simulator_grid(renderer):
     return grid if grid is not None and hasattr(grid, "grid") and hasattr(grid, "bounds") else None
 
 
-class DensityPass(Pass):
+class DensityPass(LightDepthPass):
+    """No light-depth map: ``texture`` is a 3D texture of the strands' (or the simulator grid's)
+    density, and ``read``, ``release`` are the pass's own."""
+
     name = "density"
+    method = "density"
     reads = ("strands",)
     writes = ("density",)
 
@@ -52,10 +56,6 @@ class DensityPass(Pass):
         self.source = None           # "strands" or "simulator", after a run
         self._sim_texture = None
         self._sim_scale = None
-
-    def enabled(self, frame: Frame) -> bool:
-        r = self.renderer
-        return r.settings.shadows == "density" and frame.light_view is not None and r.strands is not None
 
     def _source(self) -> str:
         want = self.renderer.settings.density_source
@@ -183,7 +183,7 @@ class DensityPass(Pass):
             self.texture = None
             self.bounds = None
 
-    def release(self) -> None:
+    def release(self) -> None:   # no light-depth map: self.texture is the volume
         self._release_own()
         if self._sim_texture is not None:
             self._sim_texture.release()

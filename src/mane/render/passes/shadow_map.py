@@ -13,19 +13,19 @@ import numpy as np
 
 from ...gpu.glsl import compute_shader, program
 from ..bindings import B_DOM_Z0, IMG_SHADOW
-from .base import (HERE, PASS_SHADOW_DEPTH, RENDER_DIR, Frame, Pass, begin_light_depth, draw_hair, hair_program,
-                   light_depth_target, read_f32, set_uniform, set_view)
+from .base import HERE, RENDER_DIR, Frame, set_uniform, set_view
 from .deep_opacity import scan_light_depths
+from .light_depth import LightDepthPass
 
 
-class ShadowMapPass(Pass):
+class ShadowMapPass(LightDepthPass):
     name = "shadow_map"
     reads = ("strands", "head")
     writes = ("shadow_map",)
 
     def __init__(self, renderer):
         super().__init__(renderer)
-        self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(renderer.settings.shadow_map_size))
+        self.depth_target()   # made with the renderer: every method but "none" reads it
         self._z0 = None   # compute path: the hair's depth bits per texel
 
     def enabled(self, frame: Frame) -> bool:
@@ -33,8 +33,7 @@ class ShadowMapPass(Pass):
 
     def run(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
-        begin_light_depth(ctx, self.fbo)
-        ctx.disable(ctx.CULL_FACE)
+        self.begin_depth()
         if r.head is not None and r.settings.draw_head:
             prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
                            defines={"PASS": 1, "SHADOWS": 0})
@@ -44,7 +43,7 @@ class ShadowMapPass(Pass):
             if r.compute_raster:
                 self._hair_by_compute(frame)
             else:
-                draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
+                self.draw_hair_depth(frame)
         frame.targets["shadow_map"] = self.texture
 
     def _hair_by_compute(self, frame: Frame) -> None:
@@ -64,10 +63,9 @@ class ShadowMapPass(Pass):
         """Whether the hair is drawn into this map (else another map carries its shadow)."""
         return self.renderer.settings.shadows == "shadow_map"
 
-    def read(self):
-        return read_f32(self.texture)
+    def owned(self) -> tuple:
+        return (self._z0,)
 
     def release(self) -> None:
-        for o in (self.fbo, self.texture, self.depth, *((self._z0,) if self._z0 is not None else ())):
-            o.release()
+        super().release()
         self._z0 = None
