@@ -10,5 +10,4 @@ B_SRC = 0       # limits_copy.comp
 B_DST = 1
 B_WORDS = 0     # limits_atomic.comp
 
-TABLE = {"B_SRC": B_SRC, "B_DST": B_DST, "B_WORDS": B_WORDS}
-register_bindings(Path(__file__).parent, TABLE)
+TABLE = register_bindings(Path(__file__).parent, globals())

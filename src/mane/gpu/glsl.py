@@ -103,12 +103,17 @@ def _hoist_extensions(body: list[tuple[str, int, int]]) -> list[tuple[str, int, 
 _TABLES: dict[Path, dict[str, int]] = {}
 
 
-def register_bindings(directory, table: dict) -> None:
-    """Declare the binding table of the programs under ``directory``: each name becomes a
-    ``#define`` in every source whose main file lies there (explicit defines override it)."""
-    for name, value in table.items():
-        _format_define(name, value)   # a bad name fails here, not in a driver's log
-    _TABLES[Path(directory).resolve()] = {str(k): int(v) for k, v in table.items()}
+_TABLE_NAME = re.compile(r"(B|IMG|TEX)_[A-Z0-9_]+")
+
+
+def register_bindings(directory, namespace: dict) -> dict[str, int]:
+    """Declare the binding table of the programs under ``directory``: the names of ``namespace``
+    (a bindings module's ``globals()``) that read ``B_*`` (storage buffer bindings), ``IMG_*``
+    (image units) or ``TEX_*`` (texture units) each become a ``#define`` in every source whose
+    main file lies there (explicit defines override them). Returns the table."""
+    table = {str(k): int(v) for k, v in namespace.items() if _TABLE_NAME.fullmatch(str(k))}
+    _TABLES[Path(directory).resolve()] = table
+    return table
 
 
 def table_defines(path) -> dict[str, int]:

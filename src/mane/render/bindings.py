@@ -9,7 +9,6 @@ checks every program, branch by branch).
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from ..gpu.glsl import register_bindings
@@ -87,5 +86,4 @@ TEX_LUT_M = 24
 TEX_LUT_N = 25
 TEX_LUT_CHIANG = 26
 
-TABLE = {k: v for k, v in dict(globals()).items() if re.fullmatch(r"(B|IMG|TEX)_[A-Z0-9_]+", k)}
-register_bindings(Path(__file__).parent, TABLE)
+TABLE = register_bindings(Path(__file__).parent, globals())

@@ -9,7 +9,6 @@ kernel already uses that one), as is the grid's in ``integrate.comp`` (``GRID_BI
 """
 from __future__ import annotations
 
-import re
 from pathlib import Path
 
 from ..gpu.glsl import register_bindings
@@ -46,5 +45,4 @@ B_SCALARS = 6
 TEX_SDF_FIRST = 5         # signed distance fields: 5, 6, ... (sdf.py, simulator.py)
 TEX_SPLAT = 0             # the layered splat texture read back into the grid
 
-TABLE = {k: v for k, v in dict(globals()).items() if re.fullmatch(r"(B|IMG|TEX)_[A-Z0-9_]+", k)}
-register_bindings(Path(__file__).parent, TABLE)
+TABLE = register_bindings(Path(__file__).parent, globals())
