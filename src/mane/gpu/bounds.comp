@@ -3,7 +3,7 @@
 // (stage REDUCE), then padding and the cubic box (stage FINALIZE), all without a CPU readback.
 #include "grid_bounds.glsl"
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
 
 uniform uint num_particles;
 uniform float margin;            // metres added on every side

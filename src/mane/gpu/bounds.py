@@ -25,9 +25,10 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import UsageError
+from .bindings import B_BOUNDS, B_POSITIONS
 
 HERE = Path(__file__).resolve().parent
-BOUNDS_BINDING = 7          # the binding every grid kernel reads the box from
+BOUNDS_BINDING = B_BOUNDS   # the binding every grid kernel reads the box from
 BOUNDS_BYTES = 64
 PER_INVOCATION = 8          # particles each invocation of the reduction reads
 KEY_POS_INF = 0x7F800000
@@ -104,7 +105,7 @@ class GridBounds:
         ``reduced``: another kernel has already put the positions' min/max into the buffer's
         keys (the strand solver's BOUNDS option): only the padding stage runs."""
         n = check_particle_buffers(num_particles, positions)
-        positions.bind_to_storage_buffer(0)
+        positions.bind_to_storage_buffer(B_POSITIONS)
         self.buffer.bind_to_storage_buffer(BOUNDS_BINDING)
         if n and not reduced:
             set_uniforms(self._reduce, num_particles=n)

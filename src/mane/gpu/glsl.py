@@ -2,7 +2,8 @@
 
 A source may ``#include "other.glsl"`` (looked up beside the including file, then in
 ``mane/gpu/shaders``); each file is included once per program. ``defines`` are injected
-after ``#version``. A line map from the assembled text back to the files (drivers differ
+after ``#version``, after a package's binding table (``register_bindings``: the buffer
+bindings and image units of every program under a folder, as ``#define B_NAME 3`` lines). A line map from the assembled text back to the files (drivers differ
 in how they honour ``#line``, so none is emitted) reports a compile error against the
 original file and line:
 
@@ -98,9 +99,37 @@ def _hoist_extensions(body: list[tuple[str, int, int]]) -> list[tuple[str, int, 
     return rest[:start] + hoisted + rest[start:]
 
 
+# folder -> {name: binding or unit}: a package's table (mane/render/bindings.py, ...)
+_TABLES: dict[Path, dict[str, int]] = {}
+
+
+_TABLE_NAME = re.compile(r"(B|IMG|TEX)_[A-Z0-9_]+")
+
+
+def register_bindings(directory, namespace: dict) -> dict[str, int]:
+    """Declare the binding table of the programs under ``directory``: the names of ``namespace``
+    (a bindings module's ``globals()``) that read ``B_*`` (storage buffer bindings), ``IMG_*``
+    (image units) or ``TEX_*`` (texture units) each become a ``#define`` in every source whose
+    main file lies there (explicit defines override them). Returns the table."""
+    table = {str(k): int(v) for k, v in namespace.items() if _TABLE_NAME.fullmatch(str(k))}
+    _TABLES[Path(directory).resolve()] = table
+    return table
+
+
+def table_defines(path) -> dict[str, int]:
+    """The binding-table defines a program whose main file is ``path`` gets."""
+    path = Path(path).resolve()
+    out: dict[str, int] = {}
+    for folder, table in _TABLES.items():
+        if folder in path.parents:
+            out.update(table)
+    return out
+
+
 def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
-    """Read ``path``, resolve its includes and inject ``defines``."""
+    """Read ``path``, resolve its includes and inject its package's table and ``defines``."""
     path = Path(path)
+    defines = {**table_defines(path), **(defines or {})}
     files: list[Path] = []
     included: set[Path] = set()
     dirs = [Path(d) for d in include_dirs] + [SHARED_SHADER_DIR]

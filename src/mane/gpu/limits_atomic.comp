@@ -9,9 +9,9 @@
 #if ATOMIC64
 #extension GL_ARB_gpu_shader_int64 : require
 #extension GL_NV_shader_atomic_int64 : require
-layout(std430, binding = 0) buffer Words { uint64_t words[]; };
+layout(std430, binding = B_WORDS) buffer Words { uint64_t words[]; };
 #else
-layout(std430, binding = 0) buffer Words { uint words[]; };
+layout(std430, binding = B_WORDS) buffer Words { uint words[]; };
 #endif
 layout(local_size_x = 256) in;
 uniform uint u_words;

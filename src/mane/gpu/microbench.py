@@ -20,6 +20,7 @@ from pathlib import Path
 
 from .buffers import check_allocation
 from .glsl import compute_shader, program
+from .bindings import B_DST, B_SRC, B_WORDS
 
 HERE = Path(__file__).resolve().parent
 LOCAL = 256
@@ -66,8 +67,8 @@ class CopyKernel:
         self.groups = _groups(self.count)
 
     def run(self) -> None:
-        self.src.bind_to_storage_buffer(0)
-        self.dst.bind_to_storage_buffer(1)
+        self.src.bind_to_storage_buffer(B_SRC)
+        self.dst.bind_to_storage_buffer(B_DST)
         self.shader.run(*self.groups)
 
     def copied_ok(self) -> bool:
@@ -163,7 +164,7 @@ class AtomicKernel:
     def run(self) -> None:
         self.seed += 1
         self.shader["u_seed"] = (self.seed * 2654435761) & 0xFFFFFFFF
-        self.buf.bind_to_storage_buffer(0)
+        self.buf.bind_to_storage_buffer(B_WORDS)
         self.shader.run(*self.groups)
 
     def release(self) -> None:

@@ -194,7 +194,7 @@ def renderer_strands(renderer) -> ExpandedStrands:
         raise UsageError("the renderer has no strands (set_strands first)")
     if not pulls(renderer):
         raise UsageError("the reference reads the expand pass: RenderSettings(pipeline='compute', oit='none')")
-    if renderer._frames_dirty:
+    if renderer.frames_dirty:
         renderer.get_pass("frames").run(None)
     return ExpandedStrands.from_expand_buffer(renderer.get_pass("expand").read())
 

@@ -10,12 +10,12 @@
 // the samples of the hair's coverage alpha (hair_vis.glsl's cover_alpha).
 #include "hair_vis.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 // AUX_PLANES planes of width x height words, rows top first (image order): the segment id + 1
 // (0: none), the strand and guide ids (0xFFFFFFFF: none), depth, angle, confidence and alpha
 // (floats, 0 where no hair).
 #define AUX_PLANES 7
-layout(std430, binding = 12) writeonly buffer AuxOut { uint aux_out[]; };
+layout(std430, binding = B_AUX_OUT) writeonly buffer AuxOut { uint aux_out[]; };
 uniform int u_points_per_strand;
 uniform int u_strands_per_guide;
 #include "raster_view.glsl"

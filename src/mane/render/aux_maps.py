@@ -29,11 +29,10 @@ import numpy as np
 
 from ..errors import UsageError
 from ..gpu.glsl import compute_shader
+from .bindings import B_AUX_OUT, B_EXPANDED
 from .passes.base import set_uniform, set_view
-from .passes.expand import EXPANDED_BINDING
 
 HERE = Path(__file__).resolve().parent
-OUT_BINDING = 12
 PLANES = 7   # aux_maps.comp's AUX_PLANES
 NONE = np.uint32(0xFFFFFFFF)
 
@@ -78,8 +77,8 @@ class AuxMaps:
         set_uniform(cs, "u_lines", int(r.settings.geometry == "lines"))
         set_uniform(cs, "u_points_per_strand", int(expand.points))
         set_uniform(cs, "u_strands_per_guide", int(r.settings.strands_per_guide))
-        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
-        self._out.bind_to_storage_buffer(OUT_BINDING)
+        expand.buffer.bind_to_storage_buffer(B_EXPANDED)
+        self._out.bind_to_storage_buffer(B_AUX_OUT)
         with r.profiler.section("aux_maps"):
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()

@@ -13,9 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .bindings import B_CAPTURE
 from .passes.base import PASS_SHADOW_DEPTH, draw_hair, hair_program, set_uniform
-
-CAPTURE_BINDING = 7
 
 
 def capture_segments(renderer, camera=None, *, max_segments: int | None = None, view=None) -> dict:
@@ -36,7 +35,7 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
     prog = hair_program(r, PASS_SHADOW_DEPTH, capture=True)
     buf = ctx.buffer(reserve=16 + max_segments * 8 * 16)
     buf.write(np.zeros(4, np.uint32).tobytes())
-    buf.bind_to_storage_buffer(CAPTURE_BINDING)
+    buf.bind_to_storage_buffer(B_CAPTURE)
     set_uniform(prog, "u_capture_max", int(max_segments))
     tex = ctx.texture((1, 1), 1, dtype="f4")
     fbo = ctx.framebuffer([tex])

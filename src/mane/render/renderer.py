@@ -27,8 +27,9 @@ from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
-from .passes.base import MAX_ISOLINES, Frame, Pass, View, subdivisions
+from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, subdivisions
 from .passes.expand import ExpandPass
+from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .settings import RenderSettings
@@ -65,23 +66,6 @@ class ShadingAdapter:
 
     def bind(self, prog, ctx, render_settings=None) -> None:
         self.settings.bind(prog, ctx)
-
-
-class FramesPass(Pass):
-    """Rebuild the guides' transported frames from the current positions (compute)."""
-
-    name = "frames"
-    reads = ("strands",)
-    writes = ("frames",)
-
-    def enabled(self, frame: Frame) -> bool:
-        return self.renderer.strands is not None and self.renderer._frames_dirty
-
-    def run(self, frame: Frame) -> None:
-        self.renderer.strands.update_frames()
-        self.renderer._geometry_version += 1   # pipeline="compute": expand again
-        # a simulator's buffer changes behind our back: rebuild every frame
-        self.renderer._frames_dirty = not self.renderer.strands.owns_positions
 
 
 DEFAULT_HEAD_FRAME_FLOOR = -0.30
@@ -190,7 +174,7 @@ class Renderer(GpuOwner):
         if self._strand_table is not None:
             self._strand_table.release()
             self._strand_table = None
-        self._geometry_version = getattr(self, "_geometry_version", 0) + 1
+        self._geometry_version += 1
 
     def strand_table(self):
         """The multi / hybrid strand records on the GPU (built on first use)."""
@@ -213,6 +197,7 @@ class Renderer(GpuOwner):
                 else:
                     table.set_hybrid_flags(st.read_positions(), sdf, float(self.settings.hybrid_margin))
             self._strand_table = table
+            self._geometry_version += 1   # expand again, from the table
         return self._strand_table
 
     def update_hybrid(self) -> None:
@@ -266,6 +251,24 @@ class Renderer(GpuOwner):
     def strands_changed(self) -> None:
         """Positions were written (a simulation step): rebuild the frames on the next render."""
         self._frames_dirty = True
+
+    @property
+    def frames_dirty(self) -> bool:
+        """Whether the guides' frames must be rebuilt before the strands are drawn."""
+        return self._frames_dirty
+
+    @property
+    def geometry_version(self) -> int:
+        """Counts changes of the rendered geometry (new frames, a new or dropped strand table):
+        what the expand pass keys its buffer on."""
+        return self._geometry_version
+
+    def rebuild_frames(self) -> None:
+        """Rebuild the guides' transported frames from the current positions (the frames pass)."""
+        self.strands.update_frames()
+        self._geometry_version += 1   # pipeline="compute": expand again
+        # a simulator's buffer changes behind our back: rebuild every frame
+        self._frames_dirty = not self.strands.owns_positions
 
     def set_head(self, mesh) -> None:
         if self._head_gpu is not None:
@@ -397,13 +400,19 @@ class Renderer(GpuOwner):
                 tex = ctx.texture(size, 4, dtype="f2")
                 dtex = ctx.depth_texture(size)   # the compute rasteriser tests the hair against it
                 dtex.compare_func = ""
-                self._targets["hdr_resolved"] = (ctx.framebuffer([tex], dtex), tex, dtex)
+                self._targets["hdr_resolved"] = Target(ctx.framebuffer([tex], dtex), tex, dtex)
             else:   # textures: the compute rasteriser reads the depth and writes the colour
                 color = ctx.texture(size, 4, dtype="f2")
                 depth = ctx.depth_texture(size)
                 depth.compare_func = ""
-            self._targets["hdr"] = (ctx.framebuffer([color], depth), color, depth)
-        return self._targets["hdr"][0]
+            self._targets["hdr"] = Target(ctx.framebuffer([color], depth), color, depth)
+        return self._targets["hdr"].fbo
+
+    def hdr_target(self) -> Target:
+        """The HDR target as drawn into: its framebuffer, colour and depth (multisampled
+        renderbuffers with MSAA, else textures); made on first use."""
+        self.hdr_fbo()
+        return self._targets["hdr"]
 
     def hdr_textures(self):
         """The HDR target's (colour, depth) as single-sample textures: with MSAA the target is

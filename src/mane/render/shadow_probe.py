@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..gpu.glsl import compute_shader
+from .bindings import B_PROBE_OUT, B_PROBE_POINTS
 from .passes.base import HERE, RENDER_DIR, bind_lighting, set_uniform, shadow_defines
 
 
@@ -34,8 +35,8 @@ def probe_visibility(renderer, points, frame=None) -> np.ndarray:
     src = ctx.buffer(data.tobytes())
     out = ctx.buffer(reserve=m * 4)
     try:
-        src.bind_to_storage_buffer(2)
-        out.bind_to_storage_buffer(3)
+        src.bind_to_storage_buffer(B_PROBE_POINTS)
+        out.bind_to_storage_buffer(B_PROBE_OUT)
         set_uniform(cs, "u_probe_count", m)
         cs.run((m + 63) // 64)
         ctx.memory_barrier()

@@ -16,11 +16,10 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from ..gpu.glsl import compute_shader
+from .bindings import B_FRAMES, B_POSITIONS
 
 HERE = Path(__file__).resolve().parent
 PASSES = HERE / "passes"
-POSITIONS_BINDING = 0
-FRAMES_BINDING = 1
 DEFAULT_POINTS = 16
 MAX_POINTS = 256
 
@@ -117,8 +116,8 @@ class StrandBuffers:
         self.guide_triangles = t
 
     def bind(self) -> None:
-        self.positions.bind_to_storage_buffer(POSITIONS_BINDING)
-        self.frames.bind_to_storage_buffer(FRAMES_BINDING)
+        self.positions.bind_to_storage_buffer(B_POSITIONS)
+        self.frames.bind_to_storage_buffer(B_FRAMES)
 
     def update_frames(self) -> None:
         """Rebuild the transported frames from the current positions (a compute dispatch)."""

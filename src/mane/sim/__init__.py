@@ -6,7 +6,7 @@
 """
 from __future__ import annotations
 
-from . import head_motion  # noqa: F401
+from . import bindings, head_motion  # noqa: F401  (bindings: registers the sim's table)
 from .colliders import Capsule, Collider, Ellipsoid, MeshCollider, Sphere  # noqa: F401
 from .settings import SimSettings, iteration_stiffness  # noqa: F401
 from .simulator import PASSES, SimSnapshot, Simulator  # noqa: F401

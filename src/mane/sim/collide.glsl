@@ -6,7 +6,7 @@ struct Collider {
     vec4 size;      // xyz radii, w margin
     vec4 response;  // x friction, y penalty stiffness (1/s^2)
 };
-layout(std430, binding = 8) readonly buffer Colliders { Collider colliders[]; };
+layout(std430, binding = B_COLLIDERS) readonly buffer Colliders { Collider colliders[]; };
 uniform uint num_colliders;
 
 // Penetration depth of the local point p, the local outward normal n and the local

@@ -41,6 +41,8 @@ import numpy as np
 from ..errors import UsageError
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
+from .bindings import (B_ACCUMULATOR, B_CELLS, B_FACES, B_PARTIALS, B_PARTICLE_VELOCITIES, B_POSITIONS,
+                       B_SCALARS)
 
 HERE = Path(__file__).resolve().parent
 AIR, FLUID, SOLID = 0, 1, 2
@@ -117,14 +119,14 @@ class FlipVolume:
     # ------------------------------------------------------------------ steps
     def _bind(self, positions=None, velocities=None):
         if positions is not None:
-            positions.bind_to_storage_buffer(0)
+            positions.bind_to_storage_buffer(B_POSITIONS)
         if velocities is not None:
-            velocities.bind_to_storage_buffer(1)
-        self.accumulator.bind_to_storage_buffer(2)
-        self.faces.bind_to_storage_buffer(3)
-        self.cells.bind_to_storage_buffer(4)
-        self.partials.bind_to_storage_buffer(5)
-        self.scalars.bind_to_storage_buffer(6)
+            velocities.bind_to_storage_buffer(B_PARTICLE_VELOCITIES)
+        self.accumulator.bind_to_storage_buffer(B_ACCUMULATOR)
+        self.faces.bind_to_storage_buffer(B_FACES)
+        self.cells.bind_to_storage_buffer(B_CELLS)
+        self.partials.bind_to_storage_buffer(B_PARTIALS)
+        self.scalars.bind_to_storage_buffer(B_SCALARS)
         self.bounds.bind()
 
     def _run(self, shader, count: int, local: int) -> None:

@@ -3,11 +3,11 @@
 // FLUID where a particle lies, AIR elsewhere. Reads and clears the cell accumulators.
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 2) buffer Accumulator { uint acc[]; };
+layout(std430, binding = B_ACCUMULATOR) buffer Accumulator { uint acc[]; };
 #define FIXED_ACC acc
 #include "fixed64.glsl"
 #include "flip_grid.glsl"
-layout(std430, binding = 4) buffer Cells { Cell cells[]; };
+layout(std430, binding = B_CELLS) buffer Cells { Cell cells[]; };
 #define CELL_ACC(n) (3u * FACES_PER_AXIS * 4u + (n) * 4u)
 
 #if HAS_SDF

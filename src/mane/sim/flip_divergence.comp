@@ -6,8 +6,8 @@
 layout(local_size_x = 256) in;
 
 #include "flip_grid.glsl"
-layout(std430, binding = 3) readonly buffer Faces { vec2 faces[]; };
-layout(std430, binding = 4) buffer Cells { Cell cells[]; };
+layout(std430, binding = B_FACES) readonly buffer Faces { vec2 faces[]; };
+layout(std430, binding = B_CELLS) buffer Cells { Cell cells[]; };
 #include "pcg_reduce.glsl"
 
 uniform float density_target;    // mass units per cell; <= 0: off

@@ -3,12 +3,12 @@
 // velocity (0, static colliders). Writes faces[f] = (u, u*) and clears the face accumulators.
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 2) buffer Accumulator { uint acc[]; };
+layout(std430, binding = B_ACCUMULATOR) buffer Accumulator { uint acc[]; };
 #define FIXED_ACC acc
 #include "fixed64.glsl"
 #include "flip_grid.glsl"
-layout(std430, binding = 3) writeonly buffer Faces { vec2 faces[]; };
-layout(std430, binding = 4) readonly buffer Cells { Cell cells[]; };
+layout(std430, binding = B_FACES) writeonly buffer Faces { vec2 faces[]; };
+layout(std430, binding = B_CELLS) readonly buffer Cells { Cell cells[]; };
 
 uint marker_at(ivec3 c) { return in_domain(c) ? cells[cell_index(c)].marker : AIR; }
 

@@ -3,10 +3,10 @@
 // Pinned particles (w = 0) keep their velocity.
 layout(local_size_x = 128) in;
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) buffer Velocities { vec4 velocities[]; };
 #include "flip_grid.glsl"
-layout(std430, binding = 3) readonly buffer Faces { vec2 faces[]; };
+layout(std430, binding = B_FACES) readonly buffer Faces { vec2 faces[]; };
 
 uniform uint num_particles;
 uniform float flip_ratio;

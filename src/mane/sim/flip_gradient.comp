@@ -4,8 +4,8 @@
 layout(local_size_x = 256) in;
 
 #include "flip_grid.glsl"
-layout(std430, binding = 3) buffer Faces { vec2 faces[]; };
-layout(std430, binding = 4) readonly buffer Cells { Cell cells[]; };
+layout(std430, binding = B_FACES) buffer Faces { vec2 faces[]; };
+layout(std430, binding = B_CELLS) readonly buffer Cells { Cell cells[]; };
 
 void main() {
     uint f = gl_GlobalInvocationID.x;

@@ -4,9 +4,9 @@
 // particles (fluid marker) and collect trilinear mass at their centres (density).
 layout(local_size_x = 128) in;
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
-layout(std430, binding = 2) coherent buffer Accumulator { uint acc[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_ACCUMULATOR) coherent buffer Accumulator { uint acc[]; };
 #define FIXED_ACC acc
 #include "fixed64.glsl"
 #include "flip_grid.glsl"

@@ -10,10 +10,10 @@
 
 #if ACC_FLOAT
 #define ACC_WORDS 4u
-layout(std430, binding = 2) buffer Accumulator { float acc[]; };
+layout(std430, binding = B_ACCUMULATOR) buffer Accumulator { float acc[]; };
 #else
 #define ACC_WORDS 8u
-layout(std430, binding = 2) buffer Accumulator { uint acc[]; };
+layout(std430, binding = B_ACCUMULATOR) buffer Accumulator { uint acc[]; };
 #define FIXED_ACC acc
 #endif
 #include "fixed64.glsl"

@@ -55,6 +55,8 @@ import numpy as np
 from ..errors import GLFeatureError, UsageError
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
+from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_TILES,
+                       TEX_SPLAT)
 
 HERE = Path(__file__).resolve().parent
 METHODS = ("atomic", "raster")
@@ -277,11 +279,11 @@ class GridFriction:
         self.bounds = bounds
         ctx = self.ctx
         bounds.bind()
-        positions.bind_to_storage_buffer(0)
-        velocities.bind_to_storage_buffer(1)
+        positions.bind_to_storage_buffer(B_POSITIONS)
+        velocities.bind_to_storage_buffer(B_PARTICLE_VELOCITIES)
         masses = dict(pinned_mass=self.pinned_mass / self.mass_unit, inv_mass_unit=1.0 / self.mass_unit)
         if self.method == "atomic":
-            self.accumulator.bind_to_storage_buffer(2)
+            self.accumulator.bind_to_storage_buffer(B_ACCUMULATOR)
             if n and self.splat_schedule == "binned":
                 self._binned_splat(n, masses)
             elif n:
@@ -290,13 +292,13 @@ class GridFriction:
                 storage_barrier(ctx)
         else:
             self._raster_splat(n, masses)
-        self.grid.bind_to_storage_buffer(3)
+        self.grid.bind_to_storage_buffer(B_GRID)
         set_uniforms(self._normalize, min_mass=1e-30)
         if self.method == "atomic":
-            self.accumulator.bind_to_storage_buffer(2)
+            self.accumulator.bind_to_storage_buffer(B_ACCUMULATOR)
         else:
-            self.texture.use(0)
-            set_uniforms(self._normalize, splat_texture=0)
+            self.texture.use(TEX_SPLAT)
+            set_uniforms(self._normalize, splat_texture=TEX_SPLAT)
         self._run("normalise", self._normalize, groups(self.num_nodes, 256))
         storage_barrier(ctx)
 
@@ -308,8 +310,8 @@ class GridFriction:
                 self._order.release()
             self._order_capacity = max(n, 1024)
             self._order = ctx.buffer(reserve=2 * self._order_capacity * 4)
-        self._tiles.bind_to_storage_buffer(4)
-        self._order.bind_to_storage_buffer(5)
+        self._tiles.bind_to_storage_buffer(B_TILES)
+        self._order.bind_to_storage_buffer(B_ORDER)
         per_group = 256 * PPT
         for name in ("count", "scan", "scatter", "splat"):
             sh = self._stages[name]
@@ -326,7 +328,7 @@ class GridFriction:
         if self.method != "atomic":
             return
         words = self.accumulator.size // 4
-        self.accumulator.bind_to_storage_buffer(2)
+        self.accumulator.bind_to_storage_buffer(B_ACCUMULATOR)
         set_uniforms(self._clear, num_words=words)
         self._run("clear", self._clear, groups(words, 256))
         storage_barrier(self.ctx)
@@ -365,9 +367,9 @@ class GridFriction:
         if not n:
             return
         self.bounds.bind()
-        positions.bind_to_storage_buffer(0)
-        velocities.bind_to_storage_buffer(1)
-        self.grid.bind_to_storage_buffer(3)
+        positions.bind_to_storage_buffer(B_POSITIONS)
+        velocities.bind_to_storage_buffer(B_PARTICLE_VELOCITIES)
+        self.grid.bind_to_storage_buffer(B_GRID)
         set_uniforms(self._gather, num_particles=n, friction=float(friction))
         self._run("gather", self._gather, groups(n, 128))
         storage_barrier(self.ctx)

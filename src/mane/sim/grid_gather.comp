@@ -3,9 +3,9 @@
 // interpolation of the node velocities. Pinned particles (w = 0) are left alone.
 layout(local_size_x = 128) in;
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) buffer Velocities { vec4 velocities[]; };
-layout(std430, binding = 3) readonly buffer Grid { vec4 grid[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_GRID) readonly buffer Grid { vec4 grid[]; };
 #include "grid_nodes.glsl"
 #include "grid_velocity.glsl"
 

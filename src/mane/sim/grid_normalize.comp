@@ -7,7 +7,7 @@
 // 3D texture (METHOD_RASTER).
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 3) writeonly buffer Grid { vec4 grid[]; };
+layout(std430, binding = B_GRID) writeonly buffer Grid { vec4 grid[]; };
 
 #if METHOD_ATOMIC
 #include "grid_accum.glsl"

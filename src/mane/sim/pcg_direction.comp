@@ -3,7 +3,7 @@
 layout(local_size_x = 256) in;
 
 #include "flip_grid.glsl"
-layout(std430, binding = 4) buffer Cells { Cell cells[]; };
+layout(std430, binding = B_CELLS) buffer Cells { Cell cells[]; };
 #include "pcg_scalars.glsl"
 
 void main() {

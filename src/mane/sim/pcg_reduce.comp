@@ -4,7 +4,7 @@
 // STAGE_BETA: beta = (r.z)_new / sigma, sigma = (r.z)_new, rmax = max|r|.
 layout(local_size_x = 256) in;
 
-layout(std430, binding = 5) readonly buffer Partials { dvec2 partials[]; };
+layout(std430, binding = B_PARTIALS) readonly buffer Partials { dvec2 partials[]; };
 #include "pcg_scalars.glsl"
 
 uniform uint num_partials;

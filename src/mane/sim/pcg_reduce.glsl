@@ -1,5 +1,5 @@
 // Workgroup reduction of (sum, max) into partials[workgroup]; every invocation must call it.
-layout(std430, binding = 5) buffer Partials { dvec2 partials[]; };   // (sum, max) per workgroup
+layout(std430, binding = B_PARTIALS) buffer Partials { dvec2 partials[]; };   // (sum, max) per workgroup
 shared double s_sum[256];
 shared double s_max[256];
 

@@ -1,5 +1,5 @@
 // PCG scalars, kept on the GPU so the iteration never waits for the CPU.
-layout(std430, binding = 6) buffer Scalars {
+layout(std430, binding = B_SCALARS) buffer Scalars {
     double pcg_sigma;    // r . z
     double pcg_alpha;
     double pcg_beta;

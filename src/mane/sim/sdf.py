@@ -42,9 +42,10 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from .bounds import check_particle_buffers, groups, is_state, set_uniforms, storage_barrier
+from .bindings import B_POSITIONS, B_PREV_POSITIONS, TEX_SDF_FIRST
 
 HERE = Path(__file__).resolve().parent
-SDF_TEXTURE_UNIT = 5
+SDF_TEXTURE_UNIT = TEX_SDF_FIRST
 
 
 # --------------------------------------------------------------------------- geometry
@@ -337,8 +338,8 @@ class MeshSDF:
         if self._collide is None:
             self._collide = compute_shader(self.ctx, HERE / "sdf_collide.comp")
         sh = self._collide
-        positions.bind_to_storage_buffer(0)
-        prev_positions.bind_to_storage_buffer(1)
+        positions.bind_to_storage_buffer(B_POSITIONS)
+        prev_positions.bind_to_storage_buffer(B_PREV_POSITIONS)
         self.bind_for_sampling(sh)
 
         def mat(x):

@@ -4,8 +4,8 @@
 // of the tangential motion relative to the mesh since the previous step; two more projections fix what is left inside.
 layout(local_size_x = 128) in;
 
-layout(std430, binding = 0) buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer PrevPositions { vec4 prev_positions[]; };
+layout(std430, binding = B_POSITIONS) buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PREV_POSITIONS) readonly buffer PrevPositions { vec4 prev_positions[]; };
 #include "sdf_sample.glsl"
 
 uniform uint num_particles;

@@ -4,15 +4,15 @@
 #error "NV (points per strand) must be defined"
 #endif
 
-layout(std430, binding = 0) buffer Positions { vec4 positions[]; };          // xyz m, w inverse mass
-layout(std430, binding = 1) buffer PrevPositions { vec4 prev_positions[]; };  // start of the step
-layout(std430, binding = 2) buffer Velocities { vec4 velocities[]; };        // xyz m/s
-layout(std430, binding = 3) readonly buffer RestPositions { vec4 rest_positions[]; };  // head frame, w inverse mass
-layout(std430, binding = 4) readonly buffer RestInfo { vec4 rest_info[]; };  // seg length, arc, bend angle, base length
-layout(std430, binding = 5) buffer Corrections { vec4 corrections[]; };      // DFTL d_k
-layout(std430, binding = 6) readonly buffer ShapeRefs { vec4 shape_refs[]; };
-layout(std430, binding = 7) readonly buffer RootFrames { vec4 root_frames[]; };
-layout(std430, binding = 9) buffer Guard { uint guard[]; };
+layout(std430, binding = B_POSITIONS) buffer Positions { vec4 positions[]; };          // xyz m, w inverse mass
+layout(std430, binding = B_PREV_POSITIONS) buffer PrevPositions { vec4 prev_positions[]; };  // start of the step
+layout(std430, binding = B_VELOCITIES) buffer Velocities { vec4 velocities[]; };        // xyz m/s
+layout(std430, binding = B_REST_POSITIONS) readonly buffer RestPositions { vec4 rest_positions[]; };  // head frame, w inverse mass
+layout(std430, binding = B_REST_INFO) readonly buffer RestInfo { vec4 rest_info[]; };  // seg length, arc, bend angle, base length
+layout(std430, binding = B_CORRECTIONS) buffer Corrections { vec4 corrections[]; };      // DFTL d_k
+layout(std430, binding = B_SHAPE_REFS) readonly buffer ShapeRefs { vec4 shape_refs[]; };
+layout(std430, binding = B_ROOT_FRAMES) readonly buffer RootFrames { vec4 root_frames[]; };
+layout(std430, binding = B_GUARD) buffer Guard { uint guard[]; };
 
 uniform uint num_strands;
 

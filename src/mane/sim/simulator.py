@@ -60,6 +60,7 @@ from ..gpu import compute_shader, get_context
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from . import head_motion
+from .bindings import B_GATHER_BOUNDS, B_GATHER_GRID, TEX_SDF_FIRST
 from .colliders import Collider, MeshCollider, pack_colliders
 from .flip import FlipVolume
 from .grid_friction import GridFriction
@@ -73,10 +74,10 @@ DEFAULT_POINTS_PER_STRAND = 16
 MAX_SWEEP_SDFS = 4
 """mesh colliders handled inside the length pass's sweeps (texture units 5..8); more go
 to the sdf pass after it."""
-SDF_UNIT0 = 5
-GATHER_GRID_BINDING = 10   # integrate with a deferred friction gather: the grid and its box
-GATHER_BOUNDS_BINDING = 11
-AUX_BOUNDS_BINDING = 11    # the length pass reducing into the friction grid's box
+SDF_UNIT0 = TEX_SDF_FIRST
+GATHER_GRID_BINDING = B_GATHER_GRID   # integrate with a deferred friction gather: the grid and its box
+GATHER_BOUNDS_BINDING = B_GATHER_BOUNDS
+AUX_BOUNDS_BINDING = B_GATHER_BOUNDS  # the length pass reducing into the friction grid's box
 
 
 def _mat4(m) -> tuple:
@@ -606,6 +607,12 @@ class Simulator(GpuOwner):
     grid_options: dict = {}
     """keyword arguments of the friction pass's ``GridFriction`` (``float_atomics``, ``splat``,
     ``chunk``, ``aggregate``); replace the dict (do not mutate it) to change them."""
+
+    @property
+    def friction_grid(self) -> GridFriction | None:
+        """The friction pass's grid once a step has built it, else None (the renderer's density
+        shadows read it in place)."""
+        return self._grid
 
     def _friction_grid(self) -> GridFriction:
         s = self.settings

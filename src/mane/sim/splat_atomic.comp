@@ -7,8 +7,8 @@
 // global atomics (64 with fixed point); splat_binned.comp sums in shared memory first.
 layout(local_size_x = 128) in;
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 

@@ -27,12 +27,12 @@
 // In fixed point the shared sums are the same 64-bit words as the direct splat's, so the result is
 // bit-identical to it; with float atomics it equals it up to float rounding (order-dependent).
 
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
 // [0, T): counts, [T, 2T]: starts (START(T) = total), [2T + 1, 3T + 1): cursors
-layout(std430, binding = 4) buffer Tiles { uint tiles[]; };
+layout(std430, binding = B_TILES) buffer Tiles { uint tiles[]; };
 // [0, n): tile of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by tile
-layout(std430, binding = 5) buffer Order { uint order[]; };
+layout(std430, binding = B_ORDER) buffer Order { uint order[]; };
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 

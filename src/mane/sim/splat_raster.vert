@@ -1,7 +1,7 @@
 #version 430 core
 // Grid friction, rasterised splat (Woodhouse's optimised_gpu): one point per particle.
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
 #include "grid_nodes.glsl"
 
 uniform float pinned_mass;

@@ -7,8 +7,8 @@
 // Grid friction, rasterised splat without a geometry shader: 8 points per particle (vertex
 // 8 i + c is particle i's corner c), each a 1-pixel point at its node's (x, y) on layer z of the
 // grid's 3D texture, carrying w (m v, m). Zero-weight corners are put outside the clip volume.
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Velocities { vec4 velocities[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
 #include "grid_nodes.glsl"
 
 uniform float pinned_mass;

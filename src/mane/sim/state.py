@@ -32,12 +32,13 @@ import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, GroomError, UsageError
+from . import bindings
 
 MAX_POINTS_PER_STRAND = 64
 PARTICLE_BUFFERS = ("positions", "prev_positions", "velocities", "rest_positions", "rest_info",
                     "corrections", "shape_refs")
-BINDINGS = {name: i for i, name in enumerate(PARTICLE_BUFFERS)}
-BINDINGS.update(root_frames=7, colliders=8, guard=9)
+# buffer -> binding (the sim's table, bindings.py)
+BINDINGS = {name: getattr(bindings, f"B_{name.upper()}") for name in PARTICLE_BUFFERS + ("root_frames", "colliders", "guard")}
 COLLIDER_BYTES = 176
 GUARD_BYTES = 16
 

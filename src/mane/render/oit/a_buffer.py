@@ -20,6 +20,7 @@ import math
 import numpy as np
 
 from ...errors import GPUMemoryError
+from ..bindings import B_PPLL_COUNTER, B_PPLL_NODES, IMG_OIT_HEADS
 from .base import END, OitMethod
 
 NODE_BYTES = 16
@@ -125,9 +126,9 @@ class PPLLMethod(OitMethod):
         self.barrier()
 
     def bind_lists(self, prog, read_only: bool = False) -> None:
-        self.get("heads").bind_to_image(0, read=True, write=not read_only)
-        self.get("nodes").bind_to_storage_buffer(8)
-        self.get("counter").bind_to_storage_buffer(9)
+        self.get("heads").bind_to_image(IMG_OIT_HEADS, read=True, write=not read_only)
+        self.get("nodes").bind_to_storage_buffer(B_PPLL_NODES)
+        self.get("counter").bind_to_storage_buffer(B_PPLL_COUNTER)
         try:
             prog["u_oit_capacity"].value = int(self.capacity)
         except KeyError:

@@ -26,6 +26,7 @@ from ...errors import GLFeatureError, GPUMemoryError, UsageError
 from ...gpu.buffers import buffer as gpu_buffer
 from ...gpu.buffers import check_allocation
 from ...gpu.glsl import compute_shader, program
+from ..bindings import B_CLEAR, IMG_CLEAR
 from ..passes.base import HERE as PASSES_DIR
 from ..passes.base import PASS_SHADE, RENDER_DIR, Frame, bind_lighting, draw_hair, hair_program, set_uniform
 
@@ -128,7 +129,7 @@ class OitMethod:
     def fbo(self, key: str, colors: list, depth: bool = True):
         """A framebuffer of ``colors`` (textures) and, with ``depth``, the HDR target's depth
         (the head's: the fill passes test against it and never write it)."""
-        depth_rb = self.r._targets["hdr"][2] if depth else None
+        depth_rb = self.r.hdr_target().depth if depth else None
         ident = (key, tuple(id(c) for c in colors), id(depth_rb))
         f = self._fbos.get(ident)
         if f is None:
@@ -160,7 +161,7 @@ class OitMethod:
     def clear_buffer(self, buf, value: int, count: int | None = None) -> None:
         count = int(count if count is not None else buf.size // 4)
         cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 0})
-        buf.bind_to_storage_buffer(0)
+        buf.bind_to_storage_buffer(B_CLEAR)
         cs["u_value"].value = int(value) & 0xFFFFFFFF
         cs["u_count"].value = count
         gx, gy = _groups(count)
@@ -168,7 +169,7 @@ class OitMethod:
 
     def clear_image(self, tex, value: int) -> None:
         cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 1})
-        tex.bind_to_image(0, read=False, write=True)
+        tex.bind_to_image(IMG_CLEAR, read=False, write=True)
         cs["u_value"].value = int(value) & 0xFFFFFFFF
         w, h = tex.size
         cs["u_size"].value = (w, h)

@@ -4,7 +4,7 @@
 // LOCAL 1: in shared memory, a block of 512: u_k == 0 runs every stage k = 2..512; otherwise
 //          the steps j = 256..1 of stage u_k.
 layout(local_size_x = 256) in;
-layout(std430, binding = 12) buffer SortKeys { uvec2 keys[]; };
+layout(std430, binding = B_SORT_KEYS) buffer SortKeys { uvec2 keys[]; };
 uniform uint u_k;
 uniform uint u_j;
 

@@ -2,10 +2,10 @@
 // Fill an r32ui image (CLEAR_IMAGE 1) or a uint buffer (CLEAR_IMAGE 0) with u_value.
 layout(local_size_x = 256) in;
 #if CLEAR_IMAGE
-layout(binding = 0, r32ui) uniform writeonly uimage2D u_image;
+layout(binding = IMG_CLEAR, r32ui) uniform writeonly uimage2D u_image;
 uniform ivec2 u_size;
 #else
-layout(std430, binding = 0) writeonly buffer Data { uint data[]; };
+layout(std430, binding = B_CLEAR) writeonly buffer Data { uint data[]; };
 uniform uint u_count;
 #endif
 uniform uint u_value;

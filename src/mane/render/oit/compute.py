@@ -55,27 +55,22 @@ import numpy as np
 from ...errors import GLFeatureError
 from ...gpu.capabilities import has_atomic64
 from ...gpu.glsl import compute_shader
+from ..bindings import (B_EXPANDED, B_OIT_BEHIND, B_OIT_BEHIND_OPTICAL, B_OIT_COUNTER, B_OIT_FRONT,
+                        B_OIT_HEADS, B_OIT_MEASURE, B_OIT_NODES, B_OIT_RECORDS, B_OIT_SLOT_IDS, B_OIT_SLOTS,
+                        B_OIT_TAIL, IMG_HDR, TEX_SCENE_DEPTH)
 from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
-from ..passes.expand import EXPANDED_BINDING
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
 from .dbk_buffer import AutoShift
 
 COMPUTE_METHODS = ("a_buffer", "k_buffer", "dbk_buffer", "shortcut")
 CM_IDS = {"a_buffer": 1, "k_buffer": 2, "dbk_buffer": 3, "shortcut": 4, "capture": 9}
-HDR_IMAGE_UNIT = 0
-SCENE_DEPTH_UNIT = 6
 TAIL_WORDS = 6
 MAX_SLOTS = 64
 GROUP = 16                  # oit_resolve.comp's work group: 16 x 16 pixels (the A-buffer's: 8 x 8)
 MEASURE_COPIES, MEASURE_STRIDE = 16, 80   # the DBK resolve's counter copies (words apart)
 COMPUTE_NODE_BYTES = 12
 RECORD_WORDS = 8
-# buffer bindings of oit_raster.comp / oit_resolve.comp
-B_HEADS = B_SLOTS = 10
-B_NODES = B_IDS = 11
-B_COUNTER = B_TAIL = 12
-B_FRONT, B_BEHIND, B_RECORDS, B_MEASURE, B_BEHIND_OPTICAL = 13, 14, 15, 16, 17
 
 
 def uses_compute(renderer) -> bool:
@@ -154,7 +149,7 @@ class ComputeOit(OitMethod):
         r = self.r
         expand = r.get_pass("expand")
         expand.ensure()
-        expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        expand.buffer.bind_to_storage_buffer(B_EXPANDED)
         set_view(cs, frame.view)
         set_uniform(cs, "u_raster_size", tuple(int(v) for v in self.size))
         set_uniform(cs, "u_grid", 1)
@@ -176,8 +171,8 @@ class ComputeOit(OitMethod):
         for k, v in uniforms.items():
             set_uniform(cs, k, v)
         _, depth = r.hdr_textures()
-        depth.use(SCENE_DEPTH_UNIT)
-        set_uniform(cs, "u_scene_depth", SCENE_DEPTH_UNIT)
+        depth.use(TEX_SCENE_DEPTH)
+        set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
         with self.section(f"raster{int(pass_id)}"):
             r.get_pass("expand").dispatch_segments(cs)
         ctx.memory_barrier()
@@ -196,7 +191,7 @@ class ComputeOit(OitMethod):
         for k, v in uniforms.items():
             set_uniform(cs, k, v)
         color, _ = r.hdr_textures()
-        color.bind_to_image(HDR_IMAGE_UNIT, read=True, write=True)
+        color.bind_to_image(IMG_HDR, read=True, write=True)
         w, h = self.size
         cs.run(math.ceil(w / group), math.ceil(h / group))
         ctx.memory_barrier()
@@ -244,13 +239,13 @@ class ComputeOit(OitMethod):
         ctx = self.ctx
         counter = ctx.buffer(np.zeros(4, np.uint32).tobytes())
         try:
-            counter.bind_to_storage_buffer(B_COUNTER)
+            counter.bind_to_storage_buffer(B_OIT_COUNTER)
             self.raster(frame, 0, cm=CM_IDS["capture"])
             n = int(np.frombuffer(counter.read(), np.uint32)[0])
             records = ctx.buffer(reserve=max(n, 1) * RECORD_WORDS * 4)
             try:
-                counter.bind_to_storage_buffer(B_COUNTER)
-                records.bind_to_storage_buffer(B_RECORDS)
+                counter.bind_to_storage_buffer(B_OIT_COUNTER)
+                records.bind_to_storage_buffer(B_OIT_RECORDS)
                 self.raster(frame, 1, shading=True, cm=CM_IDS["capture"], u_oit_capacity=n)
                 ctx.finish()
                 raw = np.frombuffer(records.read(size=max(n, 1) * RECORD_WORDS * 4), np.uint32)
@@ -304,10 +299,10 @@ class ComputeSlots(ComputeOit):
         self.ctx.memory_barrier()
 
     def bind_storage(self) -> None:
-        self.get("slots").bind_to_storage_buffer(B_SLOTS)
+        self.get("slots").bind_to_storage_buffer(B_OIT_SLOTS)
         if not self.atomic64:
-            self.get("ids").bind_to_storage_buffer(B_IDS)
-        self.get("tail").bind_to_storage_buffer(B_TAIL)
+            self.get("ids").bind_to_storage_buffer(B_OIT_SLOT_IDS)
+        self.get("tail").bind_to_storage_buffer(B_OIT_TAIL)
 
     def fill(self, frame: Frame) -> None:
         self.bind_storage()
@@ -445,10 +440,10 @@ class ComputeDBKBuffer(AutoShift, ComputeSlots):
 
     def bind_storage(self) -> None:
         super().bind_storage()
-        self.get("front").bind_to_storage_buffer(B_FRONT)
-        self.get("behind").bind_to_storage_buffer(B_BEHIND)
-        self.get("behind_optical").bind_to_storage_buffer(B_BEHIND_OPTICAL)
-        self.get(f"measure{self._slot}").bind_to_storage_buffer(B_MEASURE)
+        self.get("front").bind_to_storage_buffer(B_OIT_FRONT)
+        self.get("behind").bind_to_storage_buffer(B_OIT_BEHIND)
+        self.get("behind_optical").bind_to_storage_buffer(B_OIT_BEHIND_OPTICAL)
+        self.get(f"measure{self._slot}").bind_to_storage_buffer(B_OIT_MEASURE)
 
     # ------------------------------------------------------------------ frame
     def begin(self, frame: Frame) -> None:
@@ -557,9 +552,9 @@ class ComputeABuffer(ComputeOit, PPLLMethod):
         self.ctx.memory_barrier()
 
     def bind_storage(self) -> None:
-        self.get("heads").bind_to_storage_buffer(B_HEADS)
-        self.get("nodes").bind_to_storage_buffer(B_NODES)
-        self.get("counter").bind_to_storage_buffer(B_COUNTER)
+        self.get("heads").bind_to_storage_buffer(B_OIT_HEADS)
+        self.get("nodes").bind_to_storage_buffer(B_OIT_NODES)
+        self.get("counter").bind_to_storage_buffer(B_OIT_COUNTER)
 
     def begin(self, frame: Frame) -> None:
         self.collect()

@@ -8,7 +8,7 @@
 // with depth: all >= 0) over the segment id, its alpha clamp(coverage x u_oit_opacity), and its
 // colour the hair BSDF (passes/hair_radiance.glsl) at the segment's point nearest the pixel
 // centre (perspective-correct), as the opaque compute rasteriser shades it.
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform int u_points_per_strand;
 uniform float u_oit_opacity;   // strand opacity in the camera view (x coverage)
 uniform vec3 u_oit_lin;        // x 1: perspective, depth = z / (ndc - y); 0: ortho, depth = (ndc - y) / z

@@ -29,6 +29,7 @@ import math
 import numpy as np
 
 from .a_buffer import COUNTER_WORDS, NODE_BYTES, PPLLMethod
+from ..bindings import IMG_OIT_FRONT
 from ..passes.base import set_uniform
 from .base import END
 
@@ -137,7 +138,7 @@ class DBKBuffer(AutoShift, PPLLMethod):
         self.barrier()
 
     def _bind_front(self, read_only: bool = False) -> None:
-        self.get("front").bind_to_image(1, read=True, write=not read_only)
+        self.get("front").bind_to_image(IMG_OIT_FRONT, read=True, write=not read_only)
 
     def _layer(self, frame) -> None:
         """Pre-pass and in-layer fill."""

@@ -21,6 +21,7 @@ atomic64, interlock, atomic32):
 from __future__ import annotations
 
 from ...errors import GLFeatureError
+from ..bindings import B_OIT_COLORS, B_OIT_KEYS, TEX_OIT_RESOLVE
 from ..passes.base import set_uniform
 from .base import END, OitMethod
 
@@ -80,9 +81,9 @@ class KBuffer(OitMethod):
         self.barrier()
 
     def _bind(self):
-        self.get("keys").bind_to_storage_buffer(10)
+        self.get("keys").bind_to_storage_buffer(B_OIT_KEYS)
         if self.get("colors") is not None:
-            self.get("colors").bind_to_storage_buffer(11)
+            self.get("colors").bind_to_storage_buffer(B_OIT_COLORS)
 
     def fill(self, frame) -> None:
         ctx = self.ctx
@@ -111,10 +112,10 @@ class KBuffer(OitMethod):
     def resolve(self, frame) -> None:
         prog = self.resolve_program("resolve_k_buffer.frag", OIT_KBUF_MODE=MODES[self.mode])
         self._bind()
-        self.get("tail").use(0)
-        self.get("tail_alpha").use(1)
-        set_uniform(prog, "u_oit_tail", 0)
-        set_uniform(prog, "u_oit_tail_alpha", 1)
+        self.get("tail").use(TEX_OIT_RESOLVE)
+        self.get("tail_alpha").use(TEX_OIT_RESOLVE + 1)
+        set_uniform(prog, "u_oit_tail", TEX_OIT_RESOLVE)
+        set_uniform(prog, "u_oit_tail_alpha", TEX_OIT_RESOLVE + 1)
         set_uniform(prog, "u_oit_size", self.size)
         self.composite(prog)
 

@@ -33,40 +33,40 @@ uniform float u_oit_shift;         // DBK: the layer's depth behind the front (m
 uniform uint u_oit_capacity;       // A-buffer / capture: nodes / records
 
 #if OIT_CM == 1
-layout(std430, binding = 10) buffer Heads { uint heads[]; };
-layout(std430, binding = 11) writeonly buffer Nodes { uint nodes[]; };   // 3 words a node
-layout(std430, binding = 12) buffer Counter { uint counter[]; };
+layout(std430, binding = B_OIT_HEADS) buffer Heads { uint heads[]; };
+layout(std430, binding = B_OIT_NODES) writeonly buffer Nodes { uint nodes[]; };   // 3 words a node
+layout(std430, binding = B_OIT_COUNTER) buffer Counter { uint counter[]; };
 #endif
 
 #if OIT_CM == 2 || OIT_CM == 3 || OIT_CM == 4
 #define OIT_SLOTS 1
 #if OIT_ATOMIC64
-layout(std430, binding = 10) buffer Slots { uint64_t slots[]; };
+layout(std430, binding = B_OIT_SLOTS) buffer Slots { uint64_t slots[]; };
 #define SLOT_EMPTY 0xFFFFFFFFFFFFFFFFul
 #else
-layout(std430, binding = 10) buffer Slots { uint slots[]; };
-layout(std430, binding = 11) buffer SlotIds { uint slot_ids[]; };
+layout(std430, binding = B_OIT_SLOTS) buffer Slots { uint slots[]; };
+layout(std430, binding = B_OIT_SLOT_IDS) buffer SlotIds { uint slot_ids[]; };
 #define SLOT_EMPTY OIT_EMPTY
 #endif
 // K-buffer, DBK (tail_words words a pixel, word-major; compute_oit.glsl's TW_*): OIT_TAIL_SHADED
 // rgb, alpha (x OIT_SCALE), optical depth, count; else alpha, optical depth, count.
 // ShortCut: word 0, every fragment's optical depth.
-layout(std430, binding = 12) buffer Tail { uint tail[]; };
+layout(std430, binding = B_OIT_TAIL) buffer Tail { uint tail[]; };
 #endif
 
 #if OIT_CM == 3
-layout(std430, binding = 13) buffer Front { uint front[]; };
+layout(std430, binding = B_OIT_FRONT) buffer Front { uint front[]; };
 #if OIT_ATOMIC64
-layout(std430, binding = 14) buffer Behind { uint64_t behind[]; };
+layout(std430, binding = B_OIT_BEHIND) buffer Behind { uint64_t behind[]; };
 #else
-layout(std430, binding = 14) buffer Behind { uint behind[]; };   // depth bits, then id + 1
+layout(std430, binding = B_OIT_BEHIND) buffer Behind { uint behind[]; };   // depth bits, then id + 1
 #endif
-layout(std430, binding = 17) buffer BehindOptical { uint behind_optical[]; };   // all behind: -log(T)
+layout(std430, binding = B_OIT_BEHIND_OPTICAL) buffer BehindOptical { uint behind_optical[]; };   // all behind: -log(T)
 #endif
 
 #if OIT_CM == 9
-layout(std430, binding = 12) buffer Counter { uint counter[]; };
-layout(std430, binding = 15) writeonly buffer Records { uint records[]; };   // 8 words a fragment
+layout(std430, binding = B_OIT_COUNTER) buffer Counter { uint counter[]; };
+layout(std430, binding = B_OIT_RECORDS) writeonly buffer Records { uint records[]; };   // 8 words a fragment
 #endif
 
 uint g_id;   // the segment (its first point's index in the expanded buffer)
@@ -217,22 +217,9 @@ void visit(ivec2 q, float z, float cov) {
 #endif
 }
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
+#define RASTER_SEGMENT(I) g_id = uint(I)
 #include "passes/raster_segment.glsl"
 
 void main() {
-    int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
-                + gl_LocalInvocationID.x);
-    if (k >= u_num_segments) return;
-    int per = u_points_per_strand - 1;
-    int strand = k / per;
-    int i = strand * u_points_per_strand + (k - strand * per);   // the segment's first point
-    vec4 p0 = expanded[2 * i];
-    vec4 p1 = expanded[2 * i + 2];
-    if (!(p0.w > 0.0 || p1.w > 0.0)) return;   // a strand the distance LOD dropped
-    RasterPoint a = raster_point(p0.xyz, p0.w);
-    RasterPoint b = raster_point(p1.xyz, p1.w);
-    if (!a.ok || !b.ok) return;   // behind the eye
-    g_id = uint(i);
-    raster_segment(a.s, b.s, a.window_z, b.window_z, a.half_width, b.half_width, a.coverage, b.coverage,
-                   u_raster_size);
+    raster_expanded_segment();
 }

@@ -27,7 +27,7 @@ layout(local_size_x = RESOLVE_GROUP, local_size_y = RESOLVE_GROUP) in;
 #include "compute_oit.glsl"
 #include "oit_common.glsl"
 
-layout(rgba16f, binding = 0) uniform image2D u_hdr;
+layout(rgba16f, binding = IMG_HDR) uniform image2D u_hdr;
 uniform int u_reset;               // 1: leave the storage empty for the next frame
 uniform uint u_oit_max_steps;      // A-buffer: guard against a corrupt list
 #ifndef OIT_MEASURE_ONLY
@@ -35,30 +35,30 @@ uniform uint u_oit_max_steps;      // A-buffer: guard against a corrupt list
 #endif
 
 #if OIT_CM == 1
-layout(std430, binding = 10) buffer Heads { uint heads[]; };
-layout(std430, binding = 11) readonly buffer Nodes { uint nodes[]; };
-layout(std430, binding = 12) buffer Counter { uint counter[]; };
+layout(std430, binding = B_OIT_HEADS) buffer Heads { uint heads[]; };
+layout(std430, binding = B_OIT_NODES) readonly buffer Nodes { uint nodes[]; };
+layout(std430, binding = B_OIT_COUNTER) buffer Counter { uint counter[]; };
 #else
 #if OIT_ATOMIC64
-layout(std430, binding = 10) buffer Slots { uint64_t slots[]; };
+layout(std430, binding = B_OIT_SLOTS) buffer Slots { uint64_t slots[]; };
 #else
-layout(std430, binding = 10) buffer Slots { uint slots[]; };
-layout(std430, binding = 11) buffer SlotIds { uint slot_ids[]; };
+layout(std430, binding = B_OIT_SLOTS) buffer Slots { uint slots[]; };
+layout(std430, binding = B_OIT_SLOT_IDS) buffer SlotIds { uint slot_ids[]; };
 #endif
-layout(std430, binding = 12) buffer Tail { uint tail[]; };
+layout(std430, binding = B_OIT_TAIL) buffer Tail { uint tail[]; };
 #endif
 #if OIT_CM == 3
-layout(std430, binding = 13) buffer Front { uint front[]; };
+layout(std430, binding = B_OIT_FRONT) buffer Front { uint front[]; };
 #if OIT_ATOMIC64
-layout(std430, binding = 14) buffer Behind { uint64_t behind[]; };
+layout(std430, binding = B_OIT_BEHIND) buffer Behind { uint64_t behind[]; };
 #else
-layout(std430, binding = 14) buffer Behind { uint behind[]; };
+layout(std430, binding = B_OIT_BEHIND) buffer Behind { uint behind[]; };
 #endif
-layout(std430, binding = 17) buffer BehindOptical { uint behind_optical[]; };
+layout(std430, binding = B_OIT_BEHIND_OPTICAL) buffer BehindOptical { uint behind_optical[]; };
 // MEASURE_COPIES copies of the counters, MEASURE_STRIDE words apart, summed by Python (word 1:
 // the largest): a work group adds its pixels' sums up in shared memory first, then into the
 // copy of its index, so that no global word takes one atomic per pixel.
-layout(std430, binding = 16) buffer Measure { uint measure[]; };
+layout(std430, binding = B_OIT_MEASURE) buffer Measure { uint measure[]; };
 uniform float u_oit_shift;
 uniform int u_oit_k_target;      // fragments the layer should hold
 uniform float u_oit_hist_max;    // depth (m) of the histogram's last bin

@@ -7,6 +7,7 @@ D16, shaded deferred); here two hair draws for all subsets: 1, atomicMin of each
 its shaded colour (half floats). Memory: k x (4 + 8) B a pixel."""
 from __future__ import annotations
 
+from ..bindings import B_OIT_COLORS, B_OIT_KEYS
 from ..passes.base import set_uniform
 from .base import END, OitMethod
 
@@ -24,8 +25,8 @@ class RandomSubsets(OitMethod):
         self.barrier()
 
     def _bind(self):
-        self.get("keys").bind_to_storage_buffer(10)
-        self.get("colors").bind_to_storage_buffer(11)
+        self.get("keys").bind_to_storage_buffer(B_OIT_KEYS)
+        self.get("colors").bind_to_storage_buffer(B_OIT_COLORS)
 
     def fill(self, frame) -> None:
         fbo = self.fbo("fill", [])

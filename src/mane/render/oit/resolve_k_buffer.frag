@@ -7,13 +7,13 @@ uniform ivec2 u_oit_size;
 uniform sampler2D u_oit_tail;         // rgb: sum of premultiplied colours, a: prod(1 - alpha)
 uniform sampler2D u_oit_tail_alpha;   // r: sum of alphas
 #if OIT_KBUF_MODE == 0
-layout(std430, binding = 10) readonly buffer OitKeys { uint oit_keys[]; };
-layout(std430, binding = 11) readonly buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) readonly buffer OitKeys { uint oit_keys[]; };
+layout(std430, binding = B_OIT_COLORS) readonly buffer OitColors { uvec2 oit_colors[]; };
 #elif OIT_KBUF_MODE == 1
-layout(std430, binding = 10) readonly buffer OitKeys64 { uvec2 oit_keys64[]; };   // (low, high) words
+layout(std430, binding = B_OIT_KEYS) readonly buffer OitKeys64 { uvec2 oit_keys64[]; };   // (low, high) words
 #else
-layout(std430, binding = 10) readonly buffer OitDepths { float oit_depths[]; };
-layout(std430, binding = 11) readonly buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) readonly buffer OitDepths { float oit_depths[]; };
+layout(std430, binding = B_OIT_COLORS) readonly buffer OitColors { uvec2 oit_colors[]; };
 #endif
 layout(location = 0) out vec4 frag;
 

@@ -11,12 +11,12 @@
 // to hold u_oit_k_target fragments, into a histogram (counter[8..]), and the alphas' sum.
 #include "oit_common.glsl"
 
-layout(binding = 0, r32ui) uniform readonly uimage2D u_oit_heads;
-layout(std430, binding = 8) readonly buffer OitNodes { uvec4 oit_nodes[]; };
-layout(std430, binding = 9) buffer OitCounter { uint oit_counter[]; };
+layout(binding = IMG_OIT_HEADS, r32ui) uniform readonly uimage2D u_oit_heads;
+layout(std430, binding = B_PPLL_NODES) readonly buffer OitNodes { uvec4 oit_nodes[]; };
+layout(std430, binding = B_PPLL_COUNTER) buffer OitCounter { uint oit_counter[]; };
 uniform uint u_oit_max_steps;    // guard against a corrupt list
 #if OIT_METHOD == 5
-layout(binding = 1, r32ui) uniform readonly uimage2D u_oit_front;
+layout(binding = IMG_OIT_FRONT, r32ui) uniform readonly uimage2D u_oit_front;
 uniform float u_oit_shift;
 uniform int u_oit_k_target;      // fragments the layer should hold
 uniform float u_oit_hist_max;    // depth (m) of the histogram's last bin

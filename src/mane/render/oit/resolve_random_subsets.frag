@@ -4,8 +4,8 @@
 #include "oit_common.glsl"
 
 uniform ivec2 u_oit_size;
-layout(std430, binding = 10) readonly buffer OitKeys { uint oit_keys[]; };
-layout(std430, binding = 11) readonly buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) readonly buffer OitKeys { uint oit_keys[]; };
+layout(std430, binding = B_OIT_COLORS) readonly buffer OitColors { uvec2 oit_colors[]; };
 layout(location = 0) out vec4 frag;
 
 void main() {

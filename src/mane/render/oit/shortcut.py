@@ -7,6 +7,7 @@ Resolve: colour = sum(c) / sum(alpha) x (1 - prod(1 - alpha)).
 Memory: 3 x 4 B depths + 8 B RGBA16F sums + 2 B R16F transmittance = 22 B a pixel."""
 from __future__ import annotations
 
+from ..bindings import B_OIT_KEYS, TEX_OIT_RESOLVE
 from ..passes.base import set_uniform
 from .base import END, OitMethod
 
@@ -35,7 +36,7 @@ class ShortCut(OitMethod):
 
     def fill(self, frame) -> None:
         ctx = self.ctx
-        self.get("depths").bind_to_storage_buffer(10)
+        self.get("depths").bind_to_storage_buffer(B_OIT_KEYS)
         prog = self.hair_program(1)
         self.setup_hair(prog, frame)
         fbo = self.fbo("transmittance", [self.get("transmittance")])
@@ -45,7 +46,7 @@ class ShortCut(OitMethod):
         self.barrier()
         prog = self.hair_program(2)
         self.setup_hair(prog, frame)
-        self.get("depths").bind_to_storage_buffer(10)
+        self.get("depths").bind_to_storage_buffer(B_OIT_KEYS)
         fbo = self.fbo("accum", [self.get("accum")])
         self.fill_state(fbo, blend=(ctx.ONE, ctx.ONE))
         self.draw(prog, frame)
@@ -53,10 +54,10 @@ class ShortCut(OitMethod):
 
     def resolve(self, frame) -> None:
         prog = self.resolve_program("resolve_shortcut.frag")
-        self.get("transmittance").use(0)
-        self.get("accum").use(1)
-        set_uniform(prog, "u_oit_transmittance", 0)
-        set_uniform(prog, "u_oit_accum", 1)
+        self.get("transmittance").use(TEX_OIT_RESOLVE)
+        self.get("accum").use(TEX_OIT_RESOLVE + 1)
+        set_uniform(prog, "u_oit_transmittance", TEX_OIT_RESOLVE)
+        set_uniform(prog, "u_oit_accum", TEX_OIT_RESOLVE + 1)
         self.composite(prog)
 
     @classmethod

@@ -3,8 +3,8 @@
 // The key is ~(view depth bits) of the segment's midpoint, so an ascending sort puts the
 // farthest first; padding entries (OIT_END, OIT_END) sort last.
 layout(local_size_x = 256) in;
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 12) writeonly buffer SortKeys { uvec2 keys[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_SORT_KEYS) writeonly buffer SortKeys { uvec2 keys[]; };
 uniform int u_n;             // points per guide
 uniform int u_patches;       // guides x (u_n - 1)
 uniform int u_padded;        // power of two >= u_patches

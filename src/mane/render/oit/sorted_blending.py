@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from ...gpu.glsl import compute_shader
+from ..bindings import B_SORT_INDICES, B_SORT_KEYS
 from ..passes.base import set_uniform
 from .base import HERE, OitMethod, _groups
 
@@ -47,7 +48,7 @@ class SortedBlending(OitMethod):
         keys, idx = self._buffers()
         n = self.padded
         st.bind()
-        keys.bind_to_storage_buffer(12)
+        keys.bind_to_storage_buffer(B_SORT_KEYS)
         cs = compute_shader(ctx, HERE / "sort_keys.comp")
         set_uniform(cs, "u_n", st.points_per_strand)
         set_uniform(cs, "u_patches", self.patches)
@@ -78,7 +79,7 @@ class SortedBlending(OitMethod):
             ctx.memory_barrier()
             d += 1
             k *= 2
-        idx.bind_to_storage_buffer(13)
+        idx.bind_to_storage_buffer(B_SORT_INDICES)
         ix = compute_shader(ctx, HERE / "sort_indices.comp")
         set_uniform(ix, "u_patches", self.patches)
         ix.run(*_groups(self.patches), 1)

@@ -24,8 +24,8 @@ void oit_no_tail() {
 }
 
 #if OIT_KBUF_MODE == 0
-layout(std430, binding = 10) coherent buffer OitKeys { uint oit_keys[]; };
-layout(std430, binding = 11) writeonly buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) coherent buffer OitKeys { uint oit_keys[]; };
+layout(std430, binding = B_OIT_COLORS) writeonly buffer OitColors { uvec2 oit_colors[]; };
 void oit_main() {
     int P = oit_pixels();
     int p = oit_pixel();
@@ -49,7 +49,7 @@ void oit_main() {
 }
 
 #elif OIT_KBUF_MODE == 1
-layout(std430, binding = 10) coherent buffer OitKeys64 { uint64_t oit_keys64[]; };
+layout(std430, binding = B_OIT_KEYS) coherent buffer OitKeys64 { uint64_t oit_keys64[]; };
 void oit_main() {
     int P = oit_pixels();
     int p = oit_pixel();
@@ -72,8 +72,8 @@ void oit_main() {
 
 #elif OIT_KBUF_MODE == 2
 layout(pixel_interlock_ordered) in;
-layout(std430, binding = 10) coherent buffer OitDepths { float oit_depths[]; };
-layout(std430, binding = 11) coherent buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) coherent buffer OitDepths { float oit_depths[]; };
+layout(std430, binding = B_OIT_COLORS) coherent buffer OitColors { uvec2 oit_colors[]; };
 // begin/endInvocationInterlockARB may only be called in main(), outside control flow
 #define OIT_OWN_MAIN 1
 void main() {

@@ -2,9 +2,9 @@
 // r32ui image (OIT_END = empty); nodes: uvec4 {rg half, ba half, depth bits, next}; counter[0]:
 // fragments offered this frame (beyond u_oit_capacity they are counted and dropped).
 #if OIT_METHOD == 3 || OIT_METHOD == 5
-layout(binding = 0, r32ui) uniform coherent uimage2D u_oit_heads;
-layout(std430, binding = 8) writeonly buffer OitNodes { uvec4 oit_nodes[]; };
-layout(std430, binding = 9) coherent buffer OitCounter { uint oit_counter[]; };
+layout(binding = IMG_OIT_HEADS, r32ui) uniform coherent uimage2D u_oit_heads;
+layout(std430, binding = B_PPLL_NODES) writeonly buffer OitNodes { uvec4 oit_nodes[]; };
+layout(std430, binding = B_PPLL_COUNTER) coherent buffer OitCounter { uint oit_counter[]; };
 uniform uint u_oit_capacity;
 
 void ppll_append(vec4 c, float depth) {
@@ -27,7 +27,7 @@ void oit_main() {
 // Stage 3: the hair behind the layer, depth-tested and written (discard: late tests): opaque
 // (Hunz; OIT_DBK_BEHIND_OPAQUE) or premultiplied-blended with its alpha.
 #if OIT_METHOD == 5
-layout(binding = 1, r32ui) uniform coherent uimage2D u_oit_front;
+layout(binding = IMG_OIT_FRONT, r32ui) uniform coherent uimage2D u_oit_front;
 uniform float u_oit_shift;
 #if OIT_STAGE != 3
 layout(early_fragment_tests) in;

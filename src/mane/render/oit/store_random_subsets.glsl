@@ -3,8 +3,8 @@
 // the fragment whose key won writes its colour. The resolve sorts the <= K and blends them.
 #if OIT_METHOD == 2
 layout(early_fragment_tests) in;
-layout(std430, binding = 10) coherent buffer OitKeys { uint oit_keys[]; };
-layout(std430, binding = 11) writeonly buffer OitColors { uvec2 oit_colors[]; };
+layout(std430, binding = B_OIT_KEYS) coherent buffer OitKeys { uint oit_keys[]; };
+layout(std430, binding = B_OIT_COLORS) writeonly buffer OitColors { uvec2 oit_colors[]; };
 void oit_main() {
     int s = min(int(g_rand * float(OIT_K)), OIT_K - 1);
     int at = s * oit_pixels() + oit_pixel();

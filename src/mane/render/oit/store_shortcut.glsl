@@ -5,7 +5,7 @@
 // (TressFX's pass 2, the 3rd depth written for early-z, is a comparison in stage 2 here.)
 #if OIT_METHOD == 6
 layout(early_fragment_tests) in;
-layout(std430, binding = 10) coherent buffer OitKeys { uint oit_keys[]; };
+layout(std430, binding = B_OIT_KEYS) coherent buffer OitKeys { uint oit_keys[]; };
 void oit_main() {
     int P = oit_pixels();
     int p = oit_pixel();

@@ -9,43 +9,17 @@ Only two controls, as in TressFX: the fibre opacity and the spacing.
 """
 from __future__ import annotations
 
-import numpy as np
-
-from .base import (PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair, hair_program,
-                   light_depth_target, read_f32)
+from .base import Frame
+from .light_depth import LightDepthPass
 
 
-class ADSMPass(Pass):
+class ADSMPass(LightDepthPass):
     name = "adsm"
+    method = "adsm"
     reads = ("strands",)
     writes = ("adsm",)
 
-    def __init__(self, renderer):
-        super().__init__(renderer)
-        self.texture = None
-
-    def _allocate(self) -> None:
-        self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(self.renderer.settings.shadow_map_size))
-
-    def enabled(self, frame: Frame) -> bool:
-        r = self.renderer
-        return r.settings.shadows == "adsm" and frame.light_view is not None and r.strands is not None
-
     def run(self, frame: Frame) -> None:
-        if self.texture is None:
-            self._allocate()
-        ctx, r = self.ctx, self.renderer
-        begin_light_depth(ctx, self.fbo)
-        ctx.disable(ctx.CULL_FACE)
-        draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
+        self.begin_depth()
+        self.draw_hair_depth(frame)
         frame.targets["adsm"] = self.texture
-
-    def read(self) -> np.ndarray:
-        """(n, n) float32 nearest hair light depth (m); 1e9 where no hair."""
-        return read_f32(self.texture)
-
-    def release(self) -> None:
-        if self.texture is not None:
-            for o in (self.fbo, self.texture, self.depth):
-                o.release()
-            self.texture = None

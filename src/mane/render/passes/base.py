@@ -3,12 +3,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from typing import NamedTuple
 from pathlib import Path
 
 import moderngl
 import numpy as np
 
 from ...gpu.glsl import program
+from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST,
+                        TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
 from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
@@ -18,11 +21,7 @@ MAX_ISOLINES = 64
 
 INTERPOLATION_IDS = {"catmull_rom": 0, "bspline": 1, "bezier": 2}
 MULTI_IDS = {"single": 0, "multi": 1, "hybrid": 2}
-STRAND_TABLE_BINDING = 2
 SHADOW_IDS = {"none": 0, "shadow_map": 1, "deep_opacity": 2, "adsm": 3, "opacity_maps": 4, "density": 5}
-# texture units and buffer bindings of the shadow look-ups (lighting.glsl and its shadow_*.glsl)
-ADSM_UNIT, DENSITY_UNIT, OSM_FIRST_UNIT = 4, 5, 8
-DENSITY_BOX_BINDING = 6
 TONE_IDS = {"aces": 0, "reinhard": 1, "none": 2}
 # hair fragment passes
 PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
@@ -32,6 +31,14 @@ def shadow_defines(settings) -> dict:
     """lighting.glsl's defines: SHADOWS (light 0's method) and XSHADOWS (whether lights 1.. cast:
     0 compiles their look-ups out)."""
     return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1)}
+
+
+class Target(NamedTuple):
+    """A render target: its framebuffer, colour and depth attachments (Renderer.hdr_target)."""
+
+    fbo: object
+    color: object
+    depth: object
 
 
 @dataclass
@@ -157,7 +164,7 @@ def draw_hair(renderer, prog, view: View, lod_eye=None, vao=None) -> None:
     ctx.patch_vertices = 4
     if s.interpolation_mode != "single":
         table = renderer.strand_table()
-        table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+        table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
         set_uniform(prog, "u_num_render", int(table.count))
         groups = math.ceil(table.count / MAX_ISOLINES)
         vao.render(moderngl.PATCHES, vertices=groups * (N - 1) * 4, instances=1)
@@ -233,16 +240,14 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_dom_layers", tuple(float(f) * ext for f in s.dom_layers))
     t = frame.targets
     if "shadow_map" in t:
-        t["shadow_map"].use(1)
-        set_uniform(prog, "u_shadow_map", 1)
+        t["shadow_map"].use(TEX_SHADOW_MAP)
+        set_uniform(prog, "u_shadow_map", TEX_SHADOW_MAP)
     if "dom" in t:
-        t["dom"].use(2)
-        set_uniform(prog, "u_dom", 2)
+        t["dom"].use(TEX_DOM)
+        set_uniform(prog, "u_dom", TEX_DOM)
     bind_shadow_methods(renderer, prog, frame)
     bind_extra_shadows(renderer, prog, frame)
 
-
-XSHADOW_FIRST_UNIT, XDOM_FIRST_UNIT = 16, 20
 
 
 def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
@@ -278,12 +283,12 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
     set_uniform(prog, "u_xdom_layers", layers[:MAX_SHADOW_LIGHTS])
     for k in range(MAX_SHADOW_LIGHTS):
         if 1 <= k <= len(maps):
-            maps[k - 1].use(XSHADOW_FIRST_UNIT + k)
+            maps[k - 1].use(TEX_XSHADOW_FIRST + k)
             if k <= len(doms):
-                doms[k - 1].use(XDOM_FIRST_UNIT + k)
-    set_uniform(prog, "u_xshadow_map", [XSHADOW_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
+                doms[k - 1].use(TEX_XDOM_FIRST + k)
+    set_uniform(prog, "u_xshadow_map", [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
     if "u_xdom" in prog:
-        set_uniform(prog, "u_xdom", [XDOM_FIRST_UNIT + k for k in range(MAX_SHADOW_LIGHTS)])
+        set_uniform(prog, "u_xdom", [TEX_XDOM_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
 
 
 def adsm_coverage(renderer, frame: Frame) -> float:
@@ -304,17 +309,17 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
     s = renderer.settings
     t = frame.targets
     if "adsm" in t:
-        t["adsm"].use(ADSM_UNIT)
-        set_uniform(prog, "u_adsm", ADSM_UNIT)
+        t["adsm"].use(TEX_ADSM)
+        set_uniform(prog, "u_adsm", TEX_ADSM)
         set_uniform(prog, "u_adsm_spacing", float(s.adsm_spacing) * float(s.width))
         set_uniform(prog, "u_adsm_tau", float(s.shadow_density) * float(s.strand_opacity) * adsm_coverage(renderer, frame))
     if "osm" in t:
         maps = t["osm"]
         for k, tex in enumerate(maps):
-            tex.use(OSM_FIRST_UNIT + k)
+            tex.use(TEX_OSM_FIRST + k)
         try:
             n = max(int(prog["u_osm"].array_length), len(maps))
-            prog["u_osm"].value = [OSM_FIRST_UNIT + min(k, len(maps) - 1) for k in range(n)]
+            prog["u_osm"].value = [TEX_OSM_FIRST + min(k, len(maps) - 1) for k in range(n)]
         except KeyError:
             pass
         set_uniform(prog, "u_osm_targets", len(maps))
@@ -322,9 +327,9 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_osm_range", (float(lo), float(hi)))
     if "density" in t:
         tex, box = t["density"]
-        tex.use(DENSITY_UNIT)
-        box.bind_to_storage_buffer(DENSITY_BOX_BINDING)
-        set_uniform(prog, "u_density", DENSITY_UNIT)
+        tex.use(TEX_DENSITY)
+        box.bind_to_storage_buffer(B_DENSITY_BOX)
+        set_uniform(prog, "u_density", TEX_DENSITY)
         set_uniform(prog, "u_density_step", float(s.density_step))
 
 

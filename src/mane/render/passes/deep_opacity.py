@@ -18,14 +18,17 @@ import numpy as np
 import math
 
 from ...gpu.glsl import compute_shader, program
-from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, Pass, begin_light_depth,
-                   draw_hair, hair_program, light_depth_target, read_f32, set_uniform, set_view)
+from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
+from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
+                   read_f32, set_uniform, set_view)
+from .light_depth import LightDepthPass
 
-Z0_BINDING, LAYERS_BINDING, DOM_IMAGE_UNIT = 11, 12, 1
 
+class DeepOpacityPass(LightDepthPass):
+    """The light-depth map holds z0, the nearest hair's light depth (hardware path)."""
 
-class DeepOpacityPass(Pass):
     name = "deep_opacity"
+    method = "deep_opacity"
     reads = ("strands",)
     writes = ("dom",)
 
@@ -37,15 +40,11 @@ class DeepOpacityPass(Pass):
 
         check_texture(ctx, (n, n), 4, 4, f"the deep opacity map ({n}x{n} RGBA32F, with its depth maps)",
                       extra_bytes=n * n * 8, reduce="Use a smaller shadow_map_size")
-        self.z0, self.depth, self.z0_fbo = light_depth_target(ctx, n)
+        self.depth_target()
         self.opacity = ctx.texture((n, n), 4, dtype="f4")
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
         self.opacity_fbo = ctx.framebuffer([self.opacity])
         self._counters = None   # compute path: (z0 bits, 3 layer sums) per texel
-
-    def enabled(self, frame: Frame) -> bool:
-        r = self.renderer
-        return r.settings.shadows == "deep_opacity" and frame.light_view is not None and r.strands is not None
 
     def run(self, frame: Frame) -> None:
         if self.renderer.compute_raster:
@@ -53,14 +52,14 @@ class DeepOpacityPass(Pass):
             return
         ctx, r = self.ctx, self.renderer
         # 1. z0
-        begin_light_depth(ctx, self.z0_fbo)
+        self.begin_depth(cull=True)
         draw_hair(r, hair_program(r, PASS_DOM_DEPTH), frame.light_view)
         # 2. opacity layers
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         prog = hair_program(r, PASS_DOM_OPACITY)
-        self.z0.use(3)
-        set_uniform(prog, "u_dom_depth", 3)
+        self.texture.use(TEX_DOM_Z0)
+        set_uniform(prog, "u_dom_depth", TEX_DOM_Z0)
         set_uniform(prog, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
         set_uniform(prog, "u_strand_opacity", float(r.settings.strand_opacity))
         self.opacity_fbo.color_mask = (True, True, True, True)
@@ -74,7 +73,7 @@ class DeepOpacityPass(Pass):
         ctx.disable(ctx.BLEND)
         # 3. z0 into alpha
         pack = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "dom_pack.frag")
-        set_uniform(pack, "u_dom_depth", 3)
+        set_uniform(pack, "u_dom_depth", TEX_DOM_Z0)
         self.opacity_fbo.color_mask = (False, False, False, True)
         self.opacity_fbo.use()   # moderngl applies a framebuffer's colour mask when it is bound
         r.empty_vao(pack).render(ctx.TRIANGLES, vertices=3)
@@ -96,8 +95,8 @@ class DeepOpacityPass(Pass):
             layers.write(bytes(n * n * 12))
             self._counters = (z0, layers)
         z0, layers = self._counters
-        z0.bind_to_storage_buffer(Z0_BINDING)
-        layers.bind_to_storage_buffer(LAYERS_BINDING)
+        z0.bind_to_storage_buffer(B_DOM_Z0)
+        layers.bind_to_storage_buffer(B_DOM_LAYERS)
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         for dom_pass in (0, 1):
@@ -107,7 +106,7 @@ class DeepOpacityPass(Pass):
         pack = compute_shader(ctx, HERE / "dom_pack.comp", include_dirs=[RENDER_DIR])
         set_uniform(pack, "u_size", n)
         set_uniform(pack, "u_far", float(FAR))
-        self.opacity.bind_to_image(DOM_IMAGE_UNIT, read=False, write=True)
+        self.opacity.bind_to_image(IMG_DOM, read=False, write=True)
         pack.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
         frame.targets["dom"] = self.opacity
@@ -116,16 +115,18 @@ class DeepOpacityPass(Pass):
         """(n, n, 4) float32: O1, O2, O3, z0."""
         return read_f32(self.opacity)
 
+    def owned(self) -> tuple:
+        return (self.opacity_fbo, self.opacity, *(self._counters or ()))
+
     def release(self) -> None:
-        for o in (self.z0_fbo, self.z0, self.depth, self.opacity_fbo, self.opacity, *(self._counters or ())):
-            o.release()
+        super().release()
         self._counters = None
 
 
 def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
                       strand_opacity: float = 0.0) -> None:
     """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
-    buffers at Z0_BINDING and, for pass 1, LAYERS_BINDING bound by the caller): pass 0 the
+    buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
     cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])

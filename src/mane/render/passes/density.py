@@ -25,11 +25,10 @@ import numpy as np
 
 from ...errors import UsageError
 from ...gpu.glsl import compute_shader
-from .base import (DENSITY_BOX_BINDING, HERE, PASS_SHADOW_DEPTH, Frame, Pass, draw_hair, hair_program,
-                   set_uniform)
+from ..bindings import B_DENSITY_ACC, B_DENSITY_BOX, B_SIM_GRID, IMG_DENSITY
+from .base import HERE, PASS_SHADOW_DEPTH, Frame, draw_hair, hair_program, set_uniform
+from .light_depth import LightDepthPass
 
-ACCUMULATOR_BINDING = 5
-GRID_BINDING = 4
 FIXED_SCALE = 65536.0
 
 
@@ -41,8 +40,12 @@ def simulator_grid(renderer):
     return grid if grid is not None and hasattr(grid, "grid") and hasattr(grid, "bounds") else None
 
 
-class DensityPass(Pass):
+class DensityPass(LightDepthPass):
+    """No light-depth map: ``texture`` is a 3D texture of the strands' (or the simulator grid's)
+    density, and ``read``, ``release`` are the pass's own."""
+
     name = "density"
+    method = "density"
     reads = ("strands",)
     writes = ("density",)
 
@@ -53,10 +56,6 @@ class DensityPass(Pass):
         self.source = None           # "strands" or "simulator", after a run
         self._sim_texture = None
         self._sim_scale = None
-
-    def enabled(self, frame: Frame) -> bool:
-        r = self.renderer
-        return r.settings.shadows == "density" and frame.light_view is not None and r.strands is not None
 
     def _source(self) -> str:
         want = self.renderer.settings.density_source
@@ -104,12 +103,12 @@ class DensityPass(Pass):
         # geometry shader under GL_RASTERIZER_DISCARD, so a 1x1 target stays bound instead)
         prog = hair_program(r, PASS_SHADOW_DEPTH, geometry_file=HERE / "density_splat.geom",
                             fragment_file=HERE / "density_splat.frag",
-                            extra_defines={"DENSITY_RES": R, "DENSITY_BOX_BINDING": DENSITY_BOX_BINDING,
-                                           "ACCUMULATOR_BINDING": ACCUMULATOR_BINDING,
+                            extra_defines={"DENSITY_RES": R, "B_DENSITY_BOX": B_DENSITY_BOX,
+                                           "B_DENSITY_ACC": B_DENSITY_ACC,
                                            "FIXED_SCALE": f"{FIXED_SCALE:.1f}"})
         set_uniform(prog, "u_strand_opacity", float(s.strand_opacity))
-        self.bounds.buffer.bind_to_storage_buffer(DENSITY_BOX_BINDING)
-        self.accumulator.bind_to_storage_buffer(ACCUMULATOR_BINDING)
+        self.bounds.buffer.bind_to_storage_buffer(B_DENSITY_BOX)
+        self.accumulator.bind_to_storage_buffer(B_DENSITY_ACC)
         self._fbo.use()
         ctx.disable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
@@ -117,10 +116,10 @@ class DensityPass(Pass):
         ctx.memory_barrier()
         # fixed point -> float texture, and clear the accumulator for the next frame
         cs = compute_shader(ctx, HERE / "density_resolve.comp",
-                            {"DENSITY_RES": R, "ACCUMULATOR_BINDING": ACCUMULATOR_BINDING,
+                            {"DENSITY_RES": R, "B_DENSITY_ACC": B_DENSITY_ACC,
                              "FIXED_SCALE": f"{FIXED_SCALE:.1f}", "FROM_GRID": 0})
-        self.accumulator.bind_to_storage_buffer(ACCUMULATOR_BINDING)
-        self.texture.bind_to_image(0, read=False, write=True)
+        self.accumulator.bind_to_storage_buffer(B_DENSITY_ACC)
+        self.texture.bind_to_image(IMG_DENSITY, read=False, write=True)
         cs.run((R ** 3 + 63) // 64)
         ctx.memory_barrier()
         ctx.enable(ctx.DEPTH_TEST)
@@ -141,12 +140,12 @@ class DensityPass(Pass):
         if self._sim_scale is None:
             self._sim_scale = self.area_per_mass(grid)
         cs = compute_shader(ctx, HERE / "density_resolve.comp",
-                            {"DENSITY_RES": R, "GRID_BINDING": GRID_BINDING,
-                             "DENSITY_BOX_BINDING": DENSITY_BOX_BINDING, "FROM_GRID": 1})
+                            {"DENSITY_RES": R, "B_SIM_GRID": B_SIM_GRID,
+                             "B_DENSITY_BOX": B_DENSITY_BOX, "FROM_GRID": 1})
         set_uniform(cs, "u_area_per_mass", float(self._sim_scale))
-        grid.grid.bind_to_storage_buffer(GRID_BINDING)
-        grid.bounds.buffer.bind_to_storage_buffer(DENSITY_BOX_BINDING)
-        self._sim_texture.bind_to_image(0, read=False, write=True)
+        grid.grid.bind_to_storage_buffer(B_SIM_GRID)
+        grid.bounds.buffer.bind_to_storage_buffer(B_DENSITY_BOX)
+        self._sim_texture.bind_to_image(IMG_DENSITY, read=False, write=True)
         cs.run((R ** 3 + 63) // 64)
         ctx.memory_barrier()
         return self._sim_texture, grid.bounds.buffer
@@ -184,7 +183,7 @@ class DensityPass(Pass):
             self.texture = None
             self.bounds = None
 
-    def release(self) -> None:
+    def release(self) -> None:   # no light-depth map: self.texture is the volume
         self._release_own()
         if self._sim_texture is not None:
             self._sim_texture.release()

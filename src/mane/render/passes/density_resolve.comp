@@ -5,17 +5,17 @@
 //                u_area_per_mass (alpha-weighted strand area per unit of mass) / cell volume.
 // Node (x, y, z) is element x + R (y + R z) of the buffers and texel (x, y, z) of the texture.
 layout(local_size_x = 64) in;
-layout(r32f, binding = 0) writeonly uniform image3D u_out;
+layout(r32f, binding = IMG_DENSITY) writeonly uniform image3D u_out;
 #if FROM_GRID
-layout(std430, binding = GRID_BINDING) readonly buffer Grid { vec4 grid[]; };
-layout(std430, binding = DENSITY_BOX_BINDING) readonly buffer DensityBox {
+layout(std430, binding = B_SIM_GRID) readonly buffer Grid { vec4 grid[]; };
+layout(std430, binding = B_DENSITY_BOX) readonly buffer DensityBox {
     int density_keys[8];
     vec4 density_lo;
     vec4 density_hi;
 };
 uniform float u_area_per_mass;
 #else
-layout(std430, binding = ACCUMULATOR_BINDING) buffer DensityAccumulator { uint density_acc[]; };
+layout(std430, binding = B_DENSITY_ACC) buffer DensityAccumulator { uint density_acc[]; };
 #endif
 
 void main() {

@@ -8,8 +8,8 @@ layout(points, max_vertices = 1) out;
 in vec3 e_pos[];
 in float e_width[];
 
-layout(std430, binding = ACCUMULATOR_BINDING) coherent buffer DensityAccumulator { uint density_acc[]; };
-layout(std430, binding = DENSITY_BOX_BINDING) readonly buffer DensityBox {
+layout(std430, binding = B_DENSITY_ACC) coherent buffer DensityAccumulator { uint density_acc[]; };
+layout(std430, binding = B_DENSITY_BOX) readonly buffer DensityBox {
     int density_keys[8];
     vec4 density_lo;
     vec4 density_hi;

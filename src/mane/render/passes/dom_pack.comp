@@ -2,9 +2,9 @@
 // Deep opacity maps by the compute rasteriser, last step: the counters into the RGBA32F map the
 // shading reads (O1, O2, O3, z0; z0 = FAR where no hair), and reset for the next frame.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 11) buffer DomZ0 { uint dom_z0[]; };
-layout(std430, binding = 12) buffer DomLayers { uint dom_layers[]; };
-layout(rgba32f, binding = 1) uniform writeonly image2D u_dom_image;
+layout(std430, binding = B_DOM_Z0) buffer DomZ0 { uint dom_z0[]; };
+layout(std430, binding = B_DOM_LAYERS) buffer DomLayers { uint dom_layers[]; };
+layout(rgba32f, binding = IMG_DOM) uniform writeonly image2D u_dom_image;
 uniform int u_size;
 uniform float u_far;
 #define DOM_SCALE 65536.0

@@ -5,9 +5,9 @@
 // are > 0: the light's eye is outside the scene). DOM_PASS 1: strand_opacity x coverage added
 // (fixed point, 1/DOM_SCALE) to the fragment's layer and every layer behind it.
 layout(local_size_x = 128) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
-layout(std430, binding = 11) buffer DomZ0 { uint dom_z0[]; };
-layout(std430, binding = 12) buffer DomLayers { uint dom_layers[]; };   // 3 per texel
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_DOM_Z0) buffer DomZ0 { uint dom_z0[]; };
+layout(std430, binding = B_DOM_LAYERS) buffer DomLayers { uint dom_layers[]; };   // 3 per texel
 uniform int u_points_per_strand;
 uniform int u_num_segments;
 uniform vec3 u_dom_layers_abs;   // layer ends after z0 (m)
@@ -29,21 +29,9 @@ void visit(ivec2 q, float z, float cov) {
 #endif
 }
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
+#define RASTER_DEPTH depth   // metres along the light: the layers' widths are in metres
 #include "raster_segment.glsl"
 
 void main() {
-    int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
-                + gl_LocalInvocationID.x);
-    if (k >= u_num_segments) return;
-    int per = u_points_per_strand - 1;
-    int strand = k / per;
-    int i = strand * u_points_per_strand + (k - strand * per);
-    vec4 p0 = expanded[2 * i];
-    vec4 p1 = expanded[2 * i + 2];
-    if (!(p0.w > 0.0 || p1.w > 0.0)) return;   // a strand the distance LOD dropped
-    RasterPoint a = raster_point(p0.xyz, p0.w);
-    RasterPoint b = raster_point(p1.xyz, p1.w);
-    if (!a.ok || !b.ok) return;
-    raster_segment(a.s, b.s, a.depth, b.depth, a.half_width, b.half_width, a.coverage, b.coverage,
-                   u_raster_size);
+    raster_expanded_segment();
 }

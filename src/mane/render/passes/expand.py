@@ -17,10 +17,9 @@ import math
 import numpy as np
 
 from ...gpu.glsl import compute_shader
-from .base import (HERE, STRAND_TABLE_BINDING, Frame, Pass, pulls,  # noqa: F401  (pulls: here too)
-                   set_strand_uniforms, subdivisions)
+from ..bindings import B_EXPANDED, B_STRAND_TABLE
+from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, subdivisions  # noqa: F401  (pulls: here too)
 
-EXPANDED_BINDING = 3
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
 
@@ -47,7 +46,7 @@ class ExpandPass(Pass):
     def key(self):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
-        return (id(r.strands), id(r.settings), id(r._strand_table), getattr(r, "_geometry_version", 0), eye)
+        return (id(r.strands), id(r.settings), r.geometry_version, eye)
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
@@ -64,7 +63,7 @@ class ExpandPass(Pass):
         cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
         if multi:
             table = r.strand_table()
-            table.buffer.bind_to_storage_buffer(STRAND_TABLE_BINDING)
+            table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
             strands = int(table.count)
             set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
             _set(cs, "u_num_render", strands)
@@ -85,7 +84,7 @@ class ExpandPass(Pass):
             self.buffer = ctx.buffer(reserve=nbytes)
         _set(cs, "u_num_strands", strands)
         st.bind()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         run_1d(cs, strands * points)
         ctx.memory_barrier()
         self.points, self.strands, self._key = points, strands, key
@@ -97,10 +96,10 @@ class ExpandPass(Pass):
 
     def dispatch_segments(self, cs) -> None:
         """Run compute shader ``cs`` (local_size_x = LOCAL_SIZE) with one invocation per expanded
-        segment: the buffer at EXPANDED_BINDING, u_points_per_strand and u_num_segments set (the
+        segment: the buffer at B_EXPANDED, u_points_per_strand and u_num_segments set (the
         compute rasteriser's scan conversions)."""
         self.ensure()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         _set(cs, "u_points_per_strand", int(self.points))
         _set(cs, "u_num_segments", int(self.segments))
         run_1d(cs, self.segments)
@@ -116,7 +115,7 @@ class ExpandPass(Pass):
         import moderngl
 
         self.ensure()
-        self.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+        self.buffer.bind_to_storage_buffer(B_EXPANDED)
         _set(prog, "u_points_per_strand", self.points)
         vao = self.renderer.empty_vao(prog)
         if lines:

@@ -1,8 +1,8 @@
 #version 430
 // Parallel-transported normals along every guide: the clump's disc turns with the strand.
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) writeonly buffer Frames { vec4 frames[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_FRAMES) writeonly buffer Frames { vec4 frames[]; };
 uniform int u_n;
 uniform int u_num_guides;
 

@@ -37,7 +37,7 @@ invariant gl_Position;        // the depth pre-pass and the shading pass meet at
 
 #if CAPTURE
 // Test hook: every emitted segment appended to a buffer (8 vec4 per segment).
-layout(std430, binding = 7) buffer Capture { uint capture_count; uint capture_pad[3]; vec4 capture[]; };
+layout(std430, binding = B_CAPTURE) buffer Capture { uint capture_count; uint capture_pad[3]; vec4 capture[]; };
 uniform int u_capture_max;
 #endif
 

@@ -30,14 +30,11 @@ import numpy as np
 from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
+from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
-from .expand import EXPANDED_BINDING
 
-VIS_BINDING, VIS_ID_BINDING, COVER_BINDING = 8, 9, 10
-STATS_BINDING, STATS_SLOTS = 11, 64    # hair_raster.comp's RASTER_STATS counters
-HDR_IMAGE_UNIT = 0
+STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
-SCENE_DEPTH_UNIT = 6
 # renderer strings of GPUs with few raster units for their size: "auto" picks compute there
 FEW_RASTER_UNITS = re.compile(r"\b(H100|H200|H800|H20|GH200|A100|A800|A30|B100|B200|GB200)\b", re.I)
 
@@ -96,9 +93,9 @@ class HairComputePass(Pass):
         self._release_buffers()
         n = w * h
         ctx = self.ctx
-        words = [(VIS_BINDING, 8 if self.vis64 else 4, 0xFF), (COVER_BINDING, 4, 0x00)]
+        words = [(B_VIS, 8 if self.vis64 else 4, 0xFF), (B_COVER, 4, 0x00)]
         if not self.vis64:
-            words.append((VIS_ID_BINDING, 4, 0x00))
+            words.append((B_VIS_ID, 4, 0x00))
         bufs = []
         for binding, size, fill in words:
             check_allocation(ctx, n * size, f"the compute rasteriser's per-sample buffer ({w}x{h} samples)")
@@ -130,8 +127,8 @@ class HairComputePass(Pass):
                 cs = compute_shader(ctx, HERE / "hair_raster.comp", {**raster_defines, "RASTER_PASS": raster_pass},
                                     include_dirs=[RENDER_DIR])
                 self._set_common(cs, frame, size, grid, expand.points)
-                depth.use(SCENE_DEPTH_UNIT)
-                set_uniform(cs, "u_scene_depth", SCENE_DEPTH_UNIT)
+                depth.use(TEX_SCENE_DEPTH)
+                set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
                 expand.dispatch_segments(cs)
                 ctx.memory_barrier()
         if stats is not None:
@@ -145,10 +142,10 @@ class HairComputePass(Pass):
                                                                 **shadow_defines(r.settings)},
                                 include_dirs=[RENDER_DIR])
             self._set_common(cs, frame, size, grid, expand.points)
-            expand.buffer.bind_to_storage_buffer(EXPANDED_BINDING)
+            expand.buffer.bind_to_storage_buffer(B_EXPANDED)
             r.shading.bind(cs, ctx, r.settings)
             bind_lighting(r, cs, frame)
-            color.bind_to_image(HDR_IMAGE_UNIT, read=True, write=True)
+            color.bind_to_image(IMG_HDR, read=True, write=True)
             w, h = r.settings.render_size
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()
@@ -170,7 +167,7 @@ class HairComputePass(Pass):
     def _stats_buffer(self):
         buf = self.ctx.buffer(reserve=STATS_SLOTS * 16)
         buf.write(bytes(STATS_SLOTS * 16))
-        buf.bind_to_storage_buffer(STATS_BINDING)
+        buf.bind_to_storage_buffer(B_RASTER_STATS)
         return buf
 
     def _read_stats(self, buf) -> dict:
@@ -186,12 +183,12 @@ class HairComputePass(Pass):
         w, h = self.sample_size()
         bufs = dict(self._buffers)
         if self.vis64:
-            v = np.frombuffer(bufs[VIS_BINDING].read(), np.uint64)
+            v = np.frombuffer(bufs[B_VIS].read(), np.uint64)
             ids = (v & np.uint64(0xFFFFFFFF)).astype(np.int64)
             ids[ids == 0xFFFFFFFF] = -1
         else:
-            ids = np.frombuffer(bufs[VIS_ID_BINDING].read(), np.uint32).astype(np.int64) - 1
-        cover = np.frombuffer(bufs[COVER_BINDING].read(), np.uint32) / COVER_SCALE
+            ids = np.frombuffer(bufs[B_VIS_ID].read(), np.uint32).astype(np.int64) - 1
+        cover = np.frombuffer(bufs[B_COVER].read(), np.uint32) / COVER_SCALE
         g = self.renderer.raster_grid
 
         def grid(a):   # pixel-major (hair_vis.glsl's sample_index) -> rows of samples

@@ -4,7 +4,7 @@
 // Ribbons: a triangle strip of 2 vertices per point, either side of the curve along
 // cross(T, V), exactly hair.geom's corners (widened to u_min_pixel_width pixels, the
 // coverage in g_alpha); GEOMETRY_LINES: a line strip through the points.
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform int u_points_per_strand;
 
 uniform mat4 u_view_proj;

@@ -5,7 +5,7 @@
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform sampler2D u_scene_depth;   // the head's window depth per pixel
 uniform int u_points_per_strand;
 uniform int u_num_segments;         // rendered strands x (points - 1)
@@ -18,7 +18,7 @@ uint g_id;
 #if RASTER_STATS
 // statistics, off by default (HairComputePass.count_samples): per slot (work group mod 64),
 // samples scanned, samples in front of the scene (RASTER_PASS 0 / VIS64) and the pass-1 id atomics
-layout(std430, binding = 11) buffer RasterStats { uint raster_stats[]; };
+layout(std430, binding = B_RASTER_STATS) buffer RasterStats { uint raster_stats[]; };
 uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u;
 #endif
 
@@ -49,24 +49,11 @@ void visit(ivec2 q, float z, float cov) {
 #endif
 }
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
+#define RASTER_SEGMENT(I) g_id = uint(I)
 #include "raster_segment.glsl"
 
 void main() {
-    int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
-                + gl_LocalInvocationID.x);
-    if (k >= u_num_segments) return;
-    int per = u_points_per_strand - 1;
-    int strand = k / per;
-    int i = strand * u_points_per_strand + (k - strand * per);   // the segment's first point
-    vec4 p0 = expanded[2 * i];
-    vec4 p1 = expanded[2 * i + 2];
-    if (!(p0.w > 0.0 || p1.w > 0.0)) return;   // a strand the distance LOD dropped
-    RasterPoint a = raster_point(p0.xyz, p0.w);
-    RasterPoint b = raster_point(p1.xyz, p1.w);
-    if (!a.ok || !b.ok) return;   // behind the eye
-    g_id = uint(i);
-    raster_segment(a.s, b.s, a.window_z, b.window_z, a.half_width, b.half_width, a.coverage, b.coverage,
-                   u_raster_size);
+    if (!raster_expanded_segment()) return;
 #if RASTER_STATS
     uint slot = (gl_WorkGroupID.x & 63u) * 4u;
 #if VIS64 || RASTER_PASS == 0

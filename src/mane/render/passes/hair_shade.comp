@@ -7,8 +7,8 @@
 #include "hair_radiance.glsl"
 #include "hair_vis.glsl"
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 3) readonly buffer Expanded { vec4 expanded[]; };
-layout(rgba16f, binding = 0) uniform image2D u_hdr;
+layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
+layout(rgba16f, binding = IMG_HDR) uniform image2D u_hdr;
 uniform int u_points_per_strand;
 #include "raster_view.glsl"
 

@@ -7,12 +7,12 @@
 #if VIS64
 #extension GL_ARB_gpu_shader_int64 : require
 #extension GL_NV_shader_atomic_int64 : require
-layout(std430, binding = 8) buffer Vis { uint64_t vis[]; };
+layout(std430, binding = B_VIS) buffer Vis { uint64_t vis[]; };
 #else
-layout(std430, binding = 8) buffer VisDepth { uint vis_depth[]; };
-layout(std430, binding = 9) buffer VisId { uint vis_id[]; };
+layout(std430, binding = B_VIS) buffer VisDepth { uint vis_depth[]; };
+layout(std430, binding = B_VIS_ID) buffer VisId { uint vis_id[]; };
 #endif
-layout(std430, binding = 10) buffer Cover { uint cover[]; };
+layout(std430, binding = B_COVER) buffer Cover { uint cover[]; };
 
 #define VIS_EMPTY 0xFFFFFFFFu
 

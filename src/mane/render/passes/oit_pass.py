@@ -44,7 +44,7 @@ class OitPass(Pass):
         m = self.current()
         if self.capture_under:
             w, h = r.settings.render_size
-            tex = r._targets["hdr"][1]
+            tex = r.hdr_target().color
             frame.targets["oit_under"] = np.frombuffer(tex.read(), np.float16).reshape(h, w, 4).astype(np.float32)
         m.run(frame)
         frame.targets["oit"] = m

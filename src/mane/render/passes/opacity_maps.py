@@ -11,13 +11,17 @@ from __future__ import annotations
 
 import numpy as np
 
-from .base import HERE, PASS_SHADOW_DEPTH, Frame, Pass, draw_hair, hair_program, set_uniform
+from .base import HERE, PASS_SHADOW_DEPTH, Frame, draw_hair, hair_program, set_uniform
+from .light_depth import LightDepthPass
 
 MAX_TARGETS = 8
 
 
-class OpacityMapsPass(Pass):
+class OpacityMapsPass(LightDepthPass):
+    """No light-depth map of its own: the slices' render targets (``maps``)."""
+
     name = "opacity_maps"
+    method = "opacity_maps"
     reads = ("strands",)
     writes = ("osm",)
 
@@ -51,10 +55,6 @@ class OpacityMapsPass(Pass):
             self.maps.append(t)
         self.fbo = ctx.framebuffer(self.maps)
 
-    def enabled(self, frame: Frame) -> bool:
-        r = self.renderer
-        return r.settings.shadows == "opacity_maps" and frame.light_view is not None and r.strands is not None
-
     def run(self, frame: Frame) -> None:
         if not self.maps:
             self._allocate()
@@ -87,10 +87,9 @@ class OpacityMapsPass(Pass):
             out.append(np.frombuffer(t.read(), np.float32).reshape(h, w, 4))
         return np.concatenate(out, axis=2).copy()
 
+    def owned(self) -> tuple:
+        return tuple(self.maps)
+
     def release(self) -> None:
-        if self.fbo is not None:   # absent when an allocation failed half-way
-            self.fbo.release()
-            self.fbo = None
-        for t in self.maps:
-            t.release()
+        super().release()   # the slices' framebuffer is self.fbo (absent when an allocation failed half-way)
         self.maps = []

@@ -3,7 +3,7 @@
 //
 //     #define RASTER_VISIT(Q, Z, COV) ...   // before the include: what to do at sample Q
 //     #include "raster_segment.glsl"
-//     raster_segment(a, b, za, zb, ha, hb, ca, cb, size);
+//     void main() { raster_expanded_segment(); }   // or raster_segment(a, b, ...) directly
 //
 // a, b: the end points in sample units (sample (i, j) has its centre at (i + 0.5, j + 0.5));
 // za, zb: depths, interpolated linearly along the segment on screen (window depth or an
@@ -48,4 +48,38 @@ void raster_segment(vec2 a, vec2 b, float za, float zb, float ha, float hb, floa
             RASTER_VISIT(q, z, cov);
         }
     }
+}
+
+// One thread per segment of the expanded strands (strand_expand.comp: strands of
+// u_points_per_strand points, 2 vec4 a point), the loop of every compute-raster kernel
+// (hair_raster.comp, dom_raster.comp, oit/oit_raster.comp). Before the include: the
+// `expanded` buffer, u_points_per_strand, u_num_segments and raster_view.glsl;
+// RASTER_DEPTH, the RasterPoint field handed to RASTER_VISIT as Z (window_z, the default, or
+// depth in metres); RASTER_SEGMENT(I), run with the segment's first point once both ends are in
+// front of the eye. False: no segment for this thread (past the end, a strand the distance LOD
+// dropped, behind the eye).
+#ifndef RASTER_DEPTH
+#define RASTER_DEPTH window_z
+#endif
+#ifndef RASTER_SEGMENT
+#define RASTER_SEGMENT(I)
+#endif
+
+bool raster_expanded_segment() {
+    int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
+                + gl_LocalInvocationID.x);
+    if (k >= u_num_segments) return false;
+    int per = u_points_per_strand - 1;
+    int strand = k / per;
+    int i = strand * u_points_per_strand + (k - strand * per);   // the segment's first point
+    vec4 p0 = expanded[2 * i];
+    vec4 p1 = expanded[2 * i + 2];
+    if (!(p0.w > 0.0 || p1.w > 0.0)) return false;   // a strand the distance LOD dropped
+    RasterPoint a = raster_point(p0.xyz, p0.w);
+    RasterPoint b = raster_point(p1.xyz, p1.w);
+    if (!a.ok || !b.ok) return false;   // behind the eye
+    RASTER_SEGMENT(i);
+    raster_segment(a.s, b.s, a.RASTER_DEPTH, b.RASTER_DEPTH, a.half_width, b.half_width, a.coverage, b.coverage,
+                   u_raster_size);
+    return true;
 }

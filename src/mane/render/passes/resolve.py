@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ...gpu.glsl import program
+from ..bindings import TEX_HDR
 from .base import HERE, TONE_IDS, Frame, Pass, set_uniform
 
 
@@ -25,8 +26,8 @@ class ResolvePass(Pass):
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
         prog = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "resolve.frag",
                        defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]})
-        hdr.use(0)
-        set_uniform(prog, "u_hdr", 0)
+        hdr.use(TEX_HDR)
+        set_uniform(prog, "u_hdr", TEX_HDR)
         set_uniform(prog, "u_background", tuple(float(x) for x in srgb_to_linear(s.background)))
         set_uniform(prog, "u_exposure", float(s.exposure))
         out = r.output_fbo()

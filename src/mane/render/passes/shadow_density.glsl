@@ -5,10 +5,7 @@
 // cross-section per volume times their opacity: sum(width * length * strand_opacity) / cell volume.
 // The box is a GridBounds buffer (the simulator's layout): lo at byte 32, hi at byte 48.
 #if SHADOWS == 5
-#ifndef DENSITY_BOX_BINDING
-#define DENSITY_BOX_BINDING 6
-#endif
-layout(std430, binding = DENSITY_BOX_BINDING) readonly buffer DensityBox {
+layout(std430, binding = B_DENSITY_BOX) readonly buffer DensityBox {
     int density_keys[8];
     vec4 density_lo;
     vec4 density_hi;

@@ -12,21 +12,20 @@ import math
 import numpy as np
 
 from ...gpu.glsl import compute_shader, program
-from .base import (HERE, PASS_SHADOW_DEPTH, RENDER_DIR, Frame, Pass, begin_light_depth, draw_hair, hair_program,
-                   light_depth_target, read_f32, set_uniform, set_view)
-from .deep_opacity import Z0_BINDING, scan_light_depths
+from ..bindings import B_DOM_Z0, IMG_SHADOW
+from .base import HERE, RENDER_DIR, Frame, set_uniform, set_view
+from .deep_opacity import scan_light_depths
+from .light_depth import LightDepthPass
 
-SHADOW_IMAGE_UNIT = 1
 
-
-class ShadowMapPass(Pass):
+class ShadowMapPass(LightDepthPass):
     name = "shadow_map"
     reads = ("strands", "head")
     writes = ("shadow_map",)
 
     def __init__(self, renderer):
         super().__init__(renderer)
-        self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(renderer.settings.shadow_map_size))
+        self.depth_target()   # made with the renderer: every method but "none" reads it
         self._z0 = None   # compute path: the hair's depth bits per texel
 
     def enabled(self, frame: Frame) -> bool:
@@ -34,8 +33,7 @@ class ShadowMapPass(Pass):
 
     def run(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
-        begin_light_depth(ctx, self.fbo)
-        ctx.disable(ctx.CULL_FACE)
+        self.begin_depth()
         if r.head is not None and r.settings.draw_head:
             prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
                            defines={"PASS": 1, "SHADOWS": 0})
@@ -45,7 +43,7 @@ class ShadowMapPass(Pass):
             if r.compute_raster:
                 self._hair_by_compute(frame)
             else:
-                draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
+                self.draw_hair_depth(frame)
         frame.targets["shadow_map"] = self.texture
 
     def _hair_by_compute(self, frame: Frame) -> None:
@@ -53,11 +51,11 @@ class ShadowMapPass(Pass):
         n = int(r.settings.shadow_map_size)
         if self._z0 is None:
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
-        self._z0.bind_to_storage_buffer(Z0_BINDING)
+        self._z0.bind_to_storage_buffer(B_DOM_Z0)
         scan_light_depths(r, frame.light_view, n, 0)
         merge = compute_shader(ctx, HERE / "shadow_merge.comp", include_dirs=[RENDER_DIR])
         set_uniform(merge, "u_size", n)
-        self.texture.bind_to_image(SHADOW_IMAGE_UNIT, read=True, write=True)
+        self.texture.bind_to_image(IMG_SHADOW, read=True, write=True)
         merge.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
 
@@ -65,10 +63,9 @@ class ShadowMapPass(Pass):
         """Whether the hair is drawn into this map (else another map carries its shadow)."""
         return self.renderer.settings.shadows == "shadow_map"
 
-    def read(self):
-        return read_f32(self.texture)
+    def owned(self) -> tuple:
+        return (self._z0,)
 
     def release(self) -> None:
-        for o in (self.fbo, self.texture, self.depth, *((self._z0,) if self._z0 is not None else ())):
-            o.release()
+        super().release()
         self._z0 = None

@@ -3,8 +3,8 @@
 // (dom_raster.comp, pass 0: atomic min of the depth bits) merged into the map the head was
 // drawn into (R32F, linear light depth in m), and the counters reset for the next frame.
 layout(local_size_x = 8, local_size_y = 8) in;
-layout(std430, binding = 11) buffer DomZ0 { uint dom_z0[]; };
-layout(r32f, binding = 1) uniform image2D u_shadow_image;
+layout(std430, binding = B_DOM_Z0) buffer DomZ0 { uint dom_z0[]; };
+layout(r32f, binding = IMG_SHADOW) uniform image2D u_shadow_image;
 uniform int u_size;
 
 void main() {

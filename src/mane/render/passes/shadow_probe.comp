@@ -3,8 +3,8 @@
 // lighting.glsl, the head's shadow map included) at given world points, into a buffer.
 layout(local_size_x = 64) in;
 #include "lighting.glsl"
-layout(std430, binding = 2) readonly buffer ProbePoints { vec4 probe_points[]; };
-layout(std430, binding = 3) writeonly buffer ProbeOut { float probe_out[]; };
+layout(std430, binding = B_PROBE_POINTS) readonly buffer ProbePoints { vec4 probe_points[]; };
+layout(std430, binding = B_PROBE_OUT) writeonly buffer ProbeOut { float probe_out[]; };
 uniform int u_probe_count;
 
 void main() {

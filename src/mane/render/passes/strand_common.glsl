@@ -1,8 +1,8 @@
 // Guide strands on the GPU: every guide has u_n points; point k of guide g is positions[g*u_n + k]
 // (the simulator's layout: xyz metres, w inverse mass). frames[] holds, per point, a unit normal
 // of the guide's parallel-transported frame (xyz).
-layout(std430, binding = 0) readonly buffer Positions { vec4 positions[]; };
-layout(std430, binding = 1) readonly buffer Frames { vec4 frames[]; };
+layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
+layout(std430, binding = B_FRAMES) readonly buffer Frames { vec4 frames[]; };
 
 uniform int u_n;                  // points per guide
 uniform int u_num_guides;
@@ -77,7 +77,7 @@ void eval_curve(vec3 P0, vec3 P1, vec3 P2, vec3 P3, float u, out vec3 pos, out v
 #endif
 struct StrandRecord { ivec4 guides; vec4 weights; vec4 offset; };
 #if MULTI
-layout(std430, binding = 2) readonly buffer StrandTable { StrandRecord strand_table[]; };
+layout(std430, binding = B_STRAND_TABLE) readonly buffer StrandTable { StrandRecord strand_table[]; };
 #endif
 uniform int u_num_render;         // MULTI: rendered strands (records)
 

@@ -14,7 +14,7 @@ layout(local_size_x = 128) in;
 #include "strand_eval.glsl"
 
 // 2 vec4 per point: (position, width), (unit tangent, strand random)
-layout(std430, binding = 3) writeonly buffer Expanded { vec4 expanded[]; };
+layout(std430, binding = B_EXPANDED) writeonly buffer Expanded { vec4 expanded[]; };
 uniform int u_num_strands;     // rendered strands
 
 void main() {

@@ -48,6 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from .melanin import (  # noqa: F401
     PRESETS,
     color_to_sigma_a,
@@ -76,13 +77,11 @@ COLOUR_MODELS = ("kajiya_kay", "sadeghi", "scheuermann", "karis")
 MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
 TABLES = ("exact", "interpolated")
 
-# Texture units bind() uses. The renderer's: 0-2 shadow map and head, 3 deep opacity, 4 ADSM,
-# 5 density, 8-15 opacity shadow maps (32 slices), 16-23 extra shadow-casting lights.
-# Every stage has at least 32 units (OpenGL 4.3 asks for 16; llvmpipe and NVIDIA give 32).
-LUT_UNIT_M = 24
-LUT_UNIT_N = 25
-LUT_UNIT_DUAL = 7
-LUT_UNIT_CHIANG = 26
+# Texture units bind() uses: the renderer's table (render/bindings.py).
+LUT_UNIT_M = TEX_LUT_M
+LUT_UNIT_N = TEX_LUT_N
+LUT_UNIT_DUAL = TEX_LUT_DUAL
+LUT_UNIT_CHIANG = TEX_LUT_CHIANG
 TEXTURES_PER_CONTEXT = 16   # of each kind of table
 
 
@@ -476,8 +475,8 @@ def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingS
     src = ctx.buffer(data.tobytes())
     dst = ctx.buffer(reserve=max(n, 1) * 32)
     try:
-        src.bind_to_storage_buffer(0)
-        dst.bind_to_storage_buffer(1)
+        src.bind_to_storage_buffer(B_HARNESS_SAMPLES)
+        dst.bind_to_storage_buffer(B_HARNESS_RESULTS)
         settings.bind(shader, ctx)
         shader["u_count"].value = n
         shader.run((n + 63) // 64)

@@ -4,8 +4,8 @@
 // results[2i] = (hair_bsdf, 0), results[2i+1] = (hair_multiple_scattering, 0)
 #include "hair_shading.glsl"
 layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Samples { vec4 samples[]; };
-layout(std430, binding = 1) writeonly buffer Results { vec4 results[]; };
+layout(std430, binding = B_HARNESS_SAMPLES) readonly buffer Samples { vec4 samples[]; };
+layout(std430, binding = B_HARNESS_RESULTS) writeonly buffer Results { vec4 results[]; };
 uniform HairMaterial u_material;
 uniform uint u_count;
 void main() {
