@@ -367,7 +367,8 @@ def _set(obj, parts, value, path, root):
             return replace(obj, **{f.name: _set(getattr(obj, f.name), parts[1:], value, path, root)})
         if meta["kind"] == "dict" and len(parts) == 2:
             table = dict(getattr(obj, f.name))
-            table[parts[1]] = literal(value) if isinstance(value, str) else value
+            table[parts[1]] = (literal(value) if isinstance(value, str)
+                               else tuple(value) if isinstance(value, list) else value)
             return replace(obj, **{f.name: table})
         raise unknown(path, names(root))
     if isinstance(value, str) and meta["kind"] != "str":
