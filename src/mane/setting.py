@@ -84,7 +84,8 @@ def declared(cls) -> list[dataclasses.Field]:
 
 
 def describe(meta: dict) -> str:
-    """What a setting accepts, in words: "a whole number in [1, 4096]", "one of a, b"."""
+    """What a setting accepts, in words: "a whole number in [1, 4096]", "a finite number in [0, 1]",
+    "one of a, b"."""
     kind = meta["kind"]
     if meta.get("choices") is not None:
         return "one of " + ", ".join(str(c) for c in meta["choices"])
@@ -99,11 +100,11 @@ def describe(meta: dict) -> str:
         return f"a {meta['group'].__name__}"
     rng = _range_text(meta)
     if kind in ("int", "float"):
-        what = "a whole number" if kind == "int" else "a number"
+        what = "a whole number" if kind == "int" else "a finite number"
         extra = f", a multiple of {meta['multiple_of']}" if meta.get("multiple_of") else ""
         return f"{what} in {rng}{extra}" if rng else what + extra
     # tuple
-    item = "whole numbers" if meta["item"] == "int" else "numbers"
+    item = "whole numbers" if meta["item"] == "int" else "finite numbers"
     inside = f" in {rng}" if rng else ""
     if meta.get("each"):
         text = f"a list of ({meta['each']} {item}){inside}"

@@ -1,4 +1,5 @@
-"""Render settings: one frozen dataclass, units in the field docs.
+"""Render settings: one frozen dataclass, each field declared once (``mane.setting``: its range,
+choices, unit and help), validated from those declarations.
 
     s = RenderSettings(size=(320, 240), strands_per_guide=8, shadows="deep_opacity", msaa=4)
     s2 = s.replace(interpolation="bspline")
