@@ -348,37 +348,47 @@ def lookup(cls, path: str) -> tuple[dataclasses.Field, str]:
     raise unknown(path, names(cls))
 
 
-def apply(obj, items):
-    """``obj`` with ``items`` ((dotted path, value) pairs) set; a value that is a ``str`` for a
+def apply(obj, items, root=None):
+    """``obj`` with ``items`` ((dotted path, value) pairs) set, all in one ``replace`` per level (so
+    that fields checked together, lod_start and lod_end, are set together); a ``str`` value for a
     setting of another kind is parsed from text (``parse_text``). Nested groups are replaced
     through, tables (dict settings) take ``table.KEY`` entries; the class validates the result."""
-    for path, value in items:
-        obj = _set(obj, path.split("."), value, path, type(obj))
-    return obj
-
-
-def _set(obj, parts, value, path, root):
+    if root is None:          # every name checked first, so that an error names the whole path
+        root = type(obj)
+        for path, value in items:
+            if not (isinstance(value, dict) and lookup(root, path)[0].metadata["kind"] == "group"):
+                lookup(root, path)
     fmap = {f.name: f for f in declared(type(obj))}
-    f = fmap.get(parts[0])
-    if f is None:
-        raise unknown(path, names(root))
-    meta = f.metadata
-    if len(parts) > 1:
-        if meta["kind"] == "group":
-            return replace(obj, **{f.name: _set(getattr(obj, f.name), parts[1:], value, path, root)})
-        if meta["kind"] == "dict" and len(parts) == 2:
-            table = dict(getattr(obj, f.name))
-            table[parts[1]] = (literal(value) if isinstance(value, str)
-                               else tuple(value) if isinstance(value, list) else value)
-            return replace(obj, **{f.name: table})
-        raise unknown(path, names(root))
-    if isinstance(value, str) and meta["kind"] != "str":
-        value = parse_text(path, meta, value)
-    elif isinstance(value, list):
-        value = tuple(tuple(v) if isinstance(v, list) else v for v in value)
-    if meta["kind"] == "group" and isinstance(value, dict):
-        return replace(obj, **{f.name: apply(getattr(obj, f.name), _flatten(value))})
-    return replace(obj, **{f.name: value})
+    changes: dict = {}
+    subs: dict = {}
+    for path, value in items:
+        parts = path.split(".")
+        f = fmap.get(parts[0])
+        if f is None:
+            raise unknown(path, names(root))
+        meta = f.metadata
+        if len(parts) > 1:
+            if meta["kind"] == "group":
+                subs.setdefault(f.name, []).append((".".join(parts[1:]), value))
+            elif meta["kind"] == "dict" and len(parts) == 2:
+                table = dict(changes.get(f.name, getattr(obj, f.name)))
+                table[parts[1]] = (literal(value) if isinstance(value, str)
+                                   else tuple(value) if isinstance(value, list) else value)
+                changes[f.name] = table
+            else:
+                raise unknown(path, names(root))
+            continue
+        if meta["kind"] == "group" and isinstance(value, dict):
+            subs.setdefault(f.name, []).extend(_flatten(value))
+            continue
+        if isinstance(value, str) and meta["kind"] != "str":
+            value = parse_text(path, meta, value)
+        elif isinstance(value, list):
+            value = tuple(tuple(v) if isinstance(v, list) else v for v in value)
+        changes[f.name] = value
+    for name, sub in subs.items():
+        changes[name] = apply(changes.get(name, getattr(obj, name)), sub, root)
+    return replace(obj, **changes) if changes else obj
 
 
 def _flatten(table: dict, prefix: str = "") -> list:
