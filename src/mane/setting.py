@@ -78,9 +78,15 @@ def setting(default=MISSING, *, factory=MISSING, lo=None, hi=None, lo_open: bool
     return field(default=default, metadata=meta)
 
 
+_DECLARED: dict = {}
+
+
 def declared(cls) -> list[dataclasses.Field]:
-    """The fields of a settings dataclass that carry a declaration."""
-    return [f for f in fields(cls) if "kind" in f.metadata]
+    """The fields of a settings dataclass that carry a declaration (cached per class)."""
+    found = _DECLARED.get(cls)
+    if found is None:
+        found = _DECLARED[cls] = [f for f in fields(cls) if "kind" in f.metadata]
+    return found
 
 
 def describe(meta: dict) -> str:
@@ -140,6 +146,8 @@ def _in_range(v: float, meta: dict) -> bool:
 
 def _number(v, integer: bool):
     """``v`` as a finite int/float, or None when it is not one."""
+    if type(v) is float and not integer:       # the common case, fast
+        return v if math.isfinite(v) else None
     if isinstance(v, bool) or isinstance(v, (str, bytes)) or v is None:
         return None
     if integer and hasattr(v, "__index__"):     # int, numpy integers: exact, however large
@@ -233,13 +241,31 @@ def check(name: str, meta: dict, value):
     return tuple(xs)
 
 
+_PASSED: set = set()
+"""(field, type, value, item types) that passed unchanged: a settings object is rebuilt by every
+``replace`` (the viewer: once a frame), and most of its values were checked before."""
+
+
 def validate(obj, prefix: str = "") -> None:
     """Check and coerce every declared field of the frozen dataclass ``obj`` (from ``__post_init__``)."""
     for f in declared(type(obj)):
         value = getattr(obj, f.name)
+        kind = f.metadata["kind"]
+        key = None
+        if kind in ("bool", "int", "float", "str") or (kind == "tuple" and not f.metadata["each"]):
+            key = (id(f), type(value), value, tuple(map(type, value)) if type(value) is tuple else None)
+            try:
+                if key in _PASSED:
+                    continue
+            except TypeError:       # an unhashable value: checked (and refused) below
+                key = None
         new = check(prefix + f.name, f.metadata, value)
         if new is not value:
             object.__setattr__(obj, f.name, new)
+        elif key is not None:
+            if len(_PASSED) > 50_000:
+                _PASSED.clear()
+            _PASSED.add(key)
 
 
 # ---------------------------------------------------------------------------- text and paths
