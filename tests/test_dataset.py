@@ -77,8 +77,8 @@ def _shards(d):
     ({"render": {"rasterizer": "hardware"}}, "cannot be set"),
     ({"render": {"shadow": "none"}}, "unknown RenderSettings field 'shadow'"),
     ({"render": {"shadows": "soft"}}, "shadows must be one of"),
-    ({"render": {"shading": "phong"}}, "bad shading settings"),
-    ({"render": {"shading_options": {"shine": 2}}}, "bad shading settings"),
+    ({"render": {"shading": "phong"}}, "shading must be one of"),       # RenderSettings' declared choices
+    ({"render": {"shading_options": {"shine": 2}}}, "shading_options has no key 'shine'"),
     ({"simulation": {"motions": ["dance"]}}, "[simulation] motions"),
     ({"heads": ["nohead.obj"]}, "no mesh file"),
 ])

@@ -11,7 +11,7 @@ import pytest
 
 import mane
 from mane import Groom, GPUMemoryError, UsageError
-from mane.sim import (Capsule, MeshCollider, SimSettings, Simulator, Sphere, WindSettings,
+from mane.sim import (Capsule, MeshCollider, SimSettings, Simulator, SolverTuning, Sphere, WindSettings,
                       estimate_bytes, head_motion, iteration_stiffness)
 from mane.sim.settings import MAX_DT
 from mane.twins import sim as ref
@@ -389,15 +389,15 @@ def _shaken(sims, steps, start=0):
 
 @pytest.mark.parametrize("method", ["atomic", "raster"])
 def test_folds_match_the_separate_passes(gl, rest, method):
-    """substep's folds (Simulator.fold_gather: friction's gather deferred to the next step's
+    """substep's folds (SolverTuning.fold_gather: friction's gather deferred to the next step's
     integrate; fold_bounds: the grid box's reduction in the length pass; fold_guard: the NaN
     guard in the length pass) give the steps of the passes run one after the other, whether the
     deferred gather is applied by the next integrate or settled by reading the velocities."""
     settings = SimSettings(friction=0.3, grid_resolution=16, grid_method=method, local_shape_stiffness=0.1)
-    sims = [Simulator(groom_of(rest), [Sphere(center=(0, 0.9, 0.1), radius=0.03)], settings=settings, ctx=gl)
-            for _ in range(2)]
+    separate = replace(settings, solver=SolverTuning(fold_gather=False, fold_bounds=False, fold_guard=False))
+    sims = [Simulator(groom_of(rest), [Sphere(center=(0, 0.9, 0.1), radius=0.03)], settings=s, ctx=gl)
+            for s in (settings, separate)]
     a, b = sims
-    b.fold_gather = b.fold_bounds = b.fold_guard = False
     assert a._defer_gather() and a._bounds_in_length() and a._guard_in_length()
     assert not (b._defer_gather() or b._bounds_in_length() or b._guard_in_length())
     assert a.folded_passes()["guard"] == "length" and "guard" not in b.folded_passes()

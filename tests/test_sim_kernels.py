@@ -8,9 +8,20 @@ import numpy as np
 import pytest
 
 from mane import Groom
-from mane.sim import Capsule, Ellipsoid, SimSettings, Simulator, Sphere, WindSettings, head_motion
+from mane.sim import Capsule, Ellipsoid, SimSettings, Simulator, SolverTuning, Sphere, WindSettings, head_motion
 from mane.sim.wind import gust_field
 from mane.twins import sim as ref
+
+
+def tune(sim, **changes) -> None:
+    """Set the simulator's kernel choices (SimSettings.solver, a SolverTuning)."""
+    sim.settings = replace(sim.settings, solver=replace(sim.settings.solver, **changes))
+
+
+def switches(defines: dict) -> dict:
+    """strand_solve.comp's defines as SolverTuning's switches (unnamed ones keep their defaults)."""
+    names = {"CULL_PRIMS": "cull_prims"}
+    return {names[k]: bool(v) for k, v in defines.items()}
 
 pytestmark = pytest.mark.gpu
 
@@ -174,7 +185,7 @@ def test_local_shape_keeps_and_restores_bind_pose(gl):
 
 def test_dftl_matches_twin(gl, rest):
     sim = make_sim(gl, rest)
-    sim.keep_corrections = True  # ... writing d_k for the check
+    tune(sim, keep_corrections=True)  # ... writing d_k for the check
     x = perturbed(rest, 0.02, 5)
     x[1, 4] = x[1, 3]  # a zero-length segment takes its rest direction
     put(sim, "positions", x)
@@ -255,7 +266,7 @@ def test_steps_match_twin(gl, method, defines):
     cols = [Sphere(center=(0.03, 0.895, -0.015), radius=0.025, friction=0.2),
             Capsule(a=(0.0, 0.95, -0.05), b=(0.1, 0.95, -0.05), radius=0.03, mode="penalty", stiffness=500.0)]
     sim = make_sim(gl, rest, settings, cols)
-    sim.strand_defines = defines
+    tune(sim, **switches(defines))
     w = inv_mass(sim)
     assert max(c.depth(rest.reshape(-1, 3)).max() for c in cols) > -0.01  # close to the hair
     x, prev, v = rest.copy(), rest.copy(), np.zeros_like(rest)
@@ -376,9 +387,9 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
     settings = SimSettings(local_shape_stiffness=0.3, bending_stiffness=0.4, shape_iterations=iterations,
                            dftl_damping=0.8, max_speed=10.0, damping=1.5, drag=1.2, global_shape_stiffness=0.01,
                            global_shape_range=0.4, wind=WindSettings(velocity=(1.5, 0.0, -0.5), gust=0.5, seed=3))
+    settings = replace(settings, solver=SolverTuning(shape_pipeline=pipeline, strand_group_size=group,
+                                                     fold_integrate=True))
     sim, rest, cols, x, prev = collision_setup(gl, settings)
-    sim.shape_pipeline, sim.strand_group_size = pipeline, group
-    sim.fold_integrate = True
     st = sim.state
     st.write("rest_positions", _pin_middle(st.read("rest_positions"), st.points_per_strand, strand=3))
     w = inv_mass(sim)
@@ -414,9 +425,9 @@ def test_fused_strand_solve_matches_twin(gl, iterations, pipeline, group):
         sim.run_pass(name, st, h)
     assert_close(padded(sim, "positions"), got)
     assert_close(padded(sim, "velocities"), got_v, scale=float(np.abs(want).max()) / h)
-    # and fused without integrate (Simulator.fold_integrate = False): integrate, then length
+    # and fused without integrate (SolverTuning.fold_integrate False): integrate, then length
     sim.settings = settings
-    sim.fold_integrate = False
+    tune(sim, fold_integrate=False)
     assert "integrate" not in sim.folded_passes()
     for name, arr in (("positions", x), ("prev_positions", prev), ("velocities", v)):
         put(sim, name, arr)
@@ -442,7 +453,7 @@ def test_strand_kernel_switches_match_twin(gl, defines):
     sim.colliders = sim.colliders + far
     sim.upload_colliders(sim.state)
     sim.upload_colliders(sim.state)
-    sim.strand_defines = defines
+    tune(sim, **switches(defines))
     w = inv_mass(sim)
     h = 1 / 240
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
@@ -474,7 +485,7 @@ def test_fused_integrate_penalty_and_nan(gl, rest):
                            max_speed=5.0, local_shape_stiffness=0.0, bending_stiffness=0.0)
     cols = [Sphere(center=(0.02, 0.95, 0.15), radius=0.05, mode="penalty", stiffness=3000.0)]
     sim = make_sim(gl, rest, settings, cols)
-    sim.fold_integrate = True
+    tune(sim, fold_integrate=True)
     assert sim.folded_passes()["integrate"] == "length"
     x = perturbed(rest, 0.01, 2)
     v = np.random.default_rng(1).normal(scale=1.0, size=rest.shape)

@@ -14,9 +14,12 @@ def test_every_setting_gets_a_widget_from_its_dataclass():
     from mane.sim import SimSettings, WindSettings
     from mane.viewer.panel import widget_plan
 
+    from mane.viewer.panel import hidden
+
     for obj in (SimSettings(), WindSettings(), RenderSettings(), Light(), ShadingSettings()):
         plan = widget_plan(obj)
-        assert set(plan) == {f.name for f in dataclasses.fields(obj)}
+        # every field but those declared panel=False (the window sets the size, the lights shadow_lights)
+        assert set(plan) == {f.name for f in dataclasses.fields(obj)} - set(hidden(type(obj)))
         shown_only = {k for k, w in plan.items() if w.kind == "text"}
         # only structured values without an obvious widget are shown read-only
         assert shown_only <= {"colliders", "melanin", "sigma_a"}, (type(obj).__name__, shown_only)
@@ -24,7 +27,8 @@ def test_every_setting_gets_a_widget_from_its_dataclass():
     assert r["shadows"].kind == "combo" and "deep_opacity" in r["shadows"].choices
     assert r["shading"].kind == "combo" and "marschner" in r["shading"].choices
     assert r["tone_mapping"].choices == ("aces", "reinhard", "none")
-    assert r["msaa"].kind == "combo" and r["msaa"].choices == (1, 2, 4, 8)
+    assert r["msaa"].kind == "combo" and r["msaa"].choices == (1, 2, 4, 8, 16)   # what RenderSettings accepts
+    assert set(hidden(RenderSettings)) == {"size", "shadow_lights"}
     assert r["hair_color"].kind == "optional_color" and r["background"].kind == "color"   # None: melanin
     assert r["draw_head"].kind == "checkbox" and r["segments"].kind == "slider_int"
     assert r["dom_layers"].kind == "drag3" and r["shading_options"].kind == "dict"
@@ -64,7 +68,7 @@ def test_field_docs_are_tooltips():
     from mane.viewer.panel import field_docs
 
     docs = field_docs(RenderSettings)
-    assert "pixels" in docs["size"] and docs["draw_head"] == ""
+    assert "pixels" in docs["size"] and "head" in docs["draw_head"]   # every setting declares its help
 
 
 def test_orbit_pan_zoom_maths():

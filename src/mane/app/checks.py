@@ -1,6 +1,7 @@
 """Argument ranges and work budgets of the command line, checked before any work starts.
 
-Every numeric option is checked against the range its help documents (``number``), so a
+Every numeric option is checked against the range its help documents (``number``; an option
+that sets a settings field against the field's declared range, ``setting_number``), so a
 negative seed, a NaN frame rate or a zero field of view is a one-line UsageError, never a
 traceback deep inside NumPy. Work is bounded by budgets a user can raise:
 
@@ -45,6 +46,19 @@ def number(name: str, value, *, lo=None, hi=None, lo_open: bool = False, hi_open
     if bad:
         raise UsageError(f"{name} must be {'a whole number' if integer else 'a finite number'} in {rng}, "
                          f"got {value}")
+    return value
+
+
+def setting_number(flag: str, cls, name: str, value):
+    """``number`` with the range a settings field declares (mane.setting): a flag that sets a
+    field is checked against the field's own range, written once."""
+    from dataclasses import fields
+
+    m = next(f for f in fields(cls) if f.name == name).metadata
+    number(flag, value, lo=m["lo"], hi=m["hi"], lo_open=m["lo_open"], hi_open=m["hi_open"],
+           integer=m["kind"] == "int")
+    if m["choices"] is not None and value not in m["choices"]:
+        raise UsageError(f"{flag} must be one of {', '.join(str(c) for c in m['choices'])}, got {value}")
     return value
 
 

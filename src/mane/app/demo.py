@@ -44,6 +44,9 @@ def add_arguments(parser) -> None:
     mode.add_argument("--headless", action="store_true",
                       help="render the clip to files even when a display is available")
     mode.add_argument("--window", action="store_true", help="open the viewer (fails without a display)")
+    from .settings_args import add_settings_arguments
+
+    add_settings_arguments(parser, ("render", "sim"))
 
 
 def _table(rows: list[list[str]]) -> str:
@@ -114,6 +117,9 @@ def _run_viewer(args) -> int:
     print(f"mane demo: the viewer on {viewer.gl_name}, quality {viewer.quality.name}; "
           "close the window to quit (--headless renders files instead)")
     try:
+        from .view import apply_viewer_settings
+
+        apply_viewer_settings(viewer, args)
         seconds = args.seconds
         n = viewer.run(seconds=seconds)
         print(f"  {n} frames, {viewer.fps:.1f} frames per second at the end; {viewer.quality_report()}")
@@ -122,11 +128,12 @@ def _run_viewer(args) -> int:
     return 0
 
 
-def _calibrate(q: Quality, make_renderer, sim, camera, lights):
+def _calibrate(q: Quality, make_renderer, sim, camera, lights, changes=None):
     """Frames per second of simulation + rendering; on a software renderer below TARGET_FPS,
-    cheaper settings are taken from SOFTWARE_LADDER until it holds.
-    Returns (renderer, fps, steps taken); the simulation is reset afterwards."""
-    settings = q.render_settings()
+    cheaper settings are taken from SOFTWARE_LADDER until it holds (``changes``: RenderSettings
+    fields the command line set). Returns (renderer, fps, steps taken); the simulation is reset
+    afterwards."""
+    settings = q.render_settings(**(changes or {}))
     renderer = make_renderer(settings)
 
     def measure() -> float:
@@ -160,6 +167,9 @@ def _calibrate(q: Quality, make_renderer, sim, camera, lights):
 
 
 def run(args) -> int:
+    from .settings_args import check_settings
+
+    check_settings(args)     # --config and --set: a bad name or value before any work
     if getattr(args, "hair", None):
         from ..render.shading import hair_preset
 
@@ -218,7 +228,11 @@ def _run_headless(args) -> int:
     radius = 0.25 * float(np.max(hi - lo))
     sweep = Sphere(center=centre, radius=radius * 0.45, friction=0.3)
     cranium = MeshCollider(head, margin=0.001)  # the head's signed distance field, riding on the head
-    settings = demo_sim_settings(q)
+    from .settings_args import apply_settings, changed_fields
+
+    settings = apply_settings(demo_sim_settings(q), args, "sim")
+    applied = apply_settings(q.render_settings(), args, "render")
+    render_changes = {k: getattr(applied, k) for k in changed_fields(args, "render")}
     sim = Simulator(groom, colliders=[cranium, sweep], settings=settings, profile=True)
 
     def make_renderer(render_settings):
@@ -227,12 +241,12 @@ def _run_headless(args) -> int:
         r.set_head(head)
         return r
 
-    renderer = make_renderer(q.render_settings())
+    renderer = make_renderer(q.render_settings(**render_changes))
     camera = renderer.default_camera(25.0, 10.0)
     lights = default_lights()
     if software and q.name == SOFTWARE.name:
         renderer.release()
-        renderer, fps, taken = _calibrate(q, make_renderer, sim, camera, lights)
+        renderer, fps, taken = _calibrate(q, make_renderer, sim, camera, lights, render_changes)
         if taken:
             print(f"  below {TARGET_FPS:g} fps here: scaled down further: {', '.join(taken)}")
         print(f"  simulation + rendering at {q.size[0]}x{q.size[1]}: {fps:.1f} frames per second "

@@ -47,8 +47,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                       "~/.cache/mane/reference)")
     parser.add_argument("--no-cache", action="store_true", help="neither read nor write the cache")
     from .options import add_frame_arguments
+    from .settings_args import add_settings_arguments
 
     add_frame_arguments(parser)   # --units/--up/--scale and --head-units/--head-up/--head-scale, as mane render
+    add_settings_arguments(parser, ("render",))
 
 
 def settings_from_args(args):
@@ -93,7 +95,9 @@ def settings_from_args(args):
                          "numbers separated by commas") from None
     if options:
         kw["shading_options"] = options
-    return RenderSettings(**kw)
+    from .settings_args import apply_settings
+
+    return apply_settings(RenderSettings(**kw), args, "render")
 
 
 def run(args) -> int:

@@ -18,8 +18,10 @@ import numpy as np
 
 from ..errors import UsageError
 
-SHADINGS = ("chiang", "kajiya_kay", "marschner", "marschner_lut", "sadeghi", "scheuermann", "karis")
-MULTIPLE_SCATTERINGS = ("auto", "dual", "karis", "none")
+from ..render.shading import MODELS, MULTIPLE_SCATTERING
+
+SHADINGS = tuple(MODELS)
+MULTIPLE_SCATTERINGS = ("auto",) + tuple(MULTIPLE_SCATTERING)
 
 
 def hair_options(args) -> dict:
@@ -121,9 +123,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="render a groom with the colours, widths and transparency its file carries "
                              "(default; --no-file-colors: the scene's hair model; --color, --hair or --melanin imply it)")
     from .options import add_frame_arguments, add_quiet_argument
+    from .settings_args import add_settings_arguments
 
     add_frame_arguments(parser)
     add_quiet_argument(parser)
+    add_settings_arguments(parser, ("render", "sim"))   # sim: the simulator of --simulate
 
 
 HAIRS_ON_A_HEAD = 100_000
@@ -138,21 +142,17 @@ def _check_arguments(args, video: bool) -> None:
     """Every numeric option against its documented range, the outputs writable, the work within
     its budgets: before anything is loaded or rendered."""
     from ..io.atomic import check_output_path
-    from .checks import MAX_FRAMES, frame_budget, host_memory, number, strand_budget
+    from ..render.settings import RenderSettings
+    from .checks import MAX_FRAMES, frame_budget, host_memory, number, setting_number, strand_budget
 
     number("--frames", args.frames, lo=1, integer=True)
     number("--fps", args.fps, lo=0, hi=1000, lo_open=True)
     number("--guides", args.guides, lo=1, integer=True)
     if args.turntable is not None:
         number("--turntable", args.turntable, lo=-1e6, hi=1e6)
-    for flag in ("strands_per_guide", "segments"):
-        if getattr(args, flag) is not None:
-            number("--" + flag.replace("_", "-"), getattr(args, flag), lo=1, hi=4096, integer=True)
-    number("--shadow-lights", getattr(args, "shadow_lights", 1), lo=1, hi=4, integer=True)
-    if getattr(args, "oit_k", None) is not None:
-        number("--oit-k", args.oit_k, lo=0, hi=64, integer=True)
-    if getattr(args, "oit_opacity", None) is not None:
-        number("--oit-opacity", args.oit_opacity, lo=0, hi=1, lo_open=True)
+    for name in ("strands_per_guide", "segments", "shadow_lights", "oit_k", "oit_opacity"):
+        if getattr(args, name, None) is not None:
+            setting_number("--" + name.replace("_", "-"), RenderSettings, name, getattr(args, name))
     max_frames = args.max_frames if getattr(args, "max_frames", None) is not None else MAX_FRAMES
     frame_budget(args.frames, max_frames, "--frames")
     if not args.groom:   # the default groom is grown here: its size and memory first
@@ -180,13 +180,14 @@ def _load_scene(args):
     return groom, head
 
 
-def simulator_for(groom, head):
+def simulator_for(groom, head, settings=None):
     """The simulator of ``render --simulate``: the head mesh it is given collided through its SDF
-    (``mane.sim.colliders.head_collider``, as ``mane simulate --head``)."""
+    (``mane.sim.colliders.head_collider``, as ``mane simulate --head``); ``settings``: SimSettings
+    (default: the defaults)."""
     from ..sim import Simulator
     from ..sim.colliders import head_collider
 
-    return Simulator(groom, colliders=[head_collider(head)] if head is not None else [])
+    return Simulator(groom, colliders=[head_collider(head)] if head is not None else [], settings=settings)
 
 
 def run(args) -> int:
@@ -245,7 +246,14 @@ def run(args) -> int:
     # a colour asked for on the command line wins over the file's own
     kw["use_file_colors"] = bool(getattr(args, "file_colors", True)) and not args.color and "melanin" not in kw.get(
         "shading_options", {})
-    settings = RenderSettings(**kw)
+    from .settings_args import apply_settings, changed_fields, check_settings
+
+    check_settings(args)     # --config and --set: a bad name or value before any work
+    settings = apply_settings(RenderSettings(**kw), args, "render")
+    chosen = changed_fields(args, "render")
+    if ({"hair_color"} & chosen or "melanin" in settings.shading_options and "melanin" not in kw.get(
+            "shading_options", {})) and "use_file_colors" not in chosen:
+        settings = settings.replace(use_file_colors=False)   # a colour asked for wins over the file's
 
     t0 = time.perf_counter()
     groom, head = _load_scene(args)
@@ -254,7 +262,7 @@ def run(args) -> int:
 
         for w in fit_warnings(groom, head):
             print(f"mane render: warning: {w}", file=sys.stderr)
-        if args.strands_per_guide is None:
+        if args.strands_per_guide is None and "strands_per_guide" not in chosen:
             # a file's strands are hairs, not guides: multiply them up to a head's ~100,000 hairs
             # only (16 per strand made a 10,000-strand file 160,000 strands: 498 s on llvmpipe)
             from dataclasses import replace
@@ -273,7 +281,10 @@ def _render(args, settings, renderer, groom, head, lights, out, video, parse_cam
 
     sim = None
     if args.simulate:
-        sim = simulator_for(groom, head)
+        from ..sim import SimSettings
+        from .settings_args import apply_settings
+
+        sim = simulator_for(groom, head, apply_settings(SimSettings(), args, "sim"))
         renderer.set_strands(sim)
     else:
         renderer.set_strands(groom)

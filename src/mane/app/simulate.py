@@ -46,9 +46,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="frame budget: refuse --seconds x --fps beyond it (default 10000); steps "
                              "are bounded by 100 per frame of it")
     from .options import add_frame_arguments, add_quiet_argument
+    from .settings_args import add_settings_arguments
 
     add_frame_arguments(parser)
     add_quiet_argument(parser)
+    add_settings_arguments(parser, ("sim",))
 
 
 def _vector(text: str) -> tuple[float, float, float]:
@@ -78,26 +80,30 @@ def _check_arguments(args) -> int:
     """Every number in its documented range, the outputs writable and the work within its
     budget, before anything is loaded; returns the frames to make."""
     from ..io.atomic import check_output_path
-    from ..sim.settings import MAX_DT, MIN_DT
-    from .checks import MAX_FRAMES, MAX_STEPS_PER_FRAME, frame_budget, number
+    from ..sim import SimSettings, WindSettings
+    from .checks import MAX_FRAMES, MAX_STEPS_PER_FRAME, frame_budget, number, setting_number
+    from .settings_args import check_settings
 
     number("--seconds", args.seconds, lo=0, lo_open=True)
     number("--fps", args.fps, lo=0, hi=1000, lo_open=True)
-    number("--dt", args.dt, lo=MIN_DT, hi=MAX_DT)
     number("--points", args.points, lo=2, hi=64, integer=True)
     number("--max-strands", args.max_strands, lo=0, integer=True)
-    number("--friction", args.friction, lo=0, hi=1)
-    number("--local-shape", args.local_shape, lo=0, hi=1)
-    number("--gust", args.gust, lo=0, hi=10)
-    number("--drag", args.drag, lo=0, hi=1e4)
+    for flag, cls, name in (("--dt", SimSettings, "dt"), ("--friction", SimSettings, "friction"),
+                            ("--local-shape", SimSettings, "local_shape_stiffness"),
+                            ("--drag", SimSettings, "drag"), ("--gust", WindSettings, "gust")):
+        setting_number(flag, cls, name, getattr(args, flag[2:].replace("-", "_")))
+    check_settings(args)     # --config and --set: a bad name or value before any work
     if args.out and Path(args.out).suffix.lower() not in (".usd", ".usda", ".usdc", ".npz"):
         raise UsageError(f"--out must end in .usd, .usda, .usdc or .npz, got {args.out}")
     max_frames = args.max_frames if args.max_frames is not None else MAX_FRAMES
     n_frames = max(1, int(round(args.seconds * args.fps)))
     frame_budget(n_frames, max_frames, f"--seconds {args.seconds:g} x --fps {args.fps:g}")
-    steps = math.ceil(args.seconds / args.dt)
+    from .settings_args import apply_settings
+
+    dt = apply_settings(SimSettings(dt=args.dt), args, "sim").dt    # --set dt=... too
+    steps = math.ceil(args.seconds / dt)
     if steps > max_frames * MAX_STEPS_PER_FRAME:
-        raise UsageError(f"--seconds {args.seconds:g} / --dt {args.dt:g} is {steps:,} steps, more than the "
+        raise UsageError(f"--seconds {args.seconds:g} / --dt {dt:g} is {steps:,} steps, more than the "
                          f"budget of {max_frames * MAX_STEPS_PER_FRAME:,} ({MAX_STEPS_PER_FRAME} per frame of "
                          f"--max-frames); simulate less time or raise --max-frames")
     if args.out:
@@ -130,6 +136,9 @@ def run(args) -> int:
     wind = WindSettings(velocity=_vector(args.wind), gust=args.gust)
     settings = SimSettings(dt=args.dt, length_method=args.method, friction=args.friction,
                            local_shape_stiffness=args.local_shape, drag=args.drag, wind=wind)
+    from .settings_args import apply_settings
+
+    settings = apply_settings(settings, args, "sim")
     colliders = []
     if head is not None:
         colliders.append(head_collider(head))

@@ -27,14 +27,18 @@ def add_arguments(parser) -> None:
     parser.add_argument("--frames", type=int, default=None, help="quit after this many frames (scripts, tests)")
     parser.add_argument("--screenshot", default=None, help="save a screenshot to this PNG when quitting")
     from .options import add_frame_arguments
+    from .settings_args import add_settings_arguments
 
     add_frame_arguments(parser)
+    add_settings_arguments(parser, ("render", "sim"))
 
 
 def run(args) -> int:
     from ..viewer import Viewer
     from .options import fit_warnings, load_groom, load_head
+    from .settings_args import check_settings
 
+    check_settings(args)     # --config and --set: a bad name or value before the window opens
     groom = load_groom(args, args.groom) if args.groom else None
     head = load_head(args, args.head, groom) if args.head else None
     if groom is not None:
@@ -43,6 +47,7 @@ def run(args) -> int:
     viewer = Viewer(groom, head, size=_size(args.size), quality=args.quality, demo=args.demo,
                     motion=args.motion if not args.demo or args.motion != "none" else None, out_dir=args.out)
     try:
+        apply_viewer_settings(viewer, args)
         print(f"mane view: {viewer.status}")
         n = viewer.run(max_frames=args.frames)
         if args.screenshot:
@@ -55,3 +60,12 @@ def run(args) -> int:
     finally:
         viewer.close()
     return 0
+
+
+def apply_viewer_settings(viewer, args) -> None:
+    """The command line's ``--config``/``--set`` over the viewer's starting settings."""
+    from .settings_args import apply_settings
+
+    viewer.render_settings = apply_settings(viewer.render_settings, args, "render")
+    if viewer.sim is not None:
+        viewer.sim.settings = apply_settings(viewer.sim.settings, args, "sim")

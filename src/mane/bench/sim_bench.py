@@ -638,11 +638,10 @@ class Bench(BenchRows):
 
 
 def solver_config(sim) -> dict:
-    """The simulator's kernel choices (class-level switches) that a row was measured with."""
-    names = ("strand_group_size", "shape_pipeline", "fold_integrate", "fold_gather", "fold_guard", "fold_bounds",
-             "strand_defines", "grid_options")
-    out = {n: getattr(sim, n) for n in names if hasattr(sim, n)}
-    return {k: (dict(v) if isinstance(v, dict) else v) for k, v in out.items()}
+    """The simulator's kernel choices (``SimSettings.solver``) that a row was measured with."""
+    from dataclasses import asdict
+
+    return {k: (dict(v) if isinstance(v, dict) else v) for k, v in asdict(sim.settings.solver).items()}
 
 
 # --------------------------------------------------------------------------- analysis

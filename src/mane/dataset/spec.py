@@ -347,7 +347,9 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
             if k in FIXED_RENDER:
                 raise UsageError(f"[render] {k} cannot be set in a data set spec ({FIXED_RENDER[k]})")
             if k not in names:
-                raise UsageError(f"[render] unknown RenderSettings field {k!r}")
+                from ..setting import unknown
+
+                raise UsageError(f"[render] {unknown(k, names, 'RenderSettings field')}")
         kw["render"] = {k: (tuple(v) if isinstance(v, list) else v) for k, v in r.items()}
     spec = DatasetSpec(**kw)
     spec.render_settings()   # RenderSettings validates the values: one-line UsageError

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from . import bindings, head_motion  # noqa: F401  (bindings: registers the sim's table)
 from .colliders import Capsule, Collider, Ellipsoid, MeshCollider, Sphere  # noqa: F401
-from .settings import SimSettings, iteration_stiffness  # noqa: F401
+from .settings import SimSettings, SolverTuning, iteration_stiffness  # noqa: F401
 from .simulator import PASSES, SimSnapshot, Simulator  # noqa: F401
 from .state import SimState, check_fits, estimate_bytes  # noqa: F401
 from .wind import WindSettings  # noqa: F401

@@ -26,7 +26,7 @@ Some passes are folded into another (``Simulator.folded_passes()``, pass -> the 
 does its work) and not run by ``substep``: ``collide`` and ``sdf`` into ``length`` always
 (only mesh colliders beyond the first ``MAX_SWEEP_SDFS`` are left to the sdf pass), and
 with DFTL and ``settings.fused_strand_solve`` (the default) also ``shape`` and ``velocity``
-(and ``integrate`` with ``Simulator.fold_integrate``): then one per-strand kernel
+(and ``integrate`` with ``SolverTuning.fold_integrate``): then one per-strand kernel
 (``strand_solve.comp``) streams each strand once per step through shape, DFTL, collisions
 and the velocity update. ``substep`` also moves two stages of the friction pass into
 neighbouring kernels (``fold_bounds``: the grid box's reduction into the length pass;
@@ -321,7 +321,7 @@ class Simulator(GpuOwner):
             del folded["sdf"]
         if self._fused():
             folded.update(shape="length", velocity="length")
-            if self.fold_integrate:
+            if self.settings.solver.fold_integrate:
                 folded["integrate"] = "length"
         if self._guard_in_length():
             folded["guard"] = "length"
@@ -405,28 +405,8 @@ class Simulator(GpuOwner):
         for k, v in s.wind.uniforms().items():
             _set(sh, k, v)
 
-    # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp)
-    shape_pipeline = 1
-    """shape iterations pipelined in one pass over a strand (1..4; the others take a pass
-    each, through memory). More stages mean more registers per thread; 1 was the fastest
-    measured (docs/performance.md)."""
-    strand_group_size = 32
-    """work group size of the per-strand kernels (one thread per strand); 32 was the fastest
-    measured (docs/performance.md)."""
-    strand_defines: dict = {}
-    """extra defines of the per-strand kernel over its defaults (strand_solve.comp):
-    ``CULL_PRIMS`` (default 1: the primitives out of a strand's reach are not tested; the same
-    results, faster: docs/performance.md)."""
-    keep_corrections = False
-    """the fused strand solve (velocities in the kernel) also writes DFTL's d_k to the
-    corrections buffer (only ``velocity.comp`` reads it; tests, diagnostics)."""
-    fold_integrate = False
-    """True: with DFTL and ``fused_strand_solve`` the fused strand solve also does integrate's
-    work as it first reads each vertex (``folded_passes`` then lists integrate -> length).
-    Off by default: it saved nothing measurable (docs/performance.md), as one thread per strand
-    reads and writes the particle buffers with a stride of NV vec4s (uncoalesced) where
-    integrate's per-particle pass is coalesced."""
-
+    # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp); how
+    # they are built and folded: settings.solver (SolverTuning)
     def _shape_on(self) -> bool:
         s = self.settings
         return s.local_shape_stiffness > 0 or s.bending_stiffness > 0
@@ -436,15 +416,15 @@ class Simulator(GpuOwner):
         s = self.settings
         prims = self._sweep_prims(st) if contact else 0
         sdfs = self._sweep_sdfs(st) if contact else []
-        stages = max(1, min(int(self.shape_pipeline), 4, s.shape_iterations)) if shape else 1
+        stages = max(1, min(int(self.settings.solver.shape_pipeline), 4, s.shape_iterations)) if shape else 1
         # integrate in the first pass over the strand: a shape pre-pass when there is one
         mode = (2 if shape and s.shape_iterations > stages else 1) if integrate else 0
         defines = dict(SHAPE=int(shape), DFTL=int(dftl), VELOCITY=int(velocity), PRIMS=prims, NSDF=len(sdfs),
-                       STAGES=stages, LOCAL_SIZE=int(self.strand_group_size), INTEGRATE=mode,
+                       STAGES=stages, LOCAL_SIZE=int(self.settings.solver.strand_group_size), INTEGRATE=mode,
                        PENALTY=int(integrate and self._penalty_on()),
-                       CORRECTIONS=int(not velocity or self.keep_corrections), BOUNDS=int(bounds is not None),
+                       CORRECTIONS=int(not velocity or self.settings.solver.keep_corrections), BOUNDS=int(bounds is not None),
                        BOUNDS_BINDING=AUX_BOUNDS_BINDING, GUARD=int(guard))
-        defines.update(self.strand_defines)
+        defines.update(self.settings.solver.strand_defines())
         sh = self._shader("strand_solve", **defines)
         if bounds is not None:
             bounds.buffer.bind_to_storage_buffer(AUX_BOUNDS_BINDING)
@@ -462,7 +442,8 @@ class Simulator(GpuOwner):
         if guard:
             self._guard_uniforms(sh, st)
         self._bind_sdfs(sh, sdfs)
-        groups = (st.num_strands + self.strand_group_size - 1) // self.strand_group_size
+        size = self.settings.solver.strand_group_size
+        groups = (st.num_strands + size - 1) // size
         self._dispatch("length" if dftl else "shape", sh, groups)
 
     def _sweep_prims(self, st: SimState) -> int:
@@ -517,7 +498,7 @@ class Simulator(GpuOwner):
         if s.length_method == "dftl":
             fused = s.fused_strand_solve
             self._strand_solve(st, h, shape=fused and self._shape_on(), dftl=True, velocity=fused, contact=True,
-                               integrate=fused and self.fold_integrate,
+                               integrate=fused and self.settings.solver.fold_integrate,
                                bounds=self._friction_grid().own_bounds if bounds else None,
                                guard=self._guard_in_length())
             return True
@@ -571,42 +552,19 @@ class Simulator(GpuOwner):
         self._dispatch("velocity", sh, self._particle_groups(st))
         return True
 
-    fold_gather = True
-    """``substep`` with grid friction, no volume pass after it and integrate run as its own
-    pass: friction's gather (v <- (1 - f) v + f V(x)) is left to the next step's integrate
-    pass, with the grid and the positions this step leaves (the same result, one pass over the
-    particles less; see the module doc). False gathers in the friction pass (comparisons,
-    benchmarks). ``run_pass("friction")`` always gathers."""
-
     def _defer_gather(self) -> bool:
         s = self.settings
-        return bool(self.fold_gather and s.friction > 0 and not s.volume
+        return bool(self.settings.solver.fold_gather and s.friction > 0 and not s.volume
                     and "integrate" not in self.folded_passes())
-
-    fold_guard = True
-    """With the fused strand solve and no volume pass: the NaN guard's tests and recoveries are
-    done by the length pass's kernel as it leaves each strand (``folded_passes`` lists guard
-    -> length), before the friction grid sees the particles. False runs the guard's own pass
-    after friction (comparisons, benchmarks)."""
 
     def _guard_in_length(self) -> bool:
         s = self.settings
-        return bool(self.fold_guard and s.nan_guard and self._fused() and not s.volume)
-
-    fold_bounds = True
-    """``substep`` with grid friction and DFTL (no mesh collider left to the sdf pass): the
-    length pass's kernel also reduces the positions it leaves into the friction grid's box
-    (GridBounds' reduction stage), so the friction pass only pads it. False leaves the
-    reduction to the friction pass (comparisons, benchmarks)."""
+        return bool(self.settings.solver.fold_guard and s.nan_guard and self._fused() and not s.volume)
 
     def _bounds_in_length(self) -> bool:
         s = self.settings
-        return bool(self.fold_bounds and s.friction > 0 and s.length_method == "dftl"
+        return bool(self.settings.solver.fold_bounds and s.friction > 0 and s.length_method == "dftl"
                     and "sdf" in self.folded_passes())
-
-    grid_options: dict = {}
-    """keyword arguments of the friction pass's ``GridFriction`` (``float_atomics``, ``splat``,
-    ``chunk``, ``aggregate``); replace the dict (do not mutate it) to change them."""
 
     @property
     def friction_grid(self) -> GridFriction | None:
@@ -616,13 +574,13 @@ class Simulator(GpuOwner):
 
     def _friction_grid(self) -> GridFriction:
         s = self.settings
-        key = (s.grid_resolution, s.grid_method, tuple(sorted(self.grid_options.items())))
+        key = (s.grid_resolution, s.grid_method, tuple(sorted(self.settings.solver.grid_options.items())))
         if self._grid is None or self._grid_key != key:
             if self._deferred is not None:   # its gather needs the old grid
                 self._deferred.settle()
             if self._grid is not None:
                 self._grid.release()
-            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method, **self.grid_options)
+            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method, **self.settings.solver.grid_options)
             self._grid_key = key
         return self._grid
 

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import UsageError
+from ..setting import setting, validate
 
 MAX_WIND_SPEED = 500.0
 """Largest peak wind speed accepted, m/s (|velocity| (1 + gust) + turbulence)."""
@@ -34,38 +35,25 @@ MAX_WIND_SPEED = 500.0
 class WindSettings:
     """Wind felt by the hair (it acts only through ``SimSettings.drag``)."""
 
-    velocity: tuple[float, float, float] = (0.0, 0.0, 0.0)
-    """mean wind velocity U, m/s (world frame)."""
-    gust: float = 0.0
-    """gust strength: fraction of |U| by which the wind speed swings (dimensionless, >= 0)."""
-    turbulence: float = 0.0
-    """amplitude of the direction-free turbulent part, m/s (>= 0)."""
-    frequency: float = 0.5
-    """lowest gust frequency, Hz (> 0)."""
-    octaves: int = 3
-    """fBm octaves of the gust noise (1..8)."""
-    jitter: float = 0.25
-    """per-strand phase spread, in noise periods (>= 0)."""
-    seed: int = 0
-    """noise seed (any int; taken modulo 2**32)."""
+    velocity: tuple[float, float, float] = setting((0.0, 0.0, 0.0), lo=-MAX_WIND_SPEED, hi=MAX_WIND_SPEED, unit="m/s",
+        help="mean wind velocity U, m/s (world frame).")
+    gust: float = setting(0.0, lo=0.0, hi=10.0, slider=(0.0, 3.0),
+        help="gust strength: fraction of |U| by which the wind speed swings (dimensionless, >= 0).")
+    turbulence: float = setting(0.0, lo=0.0, hi=MAX_WIND_SPEED, unit="m/s", slider=(0.0, 3.0),
+        help="amplitude of the direction-free turbulent part, m/s (>= 0).")
+    frequency: float = setting(0.5, lo=0.0, lo_open=True, hi=1000.0, unit="Hz", slider=(0.05, 5.0),
+        help="lowest gust frequency, Hz (> 0).")
+    octaves: int = setting(3, lo=1, hi=8,
+        help="fBm octaves of the gust noise (1..8).")
+    jitter: float = setting(0.25, lo=0.0, hi=1000.0, slider=(0.0, 2.0),
+        help="per-strand phase spread, in noise periods (>= 0).")
+    seed: int = setting(0, lo=-(2**63), hi=2**63 - 1,
+        help="noise seed (any int; taken modulo 2**32).")
 
     def __post_init__(self) -> None:
-        v = tuple(float(x) for x in np.asarray(self.velocity, dtype=float).reshape(-1))
-        if len(v) != 3 or not all(np.isfinite(v)):
-            raise UsageError(f"wind velocity must be 3 finite numbers (m/s), got {self.velocity!r}")
-        object.__setattr__(self, "velocity", v)
-        for name in ("gust", "turbulence", "jitter"):
-            x = float(getattr(self, name))
-            if not np.isfinite(x) or x < 0:
-                raise UsageError(f"wind {name} must be >= 0, got {x}")
-            object.__setattr__(self, name, x)
-        if not np.isfinite(self.frequency) or self.frequency <= 0:
-            raise UsageError(f"wind frequency must be > 0 Hz, got {self.frequency}")
-        if not 1 <= int(self.octaves) <= 8:
-            raise UsageError(f"wind octaves must be in 1..8, got {self.octaves}")
-        object.__setattr__(self, "octaves", int(self.octaves))
+        validate(self, "wind.")   # every field against its declaration (mane.setting)
         with np.errstate(over="ignore"):
-            peak = float(np.linalg.norm(v)) * (1.0 + self.gust) + self.turbulence
+            peak = float(np.linalg.norm(self.velocity)) * (1.0 + self.gust) + self.turbulence
         if peak > MAX_WIND_SPEED:
             raise UsageError(f"wind of up to {peak:.3g} m/s (velocity, gusts and turbulence) is beyond the "
                              f"{MAX_WIND_SPEED:g} m/s the solver handles (hurricanes blow ~80 m/s)")

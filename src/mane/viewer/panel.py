@@ -14,10 +14,11 @@ its name, which widget edits it:
     None or a 3-tuple (optional)  -> "default" checkbox + colour picker
     dict of numbers               -> one widget per entry
 
-Ranges: ``field(metadata={"range": (lo, hi)})`` or ``{"choices": (...)}`` win; ``HINTS`` gives
-sensible ones for a few names (power-of-two sizes, sample counts); otherwise fractions
-(stiffness, friction, opacity, ...) get 0..1 sliders and other numbers a drag scaled to
-their value. A frozen dataclass is updated with ``dataclasses.replace``; the class's own
+Ranges: a declared setting (``mane.setting``: RenderSettings, SimSettings and their groups)
+gives its own range (or its ``slider`` inside a wide one), choices and help, and a field declared
+``panel=False`` is left out (``hidden``); for other dataclasses ``field(metadata={"range": (lo,
+hi)})`` or ``{"choices": (...)}`` win, ``HINTS`` gives sensible ones for a few names, fractions
+(stiffness, opacity, ...) get 0..1 sliders and other numbers a drag scaled to their value. A frozen dataclass is updated with ``dataclasses.replace``; the class's own
 validation decides, and its error message is shown instead of applying the change.
 """
 from __future__ import annotations
@@ -35,46 +36,23 @@ import numpy as np
 
 from ..errors import ManeError
 
-# name -> widget options, for names whose range the value alone does not tell
+# name -> widget options for fields of dataclasses that do not declare their settings (mane.setting):
+# the shading model's and the lights'. Declared settings (RenderSettings, SimSettings, WindSettings,
+# SolverTuning) take their ranges and choices from their own declarations, nothing here.
 HINTS: dict[str, dict] = {
-    "msaa": {"choices": (1, 2, 4, 8)},
-    "supersample": {"choices": (1, 2)},
-    "shadow_map_size": {"choices": (128, 256, 512, 1024, 2048)},
-    "osm_slices": {"choices": (4, 8, 12, 16, 20, 24, 28, 32)},
-    "shadow_lights": {"range": (1, 4)},
-    "pcf": {"range": (1, 9)},
-    "density_resolution": {"range": (16, 256)},
-    "grid_resolution": {"range": (4, 128)},
-    "segments": {"range": (1, 128)},
-    "strands_per_guide": {"range": (1, 128)},
-    "substeps": {"range": (1, 16)},
-    "max_substeps": {"range": (1, 64)},
-    "shape_iterations": {"range": (1, 16)},
-    "pbd_iterations": {"range": (1, 64)},
-    "stretch_compliance": {"range": (0.0, 1e-3), "format": "%.2e"},
-    "octaves": {"range": (1, 8)},
     "lut_size": {"choices": (64, 128, 256, 512)},
     "dual_size": {"choices": (16, 32, 64, 128)},
-    "dt": {"range": (1.0 / 480.0, 1.0 / 15.0), "format": "%.5f"},
-    "exposure": {"range": (0.0, 4.0)},
-    "ambient": {"range": (0.0, 1.0)},
     "eta": {"range": (1.01, 2.5)},
     "roughness": {"range": (0.01, 0.6)},
     "shift": {"range": (-0.3, 0.3)},
     "melanin": {"range": (0.0, 8.0)},
     "intensity": {"range": (0.0, 10.0)},
-    "curl_frequency": {"range": (0.0, 20.0)},
-    "stray_amount": {"range": (0.0, 4.0)},
-    "shadow_density": {"range": (0.0, 10.0)},
 }
 
-# where the choices of a string field live when the field's own module does not name them
+# where the choices of an undeclared string field live when the field's own module does not name them
 CHOICE_SOURCES: dict[str, tuple[str, str]] = {
-    "tone_mapping": ("mane.render.settings", "TONE_MAPS"),
-    "shading": ("mane.render.shading", "MODELS"),
     "model": ("mane.render.shading", "MODELS"),
     "multiple_scattering": ("mane.render.shading", "MULTIPLE_SCATTERING"),
-    "grid_method": ("mane.sim.grid_friction", "METHODS"),
 }
 
 FRACTION_WORDS = ("stiffness", "fraction", "percent", "ratio", "friction", "opacity", "_range",
@@ -108,7 +86,13 @@ def field_docs(cls) -> dict[str, str]:
                 docs[a.target.id] = " ".join(b.value.value.split())
     except (OSError, TypeError, SyntaxError, IndexError):
         pass
-    return {f.name: docs.get(f.name, "") for f in dataclasses.fields(cls)}
+    return {f.name: f.metadata.get("help") or docs.get(f.name, "") for f in dataclasses.fields(cls)}
+
+
+def hidden(cls) -> dict[str, str]:
+    """name -> why, for the fields a settings class declares ``panel=False``."""
+    return {f.name: f.metadata["reason"] for f in dataclasses.fields(cls)
+            if "kind" in f.metadata and not f.metadata["panel"]}
 
 
 def _constant(module, name):
@@ -128,6 +112,8 @@ def choices_for(cls, name: str, value=None) -> tuple:
     """The allowed values of a field: metadata, then ``HINTS``, then a module constant named
     after the field (SHADOWS for shadows, INTERPOLATIONS, GEOMETRIES, KINDS for kind, ...)."""
     f = {x.name: x for x in dataclasses.fields(cls)}.get(name)
+    if f is not None and "kind" in f.metadata:      # a declared setting: its own choices or none
+        return tuple(f.metadata["choices"] or ())
     if f is not None and "choices" in f.metadata:
         return tuple(f.metadata["choices"])
     if "choices" in HINTS.get(name, {}):
@@ -175,7 +161,7 @@ def _is_number(v) -> bool:
 def widget_for(cls, f: dataclasses.Field, value) -> Widget:
     """Which widget edits field ``f`` holding ``value`` (see the module doc)."""
     name = f.name
-    meta = dict(HINTS.get(name, {}))
+    meta = dict(HINTS.get(name, {})) if "kind" not in f.metadata else {}
     meta.update(f.metadata or {})
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
         return Widget("dataclass")
@@ -191,6 +177,13 @@ def widget_for(cls, f: dataclasses.Field, value) -> Widget:
         if "range" in meta:
             lo, hi = meta["range"]
             return Widget("slider_int" if is_int else "slider_float", lo, hi, format=meta.get("format", "%.3f"))
+        if "kind" in meta:     # a declared setting without both ends: a drag within the end it has
+            lo = meta["lo"] if meta["lo"] is not None else -1e9
+            hi = meta["hi"] if meta["hi"] is not None else (0 if is_int else 1e9)
+            if is_int:
+                return Widget("drag_int", lo, hi, speed=max(0.05, abs(int(value)) * 0.01))
+            return Widget("drag_float", lo, hi, speed=max(abs(float(value)), 1e-3) * 0.01,
+                          format="%.5f" if 0 < abs(float(value)) < 0.01 else "%.4f")
         if not is_int and 0.0 <= float(value) <= 1.0 and any(w in name for w in FRACTION_WORDS):
             return Widget("slider_float", 0.0, 1.0)
         if is_int:
@@ -214,9 +207,11 @@ def widget_for(cls, f: dataclasses.Field, value) -> Widget:
 
 
 def widget_plan(obj, exclude=()) -> dict[str, Widget]:
-    """field name -> Widget for every field of the dataclass instance ``obj`` (for tests and docs)."""
+    """field name -> Widget for every field of the dataclass instance ``obj`` that the panel shows
+    (not those declared ``panel=False``, nor ``exclude``): for tests and docs."""
     cls = type(obj)
-    return {f.name: widget_for(cls, f, getattr(obj, f.name)) for f in dataclasses.fields(cls) if f.name not in exclude}
+    skip = set(exclude) | set(hidden(cls))
+    return {f.name: widget_for(cls, f, getattr(obj, f.name)) for f in dataclasses.fields(cls) if f.name not in skip}
 
 
 def _label(name: str) -> str:
@@ -259,8 +254,9 @@ class SettingsEditor:
         imgui.push_id(id or cls.__name__)
         all_fields = {f.name: f for f in dataclasses.fields(cls)}
         order = list(all_fields) if only is None else [n for n in only if n in all_fields]
+        skip = set(exclude) | set(hidden(cls))
         for f in (all_fields[n] for n in order):
-            if f.name in exclude:
+            if f.name in skip:
                 continue
             value = getattr(obj, f.name)
             w = widget_for(cls, f, value)
@@ -419,8 +415,15 @@ def ed_open(v) -> None:
         v.editor._open()
 
 
+def _slider(cls, name: str) -> tuple[float, float]:
+    """A declared setting's slider range (its ``slider``, else its range)."""
+    lo, hi = next(f for f in dataclasses.fields(cls) if f.name == name).metadata["range"]
+    return float(lo), float(hi)
+
+
 def _simulation(v, ed, imgui) -> None:
     from ..presets import STYLE_PRESETS
+    from ..sim import WindSettings
     from .choices import MOTIONS
 
     ed_open(v)
@@ -452,8 +455,9 @@ def _simulation(v, ed, imgui) -> None:
                            "90 toward +X")
     c2, v.wind_elevation = imgui.slider_float("elevation (deg)", v.wind_elevation, -60.0, 60.0)
     c3, v.wind_strength = imgui.slider_float("strength (m/s)", v.wind_strength, 0.0, 10.0)
-    c4, v.wind_gust = imgui.slider_float("gustiness", v.wind_gust, 0.0, 3.0)
-    c5, v.wind_turbulence = imgui.slider_float("turbulence (m/s)", v.wind_turbulence, 0.0, 3.0)
+    c4, v.wind_gust = imgui.slider_float("gustiness", v.wind_gust, *_slider(WindSettings, "gust"))
+    c5, v.wind_turbulence = imgui.slider_float("turbulence (m/s)", v.wind_turbulence,
+                                               *_slider(WindSettings, "turbulence"))
     if c0 or c1 or c2 or c3 or c4 or c5:
         v.set_wind(on)
     ed_open(v)
@@ -561,8 +565,8 @@ def _rendering(v, ed, imgui) -> None:
         v.set_aa(AA_CHOICES[i])
     ed_open(v)
     if imgui.tree_node("all render settings"):
-        # the window sets the size, the lights' "casts shadows" boxes set shadow_lights
-        changed, new = ed.edit(v.render_settings, exclude=("size", "shadow_lights") + QUICK_RENDER_FIELDS, id="all")
+        # the fields declared panel=False (size, shadow_lights) are left out by the editor itself
+        changed, new = ed.edit(v.render_settings, exclude=QUICK_RENDER_FIELDS, id="all")
         if changed:
             v.render_settings = new
         imgui.tree_pop()
