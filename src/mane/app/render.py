@@ -260,6 +260,10 @@ def run(args) -> int:
             from dataclasses import replace
 
             settings = replace(settings, strands_per_guide=file_strands_per_guide(groom.num_strands))
+    else:   # the procedural default: its clumps sized for its guides (mane.render.scene)
+        from ..render.scene import default_render_settings
+
+        settings = default_render_settings(settings)
     renderer = Renderer(settings)
     try:
         return _render(args, settings, renderer, groom, head, lights, out, video, parse_camera, t0)
