@@ -207,3 +207,16 @@ def test_default_clumps_meet_at_the_roots(default_guides):
     roots = default_guides.roots.astype(np.float64)
     nn, _ = cKDTree(roots).query(roots, k=2)
     assert 2 * s.clump_root * s.clump_radius >= np.median(nn[:, 1])
+
+
+def test_front_hair_sweeps_back_and_the_parting_reaches_the_crown():
+    """Over the front, hair beside the parting is combed back at least as much as sideways
+    (combed straight sideways it lay along the hairline as bars); just behind the top of the
+    head (z = -0.01 m) it still parts sideways instead of already falling down the back."""
+    front = np.array([[0.026, 0.09, 0.06], [0.018, 0.09, 0.06], [0.06, 0.08, 0.05], [-0.03, 0.1, 0.04]])
+    w = parted_comb(front, 0.022)
+    assert np.all(-w[:, 2] >= np.abs(w[:, 0])), w
+    crown = np.array([[0.03, 0.12, -0.01], [0.01, 0.12, -0.01]])
+    w = parted_comb(crown, 0.022)
+    assert w[0, 0] > 0 > w[1, 0]
+    assert np.all(np.abs(w[:, 0]) > np.abs(w[:, 1])), w
