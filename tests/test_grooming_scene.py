@@ -158,3 +158,66 @@ def test_default_camera_frames_head_and_shoulders(gl):
     base = head.vertices[head.vertices[:, 1] < -0.385].astype(np.float64)
     qb = np.c_[base, np.ones(len(base))] @ cam.view_projection(w / h).T
     assert np.mean(qb[:, 1] / qb[:, 3] < -1.0) >= 0.75
+
+
+def _scalp_samples(head, n=40000, seed=7):
+    """Points uniform by area on the default head's scalp (weight >= 0.5), drawn here in NumPy
+    (not by the follicle sampler under test)."""
+    from mane.grooming.head import scalp_weight
+
+    rng = np.random.default_rng(seed)
+    tri = head.triangles.astype(np.float64)
+    area = 0.5 * np.linalg.norm(np.cross(tri[:, 1] - tri[:, 0], tri[:, 2] - tri[:, 0]), axis=1)
+    f = rng.choice(len(tri), n, p=area / area.sum())
+    s, r = np.sqrt(rng.random(n)), rng.random(n)
+    pts = (1 - s)[:, None] * tri[f, 0] + (s * (1 - r))[:, None] * tri[f, 1] + (s * r)[:, None] * tri[f, 2]
+    return pts[scalp_weight(pts) >= 0.5]
+
+
+@pytest.fixture(scope="module")
+def default_guides(head):
+    from mane.grooming.scene import default_groom
+
+    return default_groom(head, num_guides=1000)
+
+
+def test_default_roots_leave_no_bald_patch(head, default_guides):
+    """The default groom's 1000 guide roots cover the scalp evenly: under 1% of it lies farther
+    than 8 mm from every root. Uniform random roots leave exp(-N pi r^2 / A) of it (Poisson:
+    3.9% for N = 1000, r = 8 mm, A = 620 cm^2), bald patches that the clumps of rendered strands
+    around each guide showed; blue noise leaves none but at the hairline's edge."""
+    from scipy.spatial import cKDTree
+
+    pts = _scalp_samples(head)
+    assert len(pts) > 3000
+    d, _ = cKDTree(default_guides.roots.astype(np.float64)).query(pts)
+    assert (d > 0.008).mean() < 0.01, (d > 0.008).mean()
+    assert d.max() < 0.012
+
+
+def test_default_clumps_meet_at_the_roots(default_guides):
+    """A guide's clump of rendered strands is at least as wide at the root as the guides are
+    apart (median distance to the nearest other root): the clumps meet on the scalp instead of
+    standing as 3 mm teeth 6 mm apart along the hairline and the parting."""
+    from scipy.spatial import cKDTree
+
+    from mane.grooming.scene import DEFAULT_SCENE_RENDER
+    from mane.render import RenderSettings
+
+    s = RenderSettings(**DEFAULT_SCENE_RENDER)
+    roots = default_guides.roots.astype(np.float64)
+    nn, _ = cKDTree(roots).query(roots, k=2)
+    assert 2 * s.clump_root * s.clump_radius >= np.median(nn[:, 1])
+
+
+def test_front_hair_sweeps_back_and_the_parting_reaches_the_crown():
+    """Over the front, hair beside the parting is combed back at least as much as sideways
+    (combed straight sideways it lay along the hairline as bars); just behind the top of the
+    head (z = -0.01 m) it still parts sideways instead of already falling down the back."""
+    front = np.array([[0.026, 0.09, 0.06], [0.018, 0.09, 0.06], [0.06, 0.08, 0.05], [-0.03, 0.1, 0.04]])
+    w = parted_comb(front, 0.022)
+    assert np.all(-w[:, 2] >= np.abs(w[:, 0])), w
+    crown = np.array([[0.03, 0.12, -0.01], [0.01, 0.12, -0.01]])
+    w = parted_comb(crown, 0.022)
+    assert w[0, 0] > 0 > w[1, 0]
+    assert np.all(np.abs(w[:, 0]) > np.abs(w[:, 1])), w

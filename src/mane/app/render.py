@@ -268,6 +268,10 @@ def run(args) -> int:
             from dataclasses import replace
 
             settings = replace(settings, strands_per_guide=file_strands_per_guide(groom.num_strands))
+    else:   # the procedural default: its clumps sized for its guides (grooming.scene)
+        from ..grooming.scene import DEFAULT_SCENE_RENDER
+
+        settings = settings.replace(**DEFAULT_SCENE_RENDER)
     renderer = Renderer(settings)
     try:
         return _render(args, settings, renderer, groom, head, lights, out, video, parse_camera, t0)

@@ -215,11 +215,16 @@ def parted_comb(positions: np.ndarray, parting: float, rng: np.random.Generator 
     tie = side == 0
     if tie.any():
         side[tie] = np.where((rng.random(int(tie.sum())) if rng is not None else 0.0) < 0.5, -1.0, 1.0)
-    # sideways at the parting, more and more back away from it (a natural swirl off the face)
+    # sideways and back at the parting, more and more back away from it (a swirl off the face).
+    # Back at least as much as sideways: hair from the front hairline sweeps up and over the
+    # head instead of lying along the hairline (a purely sideways comb laid the front locks
+    # across the top of the forehead as dark bars).
     away = _smoothstep01(np.abs(off) / 0.05)
-    front = np.stack([side * (1.0 - 0.5 * away), np.zeros_like(off), -(0.6 + 0.6 * away)], axis=1)
+    front = np.stack([side * (0.7 - 0.3 * away), np.zeros_like(off), -(0.8 + 0.5 * away)], axis=1)
     behind = np.stack([0.08 * side, -np.ones_like(off), -0.35 * np.ones_like(off)], axis=1)
-    w = _smoothstep01((0.02 - p[:, 2]) / 0.08)[:, None]  # 0 at the front, 1 behind the crown
+    # 0 in front of the crown, 1 behind it: the parting runs back to the crown (z = -0.02 m,
+    # just behind the vertex) before the hair turns down the back of the head
+    w = _smoothstep01((-0.02 - p[:, 2]) / 0.07)[:, None]
     comb = (1.0 - w) * _normalize(front) + w * _normalize(behind)
     if fringe:
         f = (_smoothstep01((p[:, 2] - 0.03) / 0.02) * _smoothstep01((0.05 - np.abs(p[:, 0])) / 0.015))[:, None]

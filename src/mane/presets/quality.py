@@ -37,10 +37,11 @@ class Quality:
     """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
 
     def render_settings(self, **changes):
+        from ..grooming.scene import DEFAULT_SCENE_RENDER
         from ..render import RenderSettings
         from ..render.shading import hair_preset
 
-        base = dict(size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
+        base = dict(**DEFAULT_SCENE_RENDER, size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
                     shadow_map_size=self.shadow_map_size, pcf=self.pcf,
                     shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,

@@ -21,12 +21,15 @@ def render_image(groom=None, head=None, *, settings: RenderSettings | None = Non
     ``overrides`` are RenderSettings fields (size=(w, h), shadows=..., msaa=...). Returns an
     (H, W, 3) uint8 array, or with ``as_pil=True`` a ``PIL.Image.Image`` (which a Jupyter
     notebook displays: it has ``_repr_png_``)."""
+    given = settings is not None
     settings = (settings or RenderSettings()).replace(**overrides) if overrides else (settings or RenderSettings())
     if groom is None:
-        from ..grooming.scene import default_scene
+        from ..grooming.scene import DEFAULT_SCENE_RENDER, default_scene
 
         groom, default = default_scene()
         head = head if head is not None else default
+        if not given:   # the default scene's clumps, unless asked otherwise
+            settings = settings.replace(**{k: v for k, v in DEFAULT_SCENE_RENDER.items() if k not in overrides})
     r = Renderer(settings, ctx=ctx, profile=False)
     try:
         r.set_strands(groom)
