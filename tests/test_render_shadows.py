@@ -339,3 +339,32 @@ def test_surfaces_receive_shadows_without_acne(gl, method):
     assert (darker[lit & clear] > 2.0).mean() < 0.01          # no acne on the lit, unshadowed side
     assert (darker[lit & core] > 10.0).mean() > 0.95          # the cast shadow is still there
     assert shadowed[lit].mean() < 0.5
+
+
+def test_head_pcf_filters_the_skin_and_pcf_the_hair(gl):
+    """The skin's shadow look-ups take ``head_pcf``, the hair's ``pcf``: on the two-sphere scene
+    (a small sphere's shadow on a big one, the head pass alone) head_pcf widens the shadow's
+    penumbra and pcf leaves the image as it is."""
+    from mane.render import Renderer
+    from mane.render.camera import Camera
+
+    mesh, _, L = _spheres_scene()
+    cam = Camera(eye=(0.0, 0.0, 0.5), target=(0.0, 0.0, 0.0), fov_y=30.0, near=0.1, far=2.0)
+    light = [Light("directional", tuple(L), (1.0, 1.0, 1.0), 3.0)]
+
+    def image(**kw):
+        r = Renderer(RenderSettings(size=(96, 96), shadows="shadow_map", msaa=1, ambient=0.0, shadow_map_size=128, **kw),
+                     ctx=gl, profile=False)
+        try:
+            r.set_head(mesh)
+            r.render(cam, light)
+            return r.read_image().astype(np.float64).mean(axis=2)
+        finally:
+            r.release()
+
+    base = image(head_pcf=1, pcf=1)
+    np.testing.assert_array_equal(image(head_pcf=1, pcf=5), base)
+    wide = image(head_pcf=5, pcf=1)
+    changed = np.abs(wide - base) > 2.0
+    assert changed.sum() > 20, changed.sum()    # the penumbra's pixels,
+    assert changed.mean() < 0.2                 # not the whole picture
