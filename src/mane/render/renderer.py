@@ -439,10 +439,14 @@ class Renderer(GpuOwner):
         return color
 
     def output_fbo(self):
+        return self.output_target()[0]
+
+    def output_target(self):
+        """(framebuffer, texture) of the final 8-bit image (made on first use)."""
         if "output" not in self._targets:
             tex = self.ctx.texture(self.settings.size, 4)
             self._targets["output"] = (self.ctx.framebuffer([tex]), tex)
-        return self._targets["output"][0]
+        return self._targets["output"]
 
     # ------------------------------------------------------------------ views
     def camera_view(self, camera: Camera) -> View:

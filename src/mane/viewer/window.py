@@ -566,7 +566,7 @@ class Viewer:
                                 np.array([1.6 * math.cos(phase), 0.2, 1.6 * math.sin(phase)]))
 
     def _blit(self) -> None:
-        out_fbo, tex = self.renderer._targets["output"]
+        out_fbo, tex = self.renderer.output_target()
         self._presenter.show(out_fbo, tex, self.wnd.fbo, bind=self.wnd.use)
 
     def _adapt_quality(self) -> None:
