@@ -370,7 +370,7 @@ def test_a_crashing_pass_is_retried_with_another_seed_then_one_clear_error(mi, m
     # a child that segfaults whenever its seed is 0 (pass 1's first attempt), else renders
     crash_on_zero = ("import json, os, signal, sys; job = json.load(open(sys.argv[1]));"
                      "job['seed'] == 0 and os.kill(os.getpid(), signal.SIGSEGV);"
-                     "from mane.reference.passes import _main; sys.exit(_main(sys.argv[1:]))")
+                     "from mane.reference.worker import main; sys.exit(main(sys.argv[1:]))")
     monkeypatch.setattr(passes, "WORKER", [sys.executable, "-c", crash_on_zero])
     said = []
     img = ref.render(spp=4, progress=said.append, **kw)

@@ -1,7 +1,7 @@
 """A reference image as independent passes, each path traced in a child process.
 
     image = render_passes(job, spp=1024, pass_spp=64, seed=0, cache_pass=...)   # (H, W, 3)
-    python -m mane.reference.passes JOB.json OUT.npy                           # one pass
+    python -m mane.reference.worker JOB.json OUT.npy                           # one pass (worker.py)
 
 Why: Mitsuba 3.9.1's ``bsplinecurve`` plugin segfaults on some scenes at high sample counts
 (Sintel blond at >= 128 spp, the same scene that renders at 64), and in-process a segfault
@@ -34,7 +34,7 @@ import numpy as np
 
 from ..errors import ManeError
 
-WORKER = [sys.executable, "-m", "mane.reference.passes"]    # + JOB.json OUT.npy
+WORKER = [sys.executable, "-m", "mane.reference.worker"]    # + JOB.json OUT.npy (worker.py)
 DEFAULT_PASS_SPP = 64     # Sintel blond renders at 64 spp and segfaulted at 128 and 256 (Mitsuba 3.9.1)
 
 
@@ -136,21 +136,3 @@ def render_passes(job: dict, spp: int, pass_spp: int = DEFAULT_PASS_SPP, seed: i
         if progress is not None:
             progress(f"reference pass {k + 1}/{len(counts)} done ({n} spp)")
     return (total / int(spp)).astype(np.float32)
-
-
-def _main(argv) -> int:
-    """The child: render the pass described by JOB.json and write OUT.npy."""
-    job_path, out_path = argv
-    job = json.loads(Path(job_path).read_text())
-    from .render import mitsuba, scene_from_job
-
-    mi = mitsuba()
-    scene = mi.load_dict(scene_from_job(mi, job))
-    image = np.array(mi.render(scene, seed=int(job["seed"]), spp=int(job["spp"])), np.float32)[..., :3]
-    with open(out_path, "wb") as f:
-        np.save(f, image, allow_pickle=False)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(_main(sys.argv[1:]))
