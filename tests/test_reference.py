@@ -313,3 +313,87 @@ def test_cli_reference_takes_the_hair_preset_and_the_frame_options(monkeypatch):
     args = build_parser("reference").parse_args(["reference", "--hair", "red", "--melanin", "1,0"])
     with pytest.raises(UsageError, match="one of them"):
         settings_from_args(args)
+
+
+# ---------------------------------------------------------------- independent passes
+def test_pass_seeds_and_split():
+    from mane.reference.passes import pass_seed, split
+
+    assert split(1024, 64) == [64] * 16 and split(100, 64) == [64, 36] and split(8, 64) == [8]
+    assert pass_seed(5, 0) == 5                              # one pass is the plain render of its seed
+    seeds = {pass_seed(s, k, a) for s in range(3) for k in range(32) for a in range(3)}
+    assert len(seeds) == 3 * 32 * 3                          # no two passes or retries share a seed
+    assert all(0 <= x < 2**31 for x in seeds)
+
+
+def _comb():
+    cam = Camera(eye=(0, 0, 0.3), target=(0, 0, 0), fov_y=30.0)
+    xs = np.linspace(-0.03, 0.03, 12)
+    P = np.stack([_line((x, 0.05, 0.002 * i), (x, -0.05, 0.002 * i), 8) for i, x in enumerate(xs)])
+    return dict(strands=ExpandedStrands(P, np.full(P.shape[:2], 8e-4)), camera=cam,
+                lights=[Light("directional", (0.3, 0.5, 1.0), (1, 1, 1), 3.0)], settings=RenderSettings(size=(24, 24)),
+                material=HairMaterial(eumelanin=0.3, pheomelanin=0.1), cache=False)
+
+
+def test_passes_average_to_the_many_sample_render_with_noise_falling_as_one_over_sqrt_k(mi):
+    from mane.reference.passes import pass_seed
+
+    kw = _comb()
+    truth = ref.render(spp=2048, pass_spp=None, isolate=False, **kw).astype(np.float64)
+    one = ref.render(spp=16, isolate=False, **kw).astype(np.float64)           # one pass of N = 16
+    four = ref.render(spp=64, pass_spp=16, isolate=False, **kw).astype(np.float64)   # K = 4 passes of 16
+    single64 = ref.render(spp=64, pass_spp=None, isolate=False, **kw).astype(np.float64)
+    # by definition: the mean of the passes rendered alone with their seeds
+    alone = np.mean([ref.render(spp=16, seed=pass_seed(0, k), isolate=False, **kw) for k in range(4)], axis=0)
+    np.testing.assert_allclose(four, alone, rtol=1e-5, atol=1e-7)
+    # the same expectation as one pass of K N samples: both means within 4 standard errors of
+    # the 2048-sample image's (pixels are independent; hair glints make the mean itself noisy)
+    for img in (four, single64):
+        se = math.sqrt(((img - truth) ** 2).mean() / img.size)
+        assert abs(img.mean() - truth.mean()) < 4 * se
+    # independent passes: the RMS error falls by sqrt(K) = 2 (with the truth's own noise,
+    # sqrt((1/16 + 1/2048) / (1/64 + 1/2048)) = 1.97); the same seed four times would give 1
+    rms = lambda a: float(np.sqrt(((a - truth) ** 2).mean()))  # noqa: E731
+    assert 1.6 < rms(one) / rms(four) < 2.4
+    assert rms(four) == pytest.approx(rms(single64), rel=0.25)
+
+
+def test_passes_run_in_child_processes_and_match_this_process(mi):
+    kw = _comb()
+    np.testing.assert_array_equal(ref.render(spp=8, pass_spp=4, **kw), ref.render(spp=8, pass_spp=4, isolate=False, **kw))
+
+
+def test_a_crashing_pass_is_retried_with_another_seed_then_one_clear_error(mi, monkeypatch):
+    from mane.reference import passes
+
+    kw = _comb()
+    # a child that segfaults whenever its seed is 0 (pass 1's first attempt), else renders
+    crash_on_zero = ("import json, os, signal, sys; job = json.load(open(sys.argv[1]));"
+                     "job['seed'] == 0 and os.kill(os.getpid(), signal.SIGSEGV);"
+                     "from mane.reference.worker import main; sys.exit(main(sys.argv[1:]))")
+    monkeypatch.setattr(passes, "WORKER", [sys.executable, "-c", crash_on_zero])
+    said = []
+    img = ref.render(spp=4, progress=said.append, **kw)
+    assert any("SIGSEGV" in m and "another seed" in m for m in said)
+    np.testing.assert_array_equal(img, ref.render(spp=4, seed=passes.pass_seed(0, 0, 1), isolate=False, **kw))
+    # a child that always crashes: one line naming the pass, each seed and the signal
+    monkeypatch.setattr(passes, "WORKER", [sys.executable, "-c", "import os, signal; os.kill(os.getpid(), signal.SIGSEGV)"])
+    with pytest.raises(passes.ReferencePassError) as info:
+        ref.render(spp=8, pass_spp=4, **kw)
+    msg = str(info.value)
+    assert "\n" not in msg and "pass 1/2" in msg and msg.count("SIGSEGV") == 3 and isinstance(info.value, ManeError)
+    monkeypatch.setattr(passes, "WORKER", [sys.executable, "-c", "raise SystemExit('no mitsuba here')"])
+    with pytest.raises(passes.ReferencePassError, match="status 1: no mitsuba here"):
+        passes.render_passes({}, 4, retries=0)
+
+
+def test_passes_are_cached_one_by_one_and_reused_by_a_larger_render(mi, tmp_path):
+    kw = {**_comb(), "cache": True, "cache_dir": tmp_path}
+    a = ref.render(spp=8, pass_spp=4, isolate=False, **kw)
+    assert len(list(tmp_path.glob("*.npy"))) == 3                   # two passes and their mean
+    b = ref.render(spp=12, pass_spp=4, isolate=False, **kw)         # renders the third pass only
+    assert len(list(tmp_path.glob("*.npy"))) == 5
+    first = ref.render(spp=4, isolate=False, **kw)                  # pass 1 is the plain render of seed 0
+    np.testing.assert_array_equal(first, ref.render(spp=4, isolate=False, **{**kw, "cache": False}))
+    np.testing.assert_allclose(b, (2 * a + ref.render(spp=4, seed=ref.passes.pass_seed(0, 2), isolate=False, **kw)) / 3,
+                               rtol=1e-5, atol=1e-7)

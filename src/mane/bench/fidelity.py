@@ -21,8 +21,11 @@ mean NVIDIA FLIP error (HDR); with the compute rasteriser also the hair coverage
 alpha over the reference's coverage on the hair pixels). Pictures: reference | mane | FLIP error (magma), both sides at
 one exposure (the reference hair's 99th luminance percentile to 0.9), sRGB.
 
-Reference images are cached (``mane.reference.cache``: ``--cache DIR``, else
-``$MANE_REFERENCE_CACHE`` or ``~/.cache/mane/reference``), so a rerun only renders mane.
+Reference images are rendered as independent 64-sample passes, each in a child process, and
+averaged (``mane.reference.passes``: any spp, and a Mitsuba crash is one error line, not the
+end of the bench) and cached (``mane.reference.cache``: ``--cache DIR``, else
+``$MANE_REFERENCE_CACHE`` or ``~/.cache/mane/reference``; each pass too), so a rerun only
+renders mane.
 """
 from __future__ import annotations
 
@@ -210,7 +213,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
                                   material=material, seed=seed)
         say(f"{name}: reference {size[0]}x{size[1]} at {spp} spp ({strands.count} strands, key {key})")
         ref = reference.render(strands=strands, head=head, camera=camera, lights=[light], settings=base, spp=spp,
-                               material=material, seed=seed, cache_dir=cache_dir)
+                               material=material, seed=seed, cache_dir=cache_dir, progress=lambda m: say(f"{name}: {m}"))
         ref_secs = time.perf_counter() - t0
         cov = reference.hair_coverage(strands=strands, head=head, camera=camera, settings=base,
                                       spp=min(max(spp, 4), 16), seed=seed, cache_dir=cache_dir)

@@ -20,8 +20,10 @@ point light is Mitsuba's ``point`` emitter of radiant intensity c * I (W/sr, fal
 Mitsuba's diffuse head reflects albedo / pi (mane's head shader reflects the albedo itself).
 
 Mitsuba is an optional extra (``pip install mane[reference]``); the ``scalar_rgb`` variant
-is used (no LLVM needed). Images are cached on disk by a hash of the strands, camera, lights,
-material, head, size, samples, seed, depth and Mitsuba's version (``cache.py``).
+is used (no LLVM needed). Above ``pass_spp`` (64) samples the image is the mean of independent
+passes, each rendered in a child process (``passes.py``). Images are cached on disk by a hash
+of the strands, camera, lights, material, head, size, samples (and passes), seed, depth and
+Mitsuba's version (``cache.py``), and so is each pass.
 """
 from __future__ import annotations
 
@@ -33,6 +35,7 @@ import numpy as np
 
 from ..errors import ManeError, UsageError
 from . import cache as _cache
+from . import passes as _passes
 from .scene import ExpandedStrands, HairMaterial, bspline_control_points, renderer_strands
 
 MITSUBA_VARIANT = "scalar_rgb"
@@ -149,43 +152,53 @@ def _emitter(light) -> dict:
     return {"type": "directional", "direction": (-d).tolist(), "irradiance": {"type": "rgb", "value": value}}
 
 
-def _sensor(mi, camera, size, spp: int) -> dict:
-    w, h = size
-    return {"type": "perspective", "fov": float(camera.fov_y), "fov_axis": "y",
-            "near_clip": float(max(camera.near, 1e-4)), "far_clip": float(camera.far),
-            "to_world": mi.ScalarTransform4f().look_at(origin=list(map(float, camera.eye)),
-                                                      target=list(map(float, camera.target)),
-                                                      up=list(map(float, camera.up))),
+def _sensor(mi, sensor: dict, spp: int) -> dict:
+    w, h = sensor["size"]
+    return {"type": "perspective", "fov": float(sensor["fov_y"]), "fov_axis": "y",
+            "near_clip": float(sensor["near"]), "far_clip": float(sensor["far"]),
+            "to_world": mi.ScalarTransform4f().look_at(origin=sensor["eye"], target=sensor["target"], up=sensor["up"]),
             "film": {"type": "hdrfilm", "width": int(w), "height": int(h), "rfilter": {"type": "box"},
                      "pixel_format": "rgb"},
             "sampler": {"type": "independent", "sample_count": int(spp)}}
 
 
-def _scene_dict(mi, folder: Path, strands, head, camera, lights, settings, material, spp, max_depth,
-                integrator=None, order=("hair", "head")) -> dict:
+def scene_job(folder: Path, strands, head, camera, lights, settings, material, max_depth) -> dict:
+    """Write the curves (and the head's PLY) into ``folder`` and describe the rest of the scene
+    as plain JSON-able data: what ``scene_from_job`` (here or in a child process) loads."""
+    folder = Path(folder)
     ctrl, radii = bspline_control_points(strands.points, 0.5 * strands.widths)
-    curves = folder / "hair.txt"
-    if not curves.exists():
-        _write_curves(curves, ctrl, radii)
-    scene = {"type": "scene", "sensor": _sensor(mi, camera, settings.size, spp),
-             "integrator": integrator or {"type": "path", "max_depth": int(max_depth)}}
-    shapes = {"hair": {"type": "bsplinecurve", "filename": str(curves), "bsdf": _hair_bsdf(material)}}
+    _write_curves(folder / "hair.txt", ctrl, radii)
     if head is not None:
-        ply = folder / "head.ply"
-        if not ply.exists():
-            _write_ply(ply, head)
-        shapes["head"] = {"type": "ply", "filename": str(ply), "face_normals": False,
-                          "bsdf": {"type": "diffuse",
-                                   "reflectance": {"type": "rgb", "value": list(map(float, settings.skin_color))}}}
+        _write_ply(folder / "head.ply", head)
+    return {"folder": str(folder), "head": head is not None, "skin": list(map(float, settings.skin_color)),
+            "sensor": {"size": [int(v) for v in settings.size], "fov_y": float(camera.fov_y),
+                       "near": float(max(camera.near, 1e-4)), "far": float(camera.far),
+                       "eye": list(map(float, camera.eye)), "target": list(map(float, camera.target)),
+                       "up": list(map(float, camera.up))},
+            "emitters": [_emitter(lt) for lt in lights], "bsdf": _hair_bsdf(material), "max_depth": int(max_depth)}
+
+
+def scene_from_job(mi, job: dict, spp: int | None = None, integrator=None, order=("hair", "head")) -> dict:
+    """Mitsuba's scene dict of a ``scene_job`` (``spp`` defaults to the job's own)."""
+    folder = Path(job["folder"])
+    spp = int(job["spp"] if spp is None else spp)
+    scene = {"type": "scene", "sensor": _sensor(mi, job["sensor"], spp),
+             "integrator": integrator or {"type": "path", "max_depth": int(job["max_depth"])}}
+    shapes = {"hair": {"type": "bsplinecurve", "filename": str(folder / "hair.txt"), "bsdf": job["bsdf"]}}
+    if job["head"]:
+        shapes["head"] = {"type": "ply", "filename": str(folder / "head.ply"), "face_normals": False,
+                          "bsdf": {"type": "diffuse", "reflectance": {"type": "rgb", "value": job["skin"]}}}
     if "dummy" in order:    # a tiny curve behind the camera: it moves the other shapes' indices
         dummy = folder / "dummy.txt"
-        back = np.asarray(camera.eye, float) - 10.0 * camera.forward
+        sensor = job["sensor"]
+        eye, target = np.asarray(sensor["eye"], float), np.asarray(sensor["target"], float)
+        back = eye - 10.0 * (target - eye) / np.linalg.norm(target - eye)
         dummy.write_text("".join(f"{back[0] + 0.01 * k:.6g} {back[1]:.6g} {back[2]:.6g} 0.001\n" for k in range(4)))
         shapes["dummy"] = {"type": "bsplinecurve", "filename": str(dummy)}
     for i, name in enumerate(n for n in order if n in shapes):   # Mitsuba orders shapes by key
         scene[f"{chr(ord('a') + i)}_{name}"] = shapes[name]
-    for i, light in enumerate(lights):
-        scene[f"light{i}"] = _emitter(light)
+    for i, emitter in enumerate(job["emitters"]):
+        scene[f"light{i}"] = emitter
     return scene
 
 
@@ -202,9 +215,23 @@ def _hash_parts(strands, head, camera, lights, settings, material, spp, seed, ma
     return parts
 
 
+def _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp) -> dict:
+    """The cache parts of a radiance render: one pass is keyed as it always was (spp, seed);
+    several passes add their sample counts (their seeds follow from ``seed``)."""
+    parts = _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, "radiance")
+    counts = _passes.split(spp, pass_spp if pass_spp else spp)
+    if len(counts) > 1:
+        parts["passes"] = counts
+    return parts
+
+
+def _cache_folder(cache_dir) -> Path:
+    return Path(cache_dir) if cache_dir is not None else _cache.default_dir()
+
+
 def _cached_render(parts, cache, cache_dir, make) -> np.ndarray:
     key = _cache.scene_hash(parts)
-    folder = Path(cache_dir) if cache_dir is not None else _cache.default_dir()
+    folder = _cache_folder(cache_dir)
     if cache:
         hit = _cache.load(folder, key)
         if hit is not None:
@@ -219,17 +246,18 @@ def _cached_render(parts, cache, cache_dir, make) -> np.ndarray:
 
 def cache_key(groom=None, *, head=None, camera=None, lights=None, settings=None, spp: int = 64, size=None,
               material: HairMaterial | None = None, strands=None, seed: int = 0, max_depth: int = 64,
-              ctx=None) -> str:
+              pass_spp: int | None = _passes.DEFAULT_PASS_SPP, ctx=None) -> str:
     """The cache key ``render`` would use for these arguments."""
     settings, strands, head, camera, lights = _prepare(groom, head=head, camera=camera, lights=lights,
                                                       settings=settings, size=size, strands=strands, ctx=ctx)
     material = material if material is not None else HairMaterial.from_settings(settings)
-    return _cache.scene_hash(_hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth,
-                                         "radiance"))
+    return _cache.scene_hash(_radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth,
+                                             pass_spp))
 
 
 def render(groom=None, *, head=None, camera=None, lights=None, settings=None, spp: int = 64, size=None,
            material: HairMaterial | None = None, strands=None, seed: int = 0, max_depth: int = 64,
+           pass_spp: int | None = _passes.DEFAULT_PASS_SPP, isolate: bool = True, progress=None,
            background=(0.0, 0.0, 0.0), cache: bool = True, cache_dir=None, ctx=None) -> np.ndarray:
     """Path trace what the real-time renderer draws; (H, W, 3) float32 linear radiance.
 
@@ -244,24 +272,55 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
     strands   an ``ExpandedStrands`` (or the expand pass's (S, N, 8) buffer) to draw instead of
               expanding ``groom`` again
     seed      the sampler's seed (the same seed gives the same image)
-    max_depth the path tracer's longest path (Mitsuba's max_depth; Russian roulette after 5)
+    max_depth the path tracer's longest path (Mitsuba's max_depth; Russian roulette after 5;
+              2 is single scattering: the first hit lit directly, exact opaque-fibre shadows)
+    pass_spp  samples per pass (``passes.py``): spp above it is rendered as independent passes
+              of pass_spp samples with seeds derived from ``seed`` and averaged (the same
+              expectation, the noise of spp samples); None: one pass
+    isolate   run each pass in a child process (default): a Mitsuba crash then fails that pass,
+              which is tried again with another seed, and then raises one ReferencePassError
+              line instead of killing the caller; False renders in this process
+    progress  callable(message) for a line per pass
     background linear RGB added where the camera sees nothing (the hair is not transparent:
               coverage at the silhouettes is exact, so black gives premultiplied radiance)
-    cache, cache_dir  keep and reuse the image on disk (``cache.default_dir()`` by default)
+    cache, cache_dir  keep and reuse the image on disk (``cache.default_dir()`` by default);
+              each pass is also cached as the one-pass render of its seed
     """
     mi = mitsuba()
     if int(spp) < 1:
         raise UsageError(f"spp must be >= 1, got {spp}")
+    if pass_spp is not None and int(pass_spp) < 1:
+        raise UsageError(f"pass_spp must be >= 1 (or None for one pass), got {pass_spp}")
     settings, strands, head, camera, lights = _prepare(groom, head=head, camera=camera, lights=lights,
                                                       settings=settings, size=size, strands=strands, ctx=ctx)
     material = material if material is not None else HairMaterial.from_settings(settings)
-    parts = _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, "radiance")
+    pass_spp = int(pass_spp) if pass_spp is not None else int(spp)
+    parts = _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp)
+    folder = _cache_folder(cache_dir)
+
+    def pass_parts(n, s):
+        return _hash_parts(strands, head, camera, lights, settings, material, n, s, max_depth, "radiance")
+
+    def cached(n, s):
+        return _cache.load(folder, _cache.scene_hash(pass_parts(n, s))) if cache else None
+
+    def store(n, s, image):
+        if cache:
+            meta = {k: v for k, v in pass_parts(n, s).items() if not isinstance(v, np.ndarray)}
+            _cache.store(folder, _cache.scene_hash(pass_parts(n, s)), image, {**meta, "strands": strands.count})
 
     def make():
         with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
-            scene = mi.load_dict(_scene_dict(mi, Path(tmp), strands, head, camera, lights, settings, material,
-                                             spp, max_depth))
-            return np.array(mi.render(scene, seed=int(seed), spp=int(spp)))[..., :3]
+            job = scene_job(Path(tmp), strands, head, camera, lights, settings, material, max_depth)
+            if isolate:
+                return _passes.render_passes(job, spp, pass_spp, seed, cached=cached, store=store, progress=progress)
+            scene = mi.load_dict(scene_from_job(mi, job, pass_spp))
+
+            def in_process(n, s):
+                return np.array(mi.render(scene, seed=int(s), spp=int(n)), np.float32)[..., :3]
+
+            return _passes.render_passes(job, spp, pass_spp, seed, cached=cached, store=store, progress=progress,
+                                         runner=in_process)
 
     image = _cached_render(parts, cache, cache_dir, make).copy()
     bg = np.asarray(background, np.float32).reshape(3)
@@ -281,7 +340,8 @@ def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=Non
     place in ``scene.shapes()``, from 1) over the pixel: with the hair's and the head's indices
     (i, j) in one render and (k, l) in a second with a dummy curve added out of view (Mitsuba
     lists curves before meshes, so swapping the keys does not swap them), the two averages give
-    the two coverages (a 2 x 2 system; the same seed, the same samples)."""
+    the two coverages (a 2 x 2 system; the same seed, the same samples). In this process (the
+    AOV integrator traces no paths and has not crashed)."""
     mi = mitsuba()
     settings, strands, head, camera, _ = _prepare(groom, head=head, camera=camera, lights=[],
                                                  settings=settings, size=size, strands=strands, ctx=ctx)
@@ -292,19 +352,19 @@ def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=Non
                         "hair+head coverage" if include_head else "hair coverage")
     aov = {"type": "aov", "aovs": "si:shape_index"}
 
-    def one(order):
-        with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
-            d = _scene_dict(mi, Path(tmp), strands, head, camera, [Light()], settings, material, spp, 1,
-                            integrator=aov, order=order)
-            scene = mi.load_dict(d)
-            index = {s.id().split("_", 1)[-1]: i + 1 for i, s in enumerate(scene.shapes())}
-            return np.array(mi.render(scene, seed=int(seed), spp=int(spp)))[..., 0], index
-
     def make():
-        va, ia = one(("hair", "head"))
-        if head is None:
-            return np.clip(va / ia["hair"], 0.0, 1.0)
-        vb, ib = one(("dummy", "head", "hair"))
+        with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
+            job = scene_job(Path(tmp), strands, head, camera, [Light()], settings, material, 1)
+
+            def one(order):
+                scene = mi.load_dict(scene_from_job(mi, job, spp, integrator=aov, order=order))
+                index = {s.id().split("_", 1)[-1]: i + 1 for i, s in enumerate(scene.shapes())}
+                return np.array(mi.render(scene, seed=int(seed), spp=int(spp)))[..., 0], index
+
+            va, ia = one(("hair", "head"))
+            if head is None:
+                return np.clip(va / ia["hair"], 0.0, 1.0)
+            vb, ib = one(("dummy", "head", "hair"))
         m = np.array([[ia["hair"], ia["head"]], [ib["hair"], ib["head"]]], float)
         if abs(np.linalg.det(m)) < 1e-9:
             raise ManeError(f"Mitsuba gave the hair and the head the same shape indices in both orders ({ia}, {ib})")

@@ -33,7 +33,8 @@
 // light's inclination theta_i and N^G at |theta_d|.
 //
 // Chiang's fibre (HAIR_MODEL_CHIANG): four lobes (TRRT+ in row 7, alpha 0, width 2 roughness),
-// lobe shifts (1, -1/2, -2) alpha, and N^G read at the eye's |theta_o| (its table's variable);
+// lobe shifts (1, -1/2, -2) alpha, and N^G read at the eye's |theta_o| (its table's variable;
+// the full-circle average of Nbar_p, 2 pi N^G_p = Abar_p: energy-conserving, dual_scattering.py);
 // cos theta_i / cos^2 theta_d is Chiang's M_p normalisation near the specular cone too.
 //
 // Tables (dual_scattering.py, ShadingSettings.dual_lut()): uniform sampler2D hair_dual_lut,

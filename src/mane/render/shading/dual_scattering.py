@@ -50,9 +50,18 @@ theta the energy each lobe gathers from the forward / backward half of the light
 (pbrt's white-furnace integral split by hemisphere: a_f + a_b = sum_p Abar_p <= 1 exactly); by
 the model's reciprocity this is also the energy light from theta scatters into each half, so it
 serves as a_f(theta_i), a_b(theta_i). The lobes peak at theta_h = (alpha, -alpha/2, -2 alpha, 0)
-with widths (1, 1/2, 2, 2) roughness (chiang.lobe_shifts / lobe_widths), and the forward-averaged
-azimuthal functions are N^G_p(theta_o) = 2/pi int_{pi/2}^{pi} Nbar_p(phi, theta_o) dphi
-= I_f^p(theta_o) / pi, over the eye's |theta_o| (Nbar depends on theta_o, not theta_d).
+with widths (1, 1/2, 2, 2) roughness (chiang.lobe_shifts / lobe_widths). The global azimuthal
+functions are the averages over the whole circle,
+      N^G_p(theta_o) = 1/pi int_0^pi Nbar_p(phi, theta_o) dphi = (I_f^p + I_b^p)(theta_o) / (2 pi),
+over the eye's |theta_o| (Nbar depends on theta_o, not theta_d), not Zinke's forward-half
+average 2/pi int_{pi/2}^{pi} N_p dphi (Eq. 25). The forward-scattered light reaches a fibre from
+azimuths spread around the light's; a constant N^G must then integrate over the circle to the
+lobe's energy, 2 pi N^G_p = Abar_p (what the fibre scatters of light from any one direction).
+Zinke's value is the spread-out light's average only with the eye straight behind the light
+(phi = pi); used at every phi it gives TT twice its energy and R and TRT (mostly backward) almost
+none: Sintel blond, where TT carries most of a_f, rendered 1.25x the path tracer and 2-3x its
+multiple scattering in the hair's shadowed half (docs/quality.md). (Marschner's tables below
+keep Eq. 25.)
 
 Guards (not in the paper): a_f and a_b are clamped to [0, 1] before use, 1 - a_f^2 to >= 1e-4,
 the denominator of sigma_b to >= 1e-12 (a_b = 0 gives sigma_b = 0 there; A_b is 0 too), and
@@ -248,8 +257,8 @@ def _precompute_dual_chiang(sigma_a, n, *, eta, roughness, shift, beta_n, specul
                                                                   lobe_widths(roughness))
     A_b, delta_b, sigma_b2 = back_scattering(a_f, a_b, alpha_f, alpha_b, beta_f2, beta_b2, d_b)
     theta_o = np.linspace(0.0, HALF_PI, n)
-    G_f, _ = chiang_hemisphere_integrals(theta_o, sigma_a, eta=eta, beta_n=beta_n, specular=1.0)
-    ng = G_f / PI
+    G_f, G_b = chiang_hemisphere_integrals(theta_o, sigma_a, eta=eta, beta_n=beta_n, specular=1.0)
+    ng = (G_f + G_b) / (2.0 * PI)
     return DualTables(theta=theta, a_f=a_f, a_b=a_b, alpha_f=alpha_f, alpha_b=alpha_b, beta_f2=beta_f2,
                       beta_b2=beta_b2, A_b=A_b, delta_b=delta_b, sigma_b2=sigma_b2, theta_d=theta_o,
                       ng_r=ng[:, 0, 0], ng_tt=ng[:, 1], ng_trt=ng[:, 2], lobe_f=I_f, lobe_b=I_b,
