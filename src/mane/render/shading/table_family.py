@@ -38,8 +38,20 @@ def cache_dir() -> Path:
     return Path(os.environ.get("MANE_CACHE", Path.home() / ".cache" / "mane")) / "tables"
 
 
+def _code_hash() -> str:
+    """The tables' builders as they are now (chiang.py, dual_scattering.py): a change to either
+    makes new files instead of reading stale ones."""
+    h = hashlib.sha1()
+    for name in ("chiang.py", "dual_scattering.py"):
+        h.update((Path(__file__).parent / name).read_bytes())
+    return h.hexdigest()
+
+
+CODE = _code_hash()
+
+
 def _file(kind: str, rest: tuple, i: int) -> Path:
-    h = hashlib.sha1(repr((kind, rest, GRID_SIZE, SIGMA_0, SIGMA_MAX)).encode()).hexdigest()[:16]
+    h = hashlib.sha1(repr((kind, rest, GRID_SIZE, SIGMA_0, SIGMA_MAX, CODE)).encode()).hexdigest()[:16]
     return cache_dir() / f"{kind}-{h}-{i:03d}.npy"
 
 
