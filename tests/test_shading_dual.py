@@ -319,7 +319,7 @@ def test_chiang_global_azimuthal_functions_conserve_each_lobes_energy(material):
     attenuation. (Zinke's 2/pi int_{pi/2}^{pi} N_p dphi, the forward half's average, is the
     right value only with the eye straight behind the light: used at every azimuth it gives
     2x the energy of TT and none of R's, and made Sintel blond 25 % too bright.)"""
-    from reference import chiang_reference as C
+    from mane.twins import chiang as C
 
     s = _settings(material, "chiang")
     sigma_a = s.resolved_sigma_a()
