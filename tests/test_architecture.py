@@ -7,6 +7,7 @@ The checks run on a toy package first (``test_checks_find_*``): a check that can
 from __future__ import annotations
 
 import ast
+from functools import lru_cache
 from pathlib import Path
 
 import pytest
@@ -33,6 +34,11 @@ ROOT_NAMES_ANYONE_MAY_READ = {"__version__"}
 
 
 # --------------------------------------------------------------------------- the graph
+@lru_cache(maxsize=None)
+def _parse(path: Path) -> ast.Module:
+    return ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+
+
 def modules(src: Path, top: str = "mane") -> dict[str, tuple[Path, bool]]:
     """dotted name -> (file, is a package's __init__) for every .py under src/top."""
     out = {}
@@ -52,8 +58,7 @@ def import_edges(src: Path, top: str = "mane") -> list[tuple[str, str, str | Non
     mods = modules(src, top)
     edges = []
     for name, (path, package) in mods.items():
-        tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
-        for node in ast.walk(tree):
+        for node in ast.walk(_parse(path)):
             targets: list[tuple[str, str | None]] = []
             if isinstance(node, ast.Import):
                 targets = [(a.name, None) for a in node.names]
@@ -154,7 +159,7 @@ def reads_tests(src: Path, top: str = "mane") -> list[str]:
     """String constants in code (docstrings and comments aside) naming the tests' folder."""
     bad = []
     for name, (path, _) in modules(src, top).items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
+        tree = _parse(path)
         docstrings = {id(n.body[0].value) for n in ast.walk(tree)
                       if isinstance(n, (ast.Module, ast.ClassDef, ast.FunctionDef, ast.AsyncFunctionDef))
                       and n.body and isinstance(n.body[0], ast.Expr) and isinstance(n.body[0].value, ast.Constant)}
@@ -248,6 +253,6 @@ def test_one_default_groom():
     """Two different functions once shared the name ``default_groom``; one name, one function."""
     owners = []
     for name, (path, _) in modules(SRC).items():
-        tree = ast.parse(path.read_text(encoding="utf-8"))
+        tree = _parse(path)
         owners += [name for n in tree.body if isinstance(n, ast.FunctionDef) and n.name == "default_groom"]
     assert len(owners) == 1, owners
