@@ -214,31 +214,29 @@ def check(name: str, meta: dict, value):
         if meta["optional"]:
             return None
         raise bad()
-    if isinstance(value, (str, bytes, dict)):
-        raise bad()
-    try:
-        items = list(value)
-    except TypeError:
-        raise bad() from None
     integer = meta["item"] == "int"
+
+    def numbers(v, length: int) -> tuple:
+        """``v`` as ``length`` numbers in range, or bad()."""
+        if isinstance(v, (str, bytes, dict)):
+            raise bad()
+        try:
+            xs = [_number(x, integer) for x in v]
+        except TypeError:
+            raise bad() from None
+        if len(xs) != length or any(x is None or not _in_range(x, meta) for x in xs):
+            raise bad()
+        return tuple(xs)
+
     if meta.get("each"):
-        out = []
-        for t in items:
-            if isinstance(t, (str, bytes, dict)):
-                raise bad()
-            try:
-                t = list(t)
-            except TypeError:
-                raise bad() from None
-            xs = [_number(x, integer) for x in t]
-            if len(xs) != meta["each"] or any(x is None or not _in_range(x, meta) for x in xs):
-                raise bad()
-            out.append(tuple(xs))
-        return tuple(out)
-    xs = [_number(x, integer) for x in items]
-    if len(xs) != meta["length"] or any(x is None or not _in_range(x, meta) for x in xs):
-        raise bad()
-    return tuple(xs)
+        if isinstance(value, (str, bytes, dict)):
+            raise bad()
+        try:
+            items = list(value)
+        except TypeError:
+            raise bad() from None
+        return tuple(numbers(t, meta["each"]) for t in items)
+    return numbers(value, meta["length"])
 
 
 _PASSED: set = set()
