@@ -428,3 +428,19 @@ def _flatten(table: dict, prefix: str = "") -> list:
 def flatten(table: dict) -> list:
     """A TOML table of settings as (dotted path, value) pairs (nested tables become paths)."""
     return _flatten(table)
+
+
+def read_toml(path, what: str) -> dict:
+    """A TOML file of settings (``--config``, a data set's spec), or a one-line UsageError
+    starting with ``what``."""
+    import tomllib
+
+    try:
+        with open(path, "rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise UsageError(f"{what}: no file {path}") from None
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UsageError(f"{what}: cannot read {path}: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise UsageError(f"{what}: {path} is not valid TOML: {exc}") from None

@@ -21,10 +21,9 @@ from __future__ import annotations
 
 import importlib
 import sys
-import tomllib
 
 from ..errors import UsageError
-from ..setting import apply, describe, flatten, lookup, names, unknown
+from ..setting import apply, describe, flatten, lookup, names, read_toml, unknown
 
 TARGETS = {"render": ("mane.render.settings", "RenderSettings"), "sim": ("mane.sim.settings", "SimSettings")}
 
@@ -91,15 +90,7 @@ def overrides(args) -> dict[str, list]:
     items: list = []
     config = getattr(args, "settings_config", None)
     if config:
-        try:
-            with open(config, "rb") as fh:
-                data = tomllib.load(fh)
-        except FileNotFoundError:
-            raise UsageError(f"--config: no file {config}") from None
-        except (OSError, UnicodeDecodeError) as exc:
-            raise UsageError(f"--config: cannot read {config}: {exc}") from None
-        except tomllib.TOMLDecodeError as exc:
-            raise UsageError(f"--config: {config} is not valid TOML: {exc}") from None
+        data = read_toml(config, "--config")
         # a file may hold every command's settings: the tables of targets this command lacks are skipped
         items += [(k, v) for k, v in flatten(data)
                   if not (k.split(".")[0] in TARGETS and k.split(".")[0] not in targets)]

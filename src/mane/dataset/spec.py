@@ -13,11 +13,11 @@ from __future__ import annotations
 import hashlib
 import json
 import math
-import tomllib
 from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from ..errors import UsageError
+from ..setting import read_toml, unknown
 
 OUTPUTS = ("rgb", "hdr", "exr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands")
 """rgb: rgb.png (8-bit sRGB); hdr: hdr.npy (float16 linear radiance before tone mapping); exr:
@@ -347,8 +347,6 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
             if k in FIXED_RENDER:
                 raise UsageError(f"[render] {k} cannot be set in a data set spec ({FIXED_RENDER[k]})")
             if k not in names:
-                from ..setting import unknown
-
                 raise UsageError(f"[render] {unknown(k, names, 'RenderSettings field')}")
         kw["render"] = {k: (tuple(v) if isinstance(v, list) else v) for k, v in r.items()}
     spec = DatasetSpec(**kw)
@@ -359,14 +357,7 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
 def load_spec(path) -> DatasetSpec:
     """Read and validate a TOML spec; relative paths in it are relative to its folder."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise UsageError(f"no spec file {path}") from None
-    except (OSError, UnicodeDecodeError) as exc:
-        raise UsageError(f"cannot read {path}: {exc}") from None
-    except tomllib.TOMLDecodeError as exc:
-        raise UsageError(f"{path} is not valid TOML: {exc}") from None
+    data = read_toml(path, "spec")
     return parse_spec(data, path.parent)
 
 
