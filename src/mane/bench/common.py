@@ -189,6 +189,18 @@ def to_json(result: dict) -> str:
     return json.dumps(result, indent=2, default=_json_default, allow_nan=False)
 
 
+def write_result(out_dir, name: str, text: str) -> None:
+    """``text`` (a result's JSON) as ``out_dir/name``, written atomically (out_dir made)."""
+    from pathlib import Path
+
+    from ..io.atomic import atomic_write_path
+
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with atomic_write_path(out_dir / name) as tmp:
+        Path(tmp).write_text(text + "\n")
+
+
 def sanitise(obj):
     """NaN / inf -> None, so the JSON is strict."""
     if isinstance(obj, float):

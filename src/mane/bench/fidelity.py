@@ -37,7 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from . import fidelity_metrics as fm
-from .common import envelope, fmt, sanitise, table, title_line, to_json
+from .common import envelope, fmt, sanitise, table, title_line, to_json, write_result
 
 SINTEL = "tressfx/sintel_hair.tfx"
 LIGHT = ("directional", (0.35, 0.8, 0.5), (1.0, 1.0, 1.0), 3.0)
@@ -312,7 +312,6 @@ def format_markdown(result: dict) -> str:
 def run_cli(args) -> int:
     """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png."""
     from ..gpu import get_context
-    from ..io.atomic import atomic_write_path
 
     mode = "quick" if args.quick else "full" if args.full else "default"
     out_dir = Path(args.out) if args.out else None
@@ -329,9 +328,7 @@ def run_cli(args) -> int:
                            grid=True if getattr(args, "grid", False) else None))
     text = to_json(result)
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with atomic_write_path(out_dir / "fidelity.json") as tmp:
-            Path(tmp).write_text(text + "\n")
+        write_result(out_dir, "fidelity.json", text)
     print(text if args.json else format_text(result))
     return 0
 

@@ -38,7 +38,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .common import Skip, envelope, fmt, sanitise, table, title_line, to_json
+from .common import Skip, envelope, fmt, sanitise, table, title_line, to_json, write_result
 
 MODE_CONFIG = {
     "quick": dict(shading_random=1024, sweep=(48, 96), shadow_slice=(40, 100), shadow_near=600,
@@ -567,7 +567,6 @@ def format_text(result: dict) -> str:
 def run_cli(args) -> int:
     """``mane bench quality --out DIR``: DIR/quality.json, DIR/quality/*.png, the tables on stdout."""
     from ..gpu import get_context
-    from ..io.atomic import atomic_write_path
 
     mode = "quick" if args.quick else "full" if args.full else "default"
     out_dir = Path(args.out) if args.out else None
@@ -576,9 +575,7 @@ def run_cli(args) -> int:
                            image_dir=(out_dir / "quality") if out_dir is not None else None))
     text = to_json(result)
     if out_dir is not None:
-        out_dir.mkdir(parents=True, exist_ok=True)
-        with atomic_write_path(out_dir / "quality.json") as tmp:
-            Path(tmp).write_text(text + "\n")
+        write_result(out_dir, "quality.json", text)
     print(text if args.json else format_text(result))
     if out_dir is not None and not args.json:
         print(f"\nwritten to {out_dir}/quality.json and {out_dir}/quality/*.png")
