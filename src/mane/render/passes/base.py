@@ -201,8 +201,9 @@ def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) 
     set_uniform(prog, "u_segments", int(s.segments))
 
 
-def bind_lighting(renderer, prog, frame: Frame) -> None:
-    """Lights, ambient and light 0's shadow maps (texture units 1..3)."""
+def bind_lighting(renderer, prog, frame: Frame, *, pcf: int | None = None) -> None:
+    """Lights, ambient and light 0's shadow maps (texture units 1..3); ``pcf``: the PCF kernel
+    of the shadow look-ups (default the settings' ``pcf``, the hair's)."""
     lights = frame.lights[:MAX_LIGHTS]
     center = renderer.scene_center()
     vecs, rads = [], []
@@ -234,7 +235,7 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         set_uniform(prog, "u_normal_offset", float(s.shadow_normal_offset))
         set_uniform(prog, "u_slope_bias", float(s.shadow_slope_bias))
         set_uniform(prog, "u_shadow_density", float(s.shadow_density))
-        set_uniform(prog, "u_pcf", int(s.pcf))
+        set_uniform(prog, "u_pcf", int(s.pcf if pcf is None else pcf))
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         set_uniform(prog, "u_dom_layers", tuple(float(f) * ext for f in s.dom_layers))

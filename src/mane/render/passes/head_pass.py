@@ -22,8 +22,7 @@ class HeadPass(Pass):
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
         set_view(prog, frame.view)
-        bind_lighting(r, prog, frame)
-        set_uniform(prog, "u_pcf", int(s.head_pcf))   # the skin's own filter (bind_lighting: the hair's)
+        bind_lighting(r, prog, frame, pcf=s.head_pcf)   # the skin's own shadow filter
         set_uniform(prog, "u_skin", tuple(s.skin_color))
         hair = r.hair_color()
         set_uniform(prog, "u_scalp_color", tuple(0.8 * c + 0.2 * k for c, k in zip(hair, s.skin_color)))
