@@ -12,7 +12,8 @@ from mane.render.shading import table_family as tf
 
 @pytest.fixture
 def fresh_cache(tmp_path, monkeypatch):
-    monkeypatch.setenv("MANE_CACHE", str(tmp_path))
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv("MANE_NO_CACHE", raising=False)
     tf._memory.clear()
     yield tmp_path
     tf._memory.clear()
@@ -63,7 +64,7 @@ def test_grid_values_are_exact_and_come_back_from_disk(fresh_cache):
     exact = sh.ShadingSettings(sigma_a=sigma, chiang_size=8).chiang_table()
     first = s.chiang_table()
     np.testing.assert_allclose(first, exact, rtol=1e-5, atol=1e-8)
-    files = sorted(p.name for p in (fresh_cache / "tables").glob("chiang-*.npy"))
+    files = sorted(p.name for p in (fresh_cache / "mane" / "tables").glob("chiang-*.npy"))
     assert len(files) == 6   # each channel's grid value and its upper neighbour
     tf._memory.clear()
 

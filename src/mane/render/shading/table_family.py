@@ -13,7 +13,7 @@ terms: nearly linear in that form). Error against the
 exact table: tests/test_shading_table_family.py (within 2% where a texel is above 1e-3 of the
 table's peak, 0.5% of the peak anywhere; the dual table's signed backscatter shift within 0.1
 degree). The grid costs ~20 s of NumPy per model the first time on a machine (a few grid values
-per new material until the grid fills), then is read from ~/.cache/mane/tables (MANE_CACHE).
+per new material until the grid fills), then is read from ~/.cache/mane/tables (cache_dir).
 """
 from __future__ import annotations
 
@@ -29,13 +29,18 @@ SIGMA_MAX = 40.0     # per unit radius; eumelanin 8 + pheomelanin 1.5 gives 12.6
 GRID_SIZE = 64
 GRID = np.exp(np.linspace(np.log(SIGMA_0), np.log(SIGMA_MAX + SIGMA_0), GRID_SIZE)) - SIGMA_0
 GRID[0] = 0.0
+_U_GRID = np.log(GRID + SIGMA_0)   # the grid in the interpolation's coordinate
 
 _memory: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _MEMORY_ENTRIES = 4 * GRID_SIZE
 
 
-def cache_dir() -> Path:
-    return Path(os.environ.get("MANE_CACHE", Path.home() / ".cache" / "mane")) / "tables"
+def cache_dir() -> Path | None:
+    """Where the grid's tables are kept, beside the default head's cache (grooming/head.py:
+    $XDG_CACHE_HOME or ~/.cache, then mane/); None with MANE_NO_CACHE=1 (memory only)."""
+    if os.environ.get("MANE_NO_CACHE"):
+        return None
+    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mane" / "tables"
 
 
 def _code_hash() -> str:
@@ -50,9 +55,12 @@ def _code_hash() -> str:
 CODE = _code_hash()
 
 
-def _file(kind: str, rest: tuple, i: int) -> Path:
+def _file(kind: str, rest: tuple, i: int) -> Path | None:
+    root = cache_dir()
+    if root is None:
+        return None
     h = hashlib.sha1(repr((kind, rest, GRID_SIZE, SIGMA_0, SIGMA_MAX, CODE)).encode()).hexdigest()[:16]
-    return cache_dir() / f"{kind}-{h}-{i:03d}.npy"
+    return root / f"{kind}-{h}-{i:03d}.npy"
 
 
 def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
@@ -68,7 +76,7 @@ def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
         try:
             _memory[key] = np.load(path, allow_pickle=False)
             continue
-        except (OSError, ValueError):
+        except (OSError, ValueError, TypeError):   # absent, damaged, or no disk cache (None)
             todo.append(i)
     for j in range(0, len(todo), 3):
         idx = todo[j:j + 3]
@@ -82,8 +90,10 @@ def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
         _memory.popitem(last=False)
 
 
-def _save(path: Path, a: np.ndarray) -> None:
+def _save(path: Path | None, a: np.ndarray) -> None:
     """Best effort: a cache that cannot be written is rebuilt next time."""
+    if path is None:
+        return
     try:
         path.parent.mkdir(parents=True, exist_ok=True)
         tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
@@ -100,9 +110,8 @@ def bracket(sigma: float) -> tuple[int, float]:
     if not np.isfinite(sigma) or sigma < 0:
         raise ValueError(f"absorption must be finite and >= 0, got {sigma}")
     u = np.log(min(float(sigma), SIGMA_MAX) + SIGMA_0)
-    ug = np.log(GRID + SIGMA_0)
-    k = int(np.clip(np.searchsorted(ug, u) - 1, 0, GRID_SIZE - 2))
-    return k, float(np.clip((u - ug[k]) / (ug[k + 1] - ug[k]), 0.0, 1.0))
+    k = int(np.clip(np.searchsorted(_U_GRID, u) - 1, 0, GRID_SIZE - 2))
+    return k, float(np.clip((u - _U_GRID[k]) / (_U_GRID[k + 1] - _U_GRID[k]), 0.0, 1.0))
 
 
 def interpolated(kind: str, rest: tuple, sigma_a, build) -> np.ndarray:
