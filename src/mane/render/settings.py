@@ -187,11 +187,10 @@ class RenderSettings:
         help="""PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
         interpolation between the 4 nearest texels), for every shadow method's look-up. The
         default's 9 taps are as many as the earlier 3 x 3 box of nearest texels.""")
-    head_pcf: int = setting(1, lo=1, hi=9, unit="texels",
-        help="""The head's (skin's) PCF kernel, as ``pcf`` is the hair's: 1 (bilinear between the 4
-        nearest texels: no texel steps) by default, as the skin's shadow look-ups (every light's,
-        per pixel) were the head pass's cost: 2 made it 1.4x dearer on an H200's target frame
-        (docs/performance.md).""")
+    head_pcf: int = setting(2, lo=1, hi=9, unit="texels",
+        help="""The head's (skin's) PCF kernel, as ``pcf`` is the hair's. 1 (bilinear between the 4
+        nearest texels) makes the head pass about 30% cheaper on an H200 but shows the shadow
+        map's texels as steps along the jaw and neck (docs/performance.md, docs/quality.md).""")
     shadow_bias: float = setting(3.0, lo=0.0, hi=100.0, unit="texels", slider=(0.0, 10.0),
         help="Depth bias, in shadow-map texels (world size of a texel).")
     shadow_normal_offset: float = setting(1.5, lo=0.0, hi=100.0, unit="texels", slider=(0.0, 10.0),
