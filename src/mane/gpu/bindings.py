@@ -13,5 +13,7 @@ B_WORDS = 0     # limits_atomic.comp
 # kernels read it (mane.sim.bindings takes these two from here)
 B_POSITIONS = 0
 B_BOUNDS = 7
+# image units
+IMG_CLEAR = 0     # clear_image.comp (clear.py)
 
 TABLE = register_bindings(Path(__file__).parent, globals())

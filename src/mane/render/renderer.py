@@ -408,6 +408,21 @@ class Renderer(GpuOwner):
             self._targets["hdr"] = Target(ctx.framebuffer([color], depth), color, depth)
         return self._targets["hdr"].fbo
 
+    def _clear_hdr(self, fbo) -> None:
+        """Clear the HDR target to transparent black and depth 1. With the compute rasteriser and
+        one sample the colour is cleared by a compute shader (mane.gpu.clear: on an H200 0.01
+        against 0.29 ms at 1080p) and only the depth by the raster units."""
+        if self.samples > 1 or not self.compute_raster:
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            return
+        from ..gpu.clear import clear_texture
+
+        if "hdr_depth" not in self._targets:
+            self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
+        self._targets["hdr_depth"][0].clear(depth=1.0)
+        clear_texture(self.ctx, self._targets["hdr"].color)
+        fbo.use()
+
     def hdr_target(self) -> Target:
         """The HDR target as drawn into: its framebuffer, colour and depth (multisampled
         renderbuffers with MSAA, else textures); made on first use."""
@@ -512,7 +527,7 @@ class Renderer(GpuOwner):
         fbo = self.hdr_fbo()
         fbo.use()
         with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
-            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+            self._clear_hdr(fbo)
         for p in self.passes:
             if p.enabled(frame):
                 with self.profiler.section(p.name):
@@ -599,7 +614,7 @@ class Renderer(GpuOwner):
         }
 
     def _single_sample(self) -> None:
-        for key in ("hdr", "hdr_resolved"):
+        for key in ("hdr_depth", "hdr", "hdr_resolved"):
             for o in self._targets.pop(key, ()):
                 o.release()
         self.samples = 1

@@ -130,11 +130,13 @@ class RenderSettings:
         pipeline="compute"; of the OIT methods the A-buffer, K-buffer, DBK-buffer and ShortCut have
         compute forms (mane.render.oit.compute), sorted blending and random subsets draw by
         hardware.""")
-    head_msaa: bool = setting(True,
+    head_msaa: bool = setting(False,
         help="""With the compute rasteriser: draw the head with ``msaa`` samples (its silhouette
-        antialiased) or with one. On GPUs with few raster units (H100/H200 class) the multisampled
-        clear and resolve cost more than the whole hair (docs/performance.md); the hair's own
-        samples do not depend on it.""")
+        antialiased) or with one (the default). On GPUs with few raster units (H100/H200 class,
+        where "auto" picks the compute rasteriser) the multisampled head costs 1.8 ms a 1080p
+        frame (its clear alone 1.6 ms), more than half the hair (docs/performance.md); the hair's
+        own samples do not depend on it. The hardware rasteriser always draws the head with
+        ``msaa`` samples.""")
     depth_prepass: bool = setting(True,
         help="""With MSAA: draw the hair's depth first (its coverage as a sample mask), then shade it with
         the depth test LEQUAL and no depth writes, so the hair BSDF runs once per pixel and visible
