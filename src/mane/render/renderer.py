@@ -23,6 +23,7 @@ from ..errors import UsageError
 from ..gpu.context import get_context, renderer_name
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
+from ..gpu.uniforms import write_uniform
 from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
@@ -92,6 +93,7 @@ class Renderer(GpuOwner):
         self._initial_fbo = self.ctx.fbo
         self._head_gpu = None
         self._vaos: dict = {}
+        self._scene_box = None        # scene_bbox's last box and what it was made from
         self._frames_dirty = True
         self._geometry_version = 0
         self._targets: dict = {}
@@ -297,7 +299,7 @@ class Renderer(GpuOwner):
 
     def draw_head(self, prog) -> None:
         """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current transform."""
-        prog["u_head_model"].write(np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
+        write_uniform(prog["u_head_model"], np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
         self.head_vao(prog).render()
 
     def head_vao(self, prog):
@@ -321,19 +323,29 @@ class Renderer(GpuOwner):
         return self.shading.color
 
     def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
-        los, his = [], []
-        if self.strands is not None:
-            lo, hi = self.strands.bbox()
-            pad = self.strand_pad()
-            los.append(lo - pad)
-            his.append(hi + pad)
-        if self.head is not None and self.settings.draw_head:
-            lo, hi = self.head.bbox()
-            los.append(lo)
-            his.append(hi)
-        if not los:
-            return np.full(3, -0.5), np.full(3, 0.5)
-        return np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float)
+        """The hair's box (padded by strand_pad) and the head's, around the world's axes."""
+        st_box = self.strands.bbox() if self.strands is not None else None
+        pad = self.strand_pad() if st_box is not None else 0.0
+        draw_head = self.head is not None and bool(self.settings.draw_head)
+        key = (pad, draw_head)
+        memo = self._scene_box
+        # the strands keep their box until it is refreshed (a new tuple); the head until set_head
+        if memo is None or memo[0] is not st_box or memo[1] is not self.head or memo[2] != key:
+            los, his = [], []
+            if st_box is not None:
+                los.append(st_box[0] - pad)
+                his.append(st_box[1] + pad)
+            if draw_head:
+                lo, hi = self.head.bbox()
+                los.append(lo)
+                his.append(hi)
+            if not los:
+                box = (np.full(3, -0.5), np.full(3, 0.5))
+            else:
+                box = (np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float))
+            memo = self._scene_box = (st_box, self.head, key, box)
+        lo, hi = memo[3]
+        return lo.copy(), hi.copy()
 
     def scene_center(self) -> np.ndarray:
         lo, hi = self.scene_bbox()

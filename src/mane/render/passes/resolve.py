@@ -6,7 +6,7 @@ import numpy as np
 
 from ...gpu.glsl import program
 from ..bindings import TEX_HDR
-from .base import HERE, TONE_IDS, Frame, Pass, set_uniform
+from .base import shader_path, TONE_IDS, Frame, Pass, set_uniform
 
 
 def srgb_to_linear(c):
@@ -24,7 +24,7 @@ class ResolvePass(Pass):
         s = r.settings
         hdr = r.resolved_hdr()    # blits the multisampled target when there is one
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
-        prog = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "resolve.frag",
+        prog = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("resolve.frag"),
                        defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]})
         hdr.use(TEX_HDR)
         set_uniform(prog, "u_hdr", TEX_HDR)
