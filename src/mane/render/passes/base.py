@@ -93,13 +93,9 @@ def set_uniform(prog, name: str, value) -> bool:
     """Set a uniform if the program has it (the driver drops unused ones); False when absent.
     A value the uniform holds already is not written again (mane.gpu.uniforms): every write
     to a render program's uniform goes through here or ``write_uniform``."""
-    members = getattr(prog, "_members", None)
-    u = members.get(name) if members is not None else None
-    if u is None:
-        try:
-            u = prog[name]
-        except KeyError:
-            return False
+    u = prog.get(name, None)
+    if u is None:   # optimised away or not declared
+        return False
     cls = value.__class__
     if cls is np.ndarray:
         value = mat_bytes(value) if value.shape == (4, 4) else tuple(map(float, value.reshape(-1)))
