@@ -70,6 +70,21 @@ def test_forget_uniforms_makes_the_next_write_happen():
     assert len(u.written) == 2
 
 
+def test_render_code_writes_uniforms_only_through_the_writer():
+    """A direct write would leave the remembered value stale, and a later equal write skipped."""
+    import re
+    from pathlib import Path
+
+    import mane.render
+
+    root = Path(mane.render.__file__).parent
+    direct = re.compile(r"""\w+\[[^\]]+\]\.(value\s*=(?!=)|write\()|\b(prog|program|cs|shader|pack|merge)\w*\[["'][^\]]+\]\s*=(?!=)""")
+    found = [f"{path.relative_to(root)}:{n}: {line.strip()}"
+             for path in sorted(root.rglob("*.py")) for n, line in enumerate(path.read_text().splitlines(), 1)
+             if direct.search(line) and not line.lstrip().startswith("#")]
+    assert not found, "write uniforms through set_uniform / write_uniform:\n" + "\n".join(found)
+
+
 # ---------------------------------------------------------------------------- whole frames
 CAM = Camera(eye=(0.0, 0.05, 0.8), target=(0.0, 0.0, 0.0), fov_y=32.0, near=0.1, far=3.0)
 CAM2 = Camera(eye=(0.35, 0.15, 0.7), target=(0.0, -0.02, 0.0), fov_y=28.0, near=0.1, far=3.0)

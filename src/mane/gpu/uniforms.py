@@ -6,8 +6,8 @@ costs the CPU (moderngl's Python setter, then the driver). ``write_uniform`` pac
 as moderngl's ``Uniform.value`` setter does, remembers the bytes on the uniform object and
 writes only when they differ. The remembered bytes are only right if every write to that
 uniform goes through here: code that sets uniforms of mane's render programs must not use
-``prog[name].value = ...`` or ``prog[name].write(...)`` directly (tests/test_architecture.py
-checks ``mane.render``).
+``prog[name].value = ...``, ``prog[name] = ...`` or ``prog[name].write(...)`` directly
+(tests/test_render_frame_cache.py checks ``mane.render``).
 """
 from __future__ import annotations
 
