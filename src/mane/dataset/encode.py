@@ -21,6 +21,22 @@ FILES = {   # output -> the files (extensions after the key) it writes
     "ids": ("strand_id.npy", "guide_id.npy"), "camera": ("camera.json",), "strands": ("strands.npz",),
 }
 FIXED_DATE = (1980, 1, 1, 0, 0, 0)
+ID_DTYPES = (np.uint8, np.uint16, np.uint32)
+
+
+def id_dtype(count: int) -> type:
+    """The smallest unsigned dtype for ids 0..count-1 that keeps its largest value free for "no
+    hair" (uint16 up to 65,535 strands: ids 0..65,534, none = 0xFFFF)."""
+    for t in ID_DTYPES:
+        if count <= np.iinfo(t).max:
+            return t
+    raise ValueError(f"{count} ids do not fit in uint32 with a value left for no hair")
+
+
+def ids(a: np.ndarray, count: int) -> np.ndarray:
+    """A uint32 id map (0xFFFFFFFF: none) in id_dtype(count): ids below count keep their value
+    and 0xFFFFFFFF wraps to the smaller type's maximum (C's unsigned conversion)."""
+    return a.astype(id_dtype(count), copy=False)
 
 
 def expected_files(outputs) -> list[str]:
@@ -68,11 +84,15 @@ def encode_arrays(raw: dict, outputs) -> dict:
         elif o == "depth":
             out["depth.npy"] = npy(raw["depth"].astype(np.float32, copy=False))
         elif o == "orientation":
-            out["orientation.npy"] = npy(raw["angle"].astype(np.float32, copy=False))
-            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float32, copy=False))
+            # float16: steps of at most 0.002 rad (0.11 degrees) below pi and 0.0005 in [0.5, 1],
+            # far below the 1-degree bins of orientation-map methods; float32 values in [0, pi)
+            # round to at most 3.1406, so the range stays [0, pi)
+            out["orientation.npy"] = npy(raw["angle"].astype(np.float16))
+            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float16))
         elif o == "ids":
-            out["strand_id.npy"] = npy(raw["strand"].astype(np.uint32, copy=False))
-            out["guide_id.npy"] = npy(raw["guide"].astype(np.uint32, copy=False))
+            strands, guides = raw["id_counts"]
+            out["strand_id.npy"] = npy(ids(raw["strand"], strands))
+            out["guide_id.npy"] = npy(ids(raw["guide"], guides))
         elif o == "camera":
             cam = dict(raw["camera"])
             if "depth16" in outputs:

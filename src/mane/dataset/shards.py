@@ -163,7 +163,8 @@ def plan_resume(spec: DatasetSpec, out_dir) -> tuple[dict, list[int], dict]:
 # ---------------------------------------------------------------------- verify
 def verify(out_dir, decode: bool = True) -> dict:
     """Check a set: the manifest, every shard's checksum and size, its samples (count, keys in
-    order, every expected file) and, with ``decode``, that every file decodes. Returns a report
+    order, every expected file) and, with ``decode``, that every file decodes and every map's
+    .npy has its dtype, shape and range (ARRAYS). Returns a report
     {"ok": bool, "shards": n, "samples": n, "problems": [...]}."""
     out = Path(out_dir)
     m = read_manifest(out)
@@ -188,7 +189,7 @@ def verify(out_dir, decode: bool = True) -> dict:
             continue
         want = list(range(k * per, min((k + 1) * per, int(m["samples"]))))
         try:
-            got = _read_shard(path, files, decode)
+            got = _read_shard(path, files, decode, tuple(m["spec"]["size"]))
         except (tarfile.TarError, ValueError, OSError) as exc:
             problems.append(f"{name}: {exc}")
             continue
@@ -199,14 +200,14 @@ def verify(out_dir, decode: bool = True) -> dict:
     return {"ok": not problems, "shards": len(m["shards"]), "samples": samples, "problems": problems}
 
 
-def _read_shard(path: Path, files: list[str], decode: bool) -> dict:
+def _read_shard(path: Path, files: list[str], decode: bool, size: tuple) -> dict:
     got: dict = {}
     with tarfile.open(path, "r:") as tar:
         for ti in tar:
             key, _, ext = ti.name.partition(".")
             data = tar.extractfile(ti).read()
             if decode:
-                _decode(ext, data, ti.name)
+                _decode(ext, data, ti.name, size)
             got.setdefault(key, set()).add(ext)
     for key, exts in got.items():
         missing = sorted(set(files) - exts)
@@ -215,7 +216,30 @@ def _read_shard(path: Path, files: list[str], decode: bool) -> dict:
     return got
 
 
-def _decode(ext: str, data: bytes, name: str) -> None:
+ARRAYS = {   # a map's .npy: (dtypes, channels); values checked in _check_values
+    "depth.npy": (("float32",), ()), "hdr.npy": (("float16",), (3,)),
+    "orientation.npy": (("float16",), ()), "orientation_conf.npy": (("float16",), ()),
+    "strand_id.npy": (("uint8", "uint16", "uint32"), ()), "guide_id.npy": (("uint8", "uint16", "uint32"), ()),
+}
+
+
+def _check_array(ext: str, a, size: tuple) -> None:
+    """A map's dtype, shape (H, W[, C]) and range, as docs/dataset.md describes them."""
+    import numpy as np
+
+    dtypes, channels = ARRAYS[ext]
+    w, h = size
+    if a.dtype.name not in dtypes or a.shape != (h, w, *channels):
+        raise ValueError(f"is {a.dtype.name} {a.shape}, expected {' or '.join(dtypes)} {(h, w, *channels)}")
+    if ext == "orientation.npy" and not np.all((a >= 0) & (a < np.pi)):
+        raise ValueError("has angles outside [0, pi)")
+    if ext in ("orientation_conf.npy", "depth.npy") and not np.all(a >= 0):
+        raise ValueError("has negative or NaN values")
+    if ext == "orientation_conf.npy" and not np.all(a <= 1):
+        raise ValueError("has confidences above 1")
+
+
+def _decode(ext: str, data: bytes, name: str, size: tuple) -> None:
     import numpy as np
 
     try:
@@ -224,7 +248,9 @@ def _decode(ext: str, data: bytes, name: str) -> None:
 
             Image.open(io.BytesIO(data)).load()
         elif ext.endswith(".npy"):
-            np.load(io.BytesIO(data), allow_pickle=False)
+            a = np.load(io.BytesIO(data), allow_pickle=False)
+            if ext in ARRAYS:
+                _check_array(ext, a, size)
         elif ext.endswith(".npz"):
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 for k in z.files:

@@ -58,6 +58,7 @@ class SampleRenderer:
     def __init__(self, spec: DatasetSpec, ctx=None, cache: int = 4):
         from ..gpu.context import get_context, renderer_name
         from ..render.aux_maps import AuxMaps
+        from ..render.readback import FrameReadback
         from ..render.renderer import Renderer
 
         self.spec = spec
@@ -71,8 +72,12 @@ class SampleRenderer:
         self._cache = int(cache)
         self._current = None   # (groom key, head) on the renderer now
         self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
-        # gpu: issuing the frame and waiting for it (ctx.finish); issue: of which the CPU's issuing
-        self.timings = {"prepare": 0.0, "gpu": 0.0, "issue": 0.0, "readback": 0.0}
+        self._settings_of: dict = {}   # (ambient, melanin) -> RenderSettings
+        self.readback = FrameReadback(self.renderer, self.aux, hdr="hdr" in spec.outputs or "exr" in spec.outputs)
+        # seconds: prepare (the sample's scene on the CPU), issue (the CPU issuing the frame and
+        # its read-back copies), gpu_wait (waiting for the GPU to pass the frame's fence),
+        # readback (mapping the copies into arrays), camera_strands (camera.json, the strands)
+        self.timings = dict.fromkeys(("prepare", "issue", "gpu_wait", "readback", "camera_strands"), 0.0)
 
     # ------------------------------------------------------------------ scene pieces
     def head(self, name: str):
@@ -142,7 +147,13 @@ class SampleRenderer:
         return Camera(tuple(eye), tuple(centre), (0.0, 1.0, 0.0), p.fov_y, near=near, far=p.distance + radius)
 
     def render(self, p: SampleParams) -> dict:
-        from ..render.aux_maps import read_hdr
+        """Sample ``p``'s raw arrays (start and finish in one: the CPU waits for the GPU)."""
+        return self.finish(self.start(p))
+
+    def start(self, p: SampleParams) -> dict:
+        """Set up sample ``p``'s scene, issue its frame and queue its read-back; returns the
+        ticket ``finish`` takes. Start the next sample before finishing this one and the GPU
+        renders it while the CPU reads this one (at most ``readback.slots`` started at once)."""
         from ..render.lights import Light
         from ..render.renderer import ShadingAdapter
 
@@ -154,9 +165,8 @@ class SampleRenderer:
         if p.sim_seconds > 0:
             groom, transform = self.simulate(groom, head, p)
             key = None
-        settings = self.settings.replace(hair_color=None, ambient=p.ambient,
-                                         shading_options={**self.settings.shading_options, "melanin": p.melanin})
-        if r.settings != settings:
+        settings = self._settings(p)
+        if r.settings is not settings and r.settings != settings:
             r.settings = settings
             r.shading = ShadingAdapter(settings.shading, settings.hair_color, settings.shading_options)
         if key is None or self._current != key:
@@ -169,13 +179,33 @@ class SampleRenderer:
         lights = [Light("directional", tuple(d), tuple(c), float(i)) for d, c, i, _ in p.lights]
         t1 = time.perf_counter()
         r.render(cam, lights)
-        t_issued = time.perf_counter()
-        self.aux.finish()
+        slot = self.readback.start()
         t2 = time.perf_counter()
-        raw = {"key": p.key, "index": p.index, "rgb": r.read_image(), **self.aux.read()}
-        if "hdr" in self.spec.outputs or "exr" in self.spec.outputs:
-            raw["hdr"] = read_hdr(r)
-        t3 = time.perf_counter()
+        self.timings["prepare"] += t1 - t0
+        self.timings["issue"] += t2 - t1
+        return {"p": p, "slot": slot, "groom": groom, "camera": cam, "transform": transform,
+                "id_counts": (r.rendered_strands, r.strands.num_guides)}
+
+    def _settings(self, p: SampleParams):
+        """The render settings of sample ``p`` (its melanin and ambient), one object per value."""
+        k = (p.ambient, p.melanin)
+        s = self._settings_of.get(k)
+        if s is None:
+            s = self.settings.replace(hair_color=None, ambient=p.ambient,
+                                      shading_options={**self.settings.shading_options, "melanin": p.melanin})
+            if len(self._settings_of) > 64:
+                self._settings_of.clear()
+            self._settings_of[k] = s
+        return s
+
+    def finish(self, ticket: dict) -> dict:
+        """The raw arrays of a started sample: waits for its frame, reads it back (see the
+        module's docstring for the keys)."""
+        t0 = time.perf_counter()
+        maps, waited = self.readback.read(ticket["slot"])
+        t1 = time.perf_counter()
+        p, cam, groom, transform = ticket["p"], ticket["camera"], ticket["groom"], ticket["transform"]
+        raw = {"key": p.key, "index": p.index, **maps, "id_counts": ticket["id_counts"]}
         w, h = self.settings.size
         view = cam.view()
         cv = CV_FROM_GL @ view
@@ -199,12 +229,16 @@ class SampleRenderer:
         if "strands" in self.spec.outputs:
             pts = np.c_[groom.points.astype(np.float64), np.ones(groom.num_points)] @ cv.T
             raw["strands"] = {"points": pts[:, :3].astype(np.float32), "counts": groom.counts.astype(np.int32)}
-        self.timings["prepare"] += t1 - t0
-        self.timings["gpu"] += t2 - t1
-        self.timings["issue"] += t_issued - t1
-        self.timings["readback"] += t3 - t2
+        self.timings["gpu_wait"] += waited
+        self.timings["readback"] += t1 - t0 - waited
+        self.timings["camera_strands"] += time.perf_counter() - t1
         return raw
 
+    def cancel(self) -> None:
+        """Drop the samples started and not finished (a shard stopped by an error)."""
+        self.readback.cancel()
+
     def release(self) -> None:
+        self.readback.release()
         self.aux.release()
         self.renderer.release()

@@ -91,10 +91,31 @@ class AuxMaps:
 
     def read(self) -> dict:
         """The last frame's maps (see the module's docstring), rows top first."""
+        self._check_fresh()
+        return self.unpack(self._out.read(), self._size)
+
+    def _check_fresh(self) -> None:
         if not self._fresh:
             raise UsageError("no ground-truth maps yet: render a frame with hair first")
-        w, h = self._size
-        planes = np.frombuffer(self._out.read(), np.uint32).reshape(PLANES, h, w)   # read-only views
+
+    @property
+    def nbytes(self) -> int:
+        """The bytes of the last frame's maps (what copy_to writes)."""
+        self._check_fresh()
+        return self._out.size
+
+    def copy_to(self, buffer) -> tuple[int, int]:
+        """Queue a GPU copy of the last frame's maps into ``buffer`` (at least ``nbytes``; for
+        an asynchronous read-back, render/readback.py); unpack(its bytes, the returned size)."""
+        self._check_fresh()
+        self.ctx.copy_buffer(buffer, self._out)
+        return self._size
+
+    @staticmethod
+    def unpack(data, size: tuple[int, int]) -> dict:
+        """The maps' dict (the module's docstring) from the bytes of the aux buffer."""
+        w, h = size
+        planes = np.frombuffer(data, np.uint32, count=PLANES * w * h).reshape(PLANES, h, w)   # read-only views
         floats = planes.view(np.float32)
         return {
             "segment": planes[0].astype(np.int64) - 1,
