@@ -13,6 +13,7 @@ import zipfile
 
 import numpy as np
 
+from .id_maps import ids
 from .spec import DEPTH16_SCALE
 
 FILES = {   # output -> the files (extensions after the key) it writes
@@ -21,22 +22,6 @@ FILES = {   # output -> the files (extensions after the key) it writes
     "ids": ("strand_id.npy", "guide_id.npy"), "camera": ("camera.json",), "strands": ("strands.npz",),
 }
 FIXED_DATE = (1980, 1, 1, 0, 0, 0)
-ID_DTYPES = (np.uint8, np.uint16, np.uint32)
-
-
-def id_dtype(count: int) -> type:
-    """The smallest unsigned dtype for ids 0..count-1 that keeps its largest value free for "no
-    hair" (uint16 up to 65,535 strands: ids 0..65,534, none = 0xFFFF)."""
-    for t in ID_DTYPES:
-        if count <= np.iinfo(t).max:
-            return t
-    raise ValueError(f"{count} ids do not fit in uint32 with a value left for no hair")
-
-
-def ids(a: np.ndarray, count: int) -> np.ndarray:
-    """A uint32 id map (0xFFFFFFFF: none) in id_dtype(count): ids below count keep their value
-    and 0xFFFFFFFF wraps to the smaller type's maximum (C's unsigned conversion)."""
-    return a.astype(id_dtype(count), copy=False)
 
 
 def expected_files(outputs) -> list[str]:

@@ -16,6 +16,7 @@ from pathlib import Path
 
 from ..errors import UsageError
 from .encode import expected_files
+from .id_maps import ID_DTYPES
 from .spec import DatasetSpec
 
 MANIFEST = "manifest.json"
@@ -216,10 +217,11 @@ def _read_shard(path: Path, files: list[str], decode: bool, size: tuple) -> dict
     return got
 
 
-ARRAYS = {   # a map's .npy: (dtypes, channels); values checked in _check_values
+_IDS = tuple(t.__name__ for t in ID_DTYPES)
+ARRAYS = {   # a map's .npy: (dtypes, channels); ranges checked in _check_array
     "depth.npy": (("float32",), ()), "hdr.npy": (("float16",), (3,)),
     "orientation.npy": (("float16",), ()), "orientation_conf.npy": (("float16",), ()),
-    "strand_id.npy": (("uint8", "uint16", "uint32"), ()), "guide_id.npy": (("uint8", "uint16", "uint32"), ()),
+    "strand_id.npy": (_IDS, ()), "guide_id.npy": (_IDS, ()),
 }
 
 
@@ -231,7 +233,7 @@ def _check_array(ext: str, a, size: tuple) -> None:
     w, h = size
     if a.dtype.name not in dtypes or a.shape != (h, w, *channels):
         raise ValueError(f"is {a.dtype.name} {a.shape}, expected {' or '.join(dtypes)} {(h, w, *channels)}")
-    if ext == "orientation.npy" and not np.all((a >= 0) & (a < np.pi)):
+    if ext == "orientation.npy" and not np.all((a >= 0) & (a < np.float64(np.pi))):   # not pi as float16
         raise ValueError("has angles outside [0, pi)")
     if ext in ("orientation_conf.npy", "depth.npy") and not np.all(a >= 0):
         raise ValueError("has negative or NaN values")

@@ -367,7 +367,7 @@ def estimate_bytes(spec: DatasetSpec) -> dict:
     uint32 for hair files (their strand counts are known only once loaded)."""
     import numpy as np
 
-    from .encode import id_dtype
+    from .id_maps import id_dtype
 
     w, h = spec.size
     n = w * h

@@ -3,6 +3,9 @@ arrays (the images and maps, the camera, the strands); encoding them is left to 
 
     sr = SampleRenderer(spec)                 # a headless context, one Renderer kept for all
     raw = sr.render(sample_params(spec, 3))   # dict of arrays and JSON-able values
+    a = sr.start(sample_params(spec, 4))      # or one frame ahead: issue 4, then 5, ...
+    b = sr.start(sample_params(spec, 5))
+    raw4 = sr.finish(a)                       # ... and read 4 while the GPU renders 5
 """
 from __future__ import annotations
 
@@ -20,6 +23,18 @@ from .spec import DatasetSpec
 
 CV_FROM_GL = np.diag([1.0, -1.0, -1.0, 1.0])   # OpenCV camera axes (x right, y down, z forward)
 ROWS_ONE_THREAD = 16384   # (rows x 4) @ (4 x 4): OpenBLAS's one-thread size (SMP_THRESHOLD_MIN 65536 x 4)
+
+
+def to_camera(h: np.ndarray, cv: np.ndarray) -> np.ndarray:
+    """(P, 3) float32: (P, 4) float64 homogeneous points ``h`` through the 4x4 ``cv``, the
+    values of ``(h @ cv.T)[:, :3].astype(np.float32)``. The product goes in row blocks that
+    OpenBLAS runs on one thread (m * n * k <= 262,144): on the whole array it starts a thread
+    per core, which measured 26 ms for 50k points beside busy processes (1 ms alone); each
+    row is the same dot product either way."""
+    out = np.empty((len(h), 3), np.float32)
+    for i in range(0, len(h), ROWS_ONE_THREAD):
+        out[i:i + ROWS_ONE_THREAD] = (h[i:i + ROWS_ONE_THREAD] @ cv.T)[:, :3]
+    return out
 
 
 def groom_key(p: SampleParams) -> tuple:
@@ -228,18 +243,11 @@ class SampleRenderer:
         self.readback.cancel()
 
     def _camera_points(self, groom, cv: np.ndarray) -> np.ndarray:
-        """(P, 3) float32: the groom's points through the 4x4 ``cv``, in float64. The groom's
-        homogeneous points are kept while it is the last one seen; the product goes in row
-        blocks that OpenBLAS runs on one thread (m * n * k <= 262,144): on the whole array it
-        starts a thread per core, which measured 26 ms for 50k points beside busy encoders
-        (1 ms alone); each row is the same dot product, so the values are the same."""
+        """The groom's points in camera space (its homogeneous points kept while it is the last
+        groom seen)."""
         if self._homogeneous[0] is not groom:
             self._homogeneous = (groom, np.c_[groom.points.astype(np.float64), np.ones(groom.num_points)])
-        h = self._homogeneous[1]
-        out = np.empty((len(h), 3), np.float32)
-        for i in range(0, len(h), ROWS_ONE_THREAD):
-            out[i:i + ROWS_ONE_THREAD] = (h[i:i + ROWS_ONE_THREAD] @ cv.T)[:, :3]
-        return out
+        return to_camera(self._homogeneous[1], cv)
 
     def release(self) -> None:
         self.readback.release()
