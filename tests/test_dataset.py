@@ -382,7 +382,8 @@ def test_id_maps_take_the_smallest_dtype_with_its_maximum_free(count, dtype):
 
 def test_encoded_maps_are_the_rendered_values_in_their_dtypes():
     # orientation and confidence: float16, within half a float16 step of the float32 values
-    # (2^-10 rad below pi, 2^-12 in [0.5, 1]); the largest float32 below pi stays below pi
+    # (half of float16's step: 2^-9 in [2, 4), 2^-11 in [0.5, 1)); the largest float32 below
+    # pi stays below pi
     from mane.dataset.encode import encode_arrays
 
     rng = np.random.default_rng(0)
@@ -400,7 +401,7 @@ def test_encoded_maps_are_the_rendered_values_in_their_dtypes():
     a, c = load("orientation.npy"), load("orientation_conf.npy")
     assert a.dtype == c.dtype == np.float16 and a.shape == (32, 40)
     assert np.abs(a.astype(np.float64) - angle).max() <= 2.0 ** -10 and a.max() < np.float64(np.pi)
-    assert np.abs(c.astype(np.float64) - conf).max() <= 2.0 ** -11 and c.max() == 1.0
+    assert np.abs(c.astype(np.float64) - conf).max() <= 2.0 ** -12 and c.max() == 1.0
     s, g = load("strand_id.npy"), load("guide_id.npy")
     assert s.dtype == np.uint16 and g.dtype == np.uint8
     assert np.array_equal(s.astype(np.int64), np.where(strand == 0xFFFFFFFF, 0xFFFF, strand))

@@ -69,9 +69,9 @@ def encode_arrays(raw: dict, outputs) -> dict:
         elif o == "depth":
             out["depth.npy"] = npy(raw["depth"].astype(np.float32, copy=False))
         elif o == "orientation":
-            # float16: steps of at most 0.002 rad (0.11 degrees) below pi and 0.0005 in [0.5, 1],
-            # far below the 1-degree bins of orientation-map methods; float32 values in [0, pi)
-            # round to at most 3.1406, so the range stays [0, pi)
+            # float16: rounded by at most 2^-10 rad (0.056 degrees) below pi, 2^-12 in [0, 1],
+            # far below the degree steps of orientation-map methods (docs/dataset.md); float32
+            # values in [0, pi) round to at most 3.140625, so the range stays [0, pi)
             out["orientation.npy"] = npy(raw["angle"].astype(np.float16))
             out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float16))
         elif o == "ids":
