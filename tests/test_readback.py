@@ -55,6 +55,27 @@ def test_reading_a_frame_late_gives_its_bytes(gl):
             assert a[k].dtype == b[k].dtype and np.array_equal(a[k], b[k]), k
 
 
+def test_maps_without_segment_are_the_same_maps(gl):
+    groom, _ = default_scene(num_guides=20, points=8, subdivisions=3)
+    r = Renderer(RenderSettings(size=(32, 24), rasterizer="compute", shadows="none", segments=14), ctx=gl,
+                 profile=False)
+    r.set_strands(groom)
+    aux = AuxMaps(r)
+    rb = FrameReadback(r, aux, segment=False)
+    try:
+        r.render(r.default_camera(20.0, 5.0))
+        full = aux.read()
+        got, _ = rb.read(rb.start())
+    finally:
+        rb.release()
+        aux.release()
+        r.release()
+    assert set(got) == set(full) - {"segment"} | {"rgb"}
+    assert (full["segment"] >= 0).any()
+    for k in set(got) - {"rgb"}:
+        assert got[k].dtype == full[k].dtype and np.array_equal(got[k], full[k]), k
+
+
 def test_fence_waits_for_the_gpu(gl):
     from mane.gpu import fence
 

@@ -89,7 +89,9 @@ class SampleRenderer:
         self._current = None   # (groom key, head) on the renderer now
         self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
         self._homogeneous: tuple = (None, None)   # (groom, its points as (P, 4) float64 with w = 1)
-        self.readback = FrameReadback(self.renderer, self.aux, hdr="hdr" in spec.outputs or "exr" in spec.outputs)
+        # the maps but "segment" (no file holds it; AuxMaps.read has it after a render)
+        self.readback = FrameReadback(self.renderer, self.aux, hdr="hdr" in spec.outputs or "exr" in spec.outputs,
+                                      segment=False)
         # seconds: prepare (the sample's scene on the CPU), issue (the CPU issuing the frame and
         # its read-back copies), gpu_wait (waiting for the GPU to pass the frame's fence),
         # readback (mapping the copies into arrays), camera_strands (camera.json, the strands)

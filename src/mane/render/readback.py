@@ -9,6 +9,7 @@ while the CPU reads and packs this one.
     renderer.render(cam_b, lights); b = rb.start()   # the GPU renders b ...
     maps, waited = rb.read(a)                        # ... while a is read
     maps["rgb"]     # what Renderer.read_image gives; the AuxMaps.read keys; "hdr": read_hdr's
+                    # (segment=False: all maps but "segment", a seventh less to copy)
 
 The bytes are those of read_image, AuxMaps.read and read_hdr (the same targets, copied on the
 GPU first). A slot must be read before it is started again.
@@ -22,13 +23,14 @@ from ..gpu.fence import Fence
 
 
 class FrameReadback:
-    def __init__(self, renderer, aux, hdr: bool = False, slots: int = 2):
+    def __init__(self, renderer, aux, hdr: bool = False, slots: int = 2, segment: bool = True):
         self.renderer = renderer
         self.aux = aux
         self.hdr = bool(hdr)
+        self.segment = bool(segment)   # False: the maps without "segment" (a seventh less to copy)
         self.slots = int(slots)
         self._buffers: list[dict | None] = [None] * self.slots
-        self._pending: list[tuple | None] = [None] * self.slots   # (fence, aux size, image size, hdr size)
+        self._pending: list[tuple | None] = [None] * self.slots   # (fence, aux size, its bytes, image size, hdr size)
         self._next = 0
 
     def _slot(self, k: int, sizes: dict) -> dict:
@@ -44,17 +46,18 @@ class FrameReadback:
         if self._pending[k] is not None:
             raise UsageError(f"read-back slot {k} is still pending: read it before starting another frame")
         w, h = r.settings.size
-        sizes = {"rgb": w * h * 3, "aux": self.aux.nbytes}
+        aux_bytes = self.aux.nbytes(self.segment)
+        sizes = {"rgb": w * h * 3, "aux": aux_bytes}
         color = None
         if self.hdr:
             color, _ = r.hdr_textures()
             sizes["hdr"] = color.size[0] * color.size[1] * 8
         bufs = self._slot(k, sizes)
         r.output_fbo().read_into(bufs["rgb"], components=3, alignment=1)   # a pixel-pack buffer: queued
-        aux_size = self.aux.copy_to(bufs["aux"])
+        aux_size = self.aux.copy_to(bufs["aux"], self.segment)
         if color is not None:
             color.read_into(bufs["hdr"], alignment=1)
-        self._pending[k] = (Fence(), aux_size, (w, h), color.size if color is not None else None)
+        self._pending[k] = (Fence(), aux_size, aux_bytes, (w, h), color.size if color is not None else None)
         self._next = (k + 1) % self.slots
         return k
 
@@ -63,12 +66,12 @@ class FrameReadback:
         pending = self._pending[k]
         if pending is None:
             raise UsageError(f"read-back slot {k} has no frame started")
-        fence, aux_size, (w, h), hdr_size = pending
+        fence, aux_size, aux_bytes, (w, h), hdr_size = pending
         self._pending[k] = None
         waited = fence.wait()
         bufs = self._buffers[k]
         out = {"rgb": np.frombuffer(bufs["rgb"].read(size=w * h * 3), np.uint8).reshape(h, w, 3)[::-1].copy()}
-        out.update(self.aux.unpack(bufs["aux"].read(), aux_size))
+        out.update(self.aux.unpack(bufs["aux"].read(size=aux_bytes), aux_size, self.segment))
         if hdr_size is not None:
             hw, hh = hdr_size
             data = np.frombuffer(bufs["hdr"].read(size=hw * hh * 8), np.float16).reshape(hh, hw, 4)[::-1, :, :3]
