@@ -457,3 +457,35 @@ def test_plan_estimate_follows_the_map_dtypes(spec_dir):
     more = parse_spec({"size": [512, 512], "outputs": ["ids"], "grooms": [{"style": "wavy", "strands": 3125}],
                        "render": {"strands_per_guide": 32}}, spec_dir)
     assert estimate_bytes(more)["per_output"]["ids"] == (4 + 2) * 512 * 512   # 100k strands: uint32
+
+
+def test_shard_writes_survive_short_writev(tmp_path, monkeypatch):
+    # writev may write fewer bytes than asked (a pipe, a signal, a full disk's last blocks): the
+    # shard is still every byte once, in order (the same file as with whole writes)
+    import os
+
+    from mane.dataset.shards import ShardFile
+
+    rng = np.random.default_rng(5)
+    samples = [{"__key__": f"{i:06d}", "a.npy": rng.bytes(3000 + 977 * i), "b.json": b"{}"} for i in range(3)]
+    (tmp_path / "whole").mkdir()
+    whole = ShardFile(tmp_path / "whole", 0)
+    for s in samples:
+        whole.write(dict(s))
+    whole.close()
+    real = os.writev
+    calls = []
+
+    def short(fd, buffers):   # at most 1000 bytes a call, cutting buffers mid-way
+        calls.append(1)
+        return real(fd, [bytes(b"".join(bytes(b) for b in buffers)[:1000])])
+
+    monkeypatch.setattr(os, "writev", short)
+    (tmp_path / "short").mkdir()
+    part = ShardFile(tmp_path / "short", 0)
+    for s in samples:
+        part.write(dict(s))
+    sha, size = part.close()
+    data = (tmp_path / "short" / "shard-000000.tar").read_bytes()
+    assert len(calls) > 10 and data == (tmp_path / "whole" / "shard-000000.tar").read_bytes()
+    assert size == len(data) and sha == hashlib.sha256(data).hexdigest()

@@ -22,6 +22,7 @@ from .spec import DatasetSpec
 MANIFEST = "manifest.json"
 FORMAT = "mane-dataset/1"
 TMP_MARK = ".tmp-"
+IOV_MAX = 1024   # buffers per writev (POSIX's minimum is 16; Linux takes 1024)
 
 
 def shard_name(k: int) -> str:
@@ -45,7 +46,7 @@ class ShardFile:
 
     The bytes are those of the webdataset library's TarWriter (USTAR members named
     ``key.ext`` in sorted order, mode 0o444, owner mane, time 0; tests check them byte for byte),
-    but a sample's members are joined and hashed and written in one call: TarWriter's stream
+    but a sample's members are hashed and written in one call (writev): TarWriter's stream
     hands the file 10 KiB at a time, ~700 Python-level writes for a 7 MB sample, which measured
     42 ms a sample on the H200 host and bounded a GPU worker to 25 samples/s."""
 
@@ -60,10 +61,20 @@ class ShardFile:
         self.size = 0
         self.samples = 0
 
-    def _put(self, b) -> None:
-        self._h.update(b)       # both release the GIL for large buffers
-        self._f.write(b)
-        self.size += len(b)
+    def _put(self, *parts) -> None:
+        """Hash and append ``parts`` in one writev (no joined copy: a 4 MB sample's join was
+        a memcpy holding the GIL against the renderer); hashing and writing release it."""
+        views = [memoryview(b).cast("B") for b in parts if len(b)]
+        for v in views:
+            self._h.update(v)
+        fd = self._f.fileno()
+        while views:
+            n = os.writev(fd, views[:IOV_MAX])
+            self.size += n
+            while views and n >= len(views[0]):
+                n -= len(views.pop(0))
+            if n:
+                views[0] = views[0][n:]
 
     def write(self, files: dict) -> None:
         key = files["__key__"]
@@ -79,7 +90,7 @@ class ShardFile:
             ti.size, ti.mtime, ti.mode, ti.uname, ti.gname = len(data), 0, self.MODE, self.USER, self.GROUP
             parts += [ti.tobuf(tarfile.USTAR_FORMAT, "utf-8", "surrogateescape"), data,
                       bytes(-len(data) % tarfile.BLOCKSIZE)]
-        self._put(b"".join(parts))
+        self._put(*parts)
         self.samples += 1
 
     def close(self) -> tuple[str, int]:
