@@ -167,7 +167,9 @@ def test_local_run_verifies_and_decodes(tiny, local_set):
     assert [s["__key__"] for s in samples] == [f"{i:09d}" for i in range(6)]
     s = samples[3]
     assert s["rgb.png"].shape == (32, 40, 3) and s["mask.png"].shape == (32, 40)
-    assert s["depth.npy"].dtype == np.float32 and s["strand_id.npy"].dtype == np.uint32
+    # 24 guides x 2 strands: uint8 ids (255: no hair); float16 orientation
+    assert s["depth.npy"].dtype == np.float32 and s["strand_id.npy"].dtype == s["guide_id.npy"].dtype == np.uint8
+    assert s["orientation.npy"].dtype == s["orientation_conf.npy"].dtype == np.float16
     assert s["hdr.npy"].dtype == np.float16 and s["hdr.npy"].shape == (32, 40, 3)
     import OpenEXR
 
@@ -175,8 +177,10 @@ def test_local_run_verifies_and_decodes(tiny, local_set):
         (Path(tmp) / "x.exr").write_bytes(tar.extractfile("000000003.rgb_linear.exr").read())
         with OpenEXR.File(str(Path(tmp) / "x.exr")) as e:
             assert np.array_equal(e.channels()["RGB"].pixels, s["hdr.npy"])   # the same linear values
-    hit = s["strand_id.npy"] != 0xFFFFFFFF
+    hit = s["strand_id.npy"] != 255
     assert hit.any() and np.all(s["depth.npy"][hit] > 0) and np.all(s["depth.npy"][~hit] == 0)
+    assert np.array_equal(s["guide_id.npy"][hit], s["strand_id.npy"][hit] // 2)   # strands_per_guide 2
+    assert np.all(s["guide_id.npy"][~hit] == 255) and s["strand_id.npy"][hit].max() < 48
     d16 = s["depth16.png"]
     assert np.allclose(d16[hit] / s["camera.json"]["depth16_units_per_metre"], s["depth.npy"][hit], atol=1e-4)
     assert np.all(s["mask.png"][hit] > 0)
@@ -287,13 +291,20 @@ def test_bench_dataset_reports_rate_and_stages(gl, monkeypatch):
                                                        "samples": 3, "stage_samples": 2, "workers": ()})
     result = dataset_bench.run(gl, "quick")
     r = result["results"][0]
-    assert r["samples"] == 3 and r["samples_per_s"] > 0 and r["bytes_per_sample"] > 0
-    for k in ("prepare", "gpu", "readback", "encode_arrays", "encode_png_one_core"):
-        assert r["stage_ms_per_sample"][k] > 0
-    for k in ("prepare", "gpu", "readback", "submit", "write_overlapped", "encode_png"):
+    assert r["samples"] == 3 and r["samples_per_s"] > 0 and r["bytes_per_sample"] == sum(r["bytes_per_file"].values())
+    for k in ("prepare", "issue", "readback", "camera_strands", "encode_arrays", "encode_png_one_core"):
+        assert r["stage_ms_per_sample"][k] > 0 and r["stage_ms_per_sample"]["gpu_wait"] >= 0
+    assert r["render_ahead_samples_per_s"] > 0 and r["render_alone_samples_per_s"] > 0
+    for k in ("prepare", "issue", "gpu_wait", "readback", "encode_arrays", "submit", "wait_encoders",
+              "write_overlapped", "encode_png"):
         assert k in r["pipeline_ms_per_sample"]
+    assert r["encoder_ms_per_sample"] > 0 and r["writer_ms_per_sample"] > 0
+    # the ceiling replays rendered samples: no rendering in it, the same encoding and writing
+    assert r["ceiling_samples_per_s"] > 0 and r["ceiling_ms_per_sample"]["encode_png"] > 0
+    assert "issue" not in r["ceiling_ms_per_sample"]
     assert result["meta"]["benchmark"] == "dataset"
-    assert "samples/s" in dataset_bench.format_text(result)
+    text = dataset_bench.format_text(result)
+    assert "samples/s" in text and "ceiling" in text and "GPU wait" in text
 
 
 @pytest.mark.gpu
@@ -352,4 +363,129 @@ def test_shard_bytes_are_webdataset_tarwriter_bytes(tmp_path):
     w.close()
     data = (tmp_path / "shard-000000.tar").read_bytes()
     assert data == ref.getvalue()
+    assert size == len(data) and sha == hashlib.sha256(data).hexdigest()
+
+
+@pytest.mark.parametrize("count,dtype", [(1, np.uint8), (255, np.uint8), (256, np.uint16), (65535, np.uint16),
+                                         (65536, np.uint32), (2 ** 32 - 1, np.uint32)])
+def test_id_maps_take_the_smallest_dtype_with_its_maximum_free(count, dtype):
+    # ids 0..count-1 and "no hair" (the dtype's maximum) must all be distinct
+    from mane.dataset.id_maps import id_dtype, ids
+
+    assert id_dtype(count) is dtype
+    m = np.array([[0, count - 1, 0xFFFFFFFF]], np.uint32)
+    got = ids(m, count)
+    assert got.dtype == dtype and got.tolist() == [[0, count - 1, np.iinfo(dtype).max]]
+    with pytest.raises(ValueError):
+        id_dtype(2 ** 32)
+
+
+def test_encoded_maps_are_the_rendered_values_in_their_dtypes():
+    # orientation and confidence: float16, within half a float16 step of the float32 values
+    # (half of float16's step: 2^-9 in [2, 4), 2^-11 in [0.5, 1)); the largest float32 below
+    # pi stays below pi
+    from mane.dataset.encode import encode_arrays
+
+    rng = np.random.default_rng(0)
+    angle = rng.uniform(0, np.pi, (32, 40)).astype(np.float32)
+    angle[0, 0] = np.nextafter(np.float32(np.pi), np.float32(0))
+    conf = rng.uniform(0, 1, (32, 40)).astype(np.float32)
+    conf[0, 0] = 1.0
+    strand = rng.integers(0, 300, (32, 40)).astype(np.uint32)
+    strand[:4] = 0xFFFFFFFF
+    raw = {"key": "000000007", "angle": angle, "confidence": conf, "strand": strand,
+           "guide": np.where(strand == 0xFFFFFFFF, strand, strand // 3), "id_counts": (300, 100),
+           "depth": rng.uniform(0.5, 1.0, (32, 40)).astype(np.float32)}
+    files = encode_arrays(raw, ["depth", "orientation", "ids"])
+    load = lambda name: np.load(io.BytesIO(bytes(files[name])))  # noqa: E731
+    a, c = load("orientation.npy"), load("orientation_conf.npy")
+    assert a.dtype == c.dtype == np.float16 and a.shape == (32, 40)
+    assert np.abs(a.astype(np.float64) - angle).max() <= 2.0 ** -10 and a.max() < np.float64(np.pi)
+    assert np.abs(c.astype(np.float64) - conf).max() <= 2.0 ** -12 and c.max() == 1.0
+    s, g = load("strand_id.npy"), load("guide_id.npy")
+    assert s.dtype == np.uint16 and g.dtype == np.uint8
+    assert np.array_equal(s.astype(np.int64), np.where(strand == 0xFFFFFFFF, 0xFFFF, strand))
+    assert np.array_equal(g.astype(np.int64), np.where(strand == 0xFFFFFFFF, 0xFF, strand // 3))
+    assert np.array_equal(load("depth.npy"), raw["depth"])
+    from mane.dataset.shards import _decode
+
+    assert a[0, 0] == np.float16(3.140625)   # the largest float16 below pi: verify takes it
+    for name in ("depth.npy", "orientation.npy", "orientation_conf.npy", "strand_id.npy", "guide_id.npy"):
+        _decode(name, bytes(files[name]), name, (40, 32))
+
+
+@pytest.mark.parametrize("name,array,words", [
+    ("orientation.npy", np.zeros((32, 40), np.float32), "expected float16"),
+    ("orientation.npy", np.full((32, 40), 3.1426, np.float16), "outside [0, pi)"),   # float16 above pi
+    ("orientation_conf.npy", np.full((32, 40), 1.5, np.float16), "above 1"),
+    ("strand_id.npy", np.zeros((32, 40), np.int32), "expected uint8 or uint16 or uint32"),
+    ("depth.npy", np.zeros((40, 32), np.float32), "(32, 40)"),
+    ("depth.npy", np.full((32, 40), np.nan, np.float32), "NaN"),
+])
+def test_verify_checks_each_maps_dtype_shape_and_range(name, array, words):
+    from mane.dataset.encode import npy
+    from mane.dataset.shards import _decode
+
+    with pytest.raises(ValueError) as e:
+        _decode(name, bytes(npy(array)), f"000000001.{name}", (40, 32))
+    assert words in str(e.value) and "000000001" in str(e.value)
+    good = {"orientation.npy": np.float16, "orientation_conf.npy": np.float16, "strand_id.npy": np.uint16,
+            "depth.npy": np.float32}[name]
+    _decode(name, bytes(npy(np.zeros((32, 40), good))), name, (40, 32))   # the right one passes
+
+
+@pytest.mark.parametrize("n", [5, 16384, 16385, 50000])
+def test_strands_to_camera_in_row_blocks_are_the_whole_product(n):
+    from mane.dataset.worker import to_camera
+
+    rng = np.random.default_rng(n)
+    h = np.c_[rng.uniform(-0.3, 0.3, (n, 3)).astype(np.float32).astype(np.float64), np.ones(n)]
+    cv = np.c_[rng.normal(size=(4, 3)), rng.normal(size=4)]
+    assert np.array_equal(to_camera(h, cv), (h @ cv.T)[:, :3].astype(np.float32))
+
+
+def test_plan_estimate_follows_the_map_dtypes(spec_dir):
+    # 512x512: depth 4 B, orientation 2 x 2 B, ids 2 x 2 B (50k strands of 3125 guides) a pixel
+    from mane.dataset import parse_spec
+    from mane.dataset.spec import estimate_bytes
+
+    spec = parse_spec({"size": [512, 512], "outputs": ["depth", "orientation", "ids"],
+                       "grooms": [{"style": "wavy", "strands": 3125, "points": 16}],
+                       "render": {"strands_per_guide": 16}}, spec_dir)
+    per = estimate_bytes(spec)["per_output"]
+    assert per == {"depth": 4 * 512 * 512, "orientation": 4 * 512 * 512, "ids": 4 * 512 * 512}
+    more = parse_spec({"size": [512, 512], "outputs": ["ids"], "grooms": [{"style": "wavy", "strands": 3125}],
+                       "render": {"strands_per_guide": 32}}, spec_dir)
+    assert estimate_bytes(more)["per_output"]["ids"] == (4 + 2) * 512 * 512   # 100k strands: uint32
+
+
+def test_shard_writes_survive_short_writev(tmp_path, monkeypatch):
+    # writev may write fewer bytes than asked (a pipe, a signal, a full disk's last blocks): the
+    # shard is still every byte once, in order (the same file as with whole writes)
+    import os
+
+    from mane.dataset.shards import ShardFile
+
+    rng = np.random.default_rng(5)
+    samples = [{"__key__": f"{i:06d}", "a.npy": rng.bytes(3000 + 977 * i), "b.json": b"{}"} for i in range(3)]
+    (tmp_path / "whole").mkdir()
+    whole = ShardFile(tmp_path / "whole", 0)
+    for s in samples:
+        whole.write(dict(s))
+    whole.close()
+    real = os.writev
+    calls = []
+
+    def short(fd, buffers):   # at most 1000 bytes a call, cutting buffers mid-way
+        calls.append(1)
+        return real(fd, [bytes(b"".join(bytes(b) for b in buffers)[:1000])])
+
+    monkeypatch.setattr(os, "writev", short)
+    (tmp_path / "short").mkdir()
+    part = ShardFile(tmp_path / "short", 0)
+    for s in samples:
+        part.write(dict(s))
+    sha, size = part.close()
+    data = (tmp_path / "short" / "shard-000000.tar").read_bytes()
+    assert len(calls) > 10 and data == (tmp_path / "whole" / "shard-000000.tar").read_bytes()
     assert size == len(data) and sha == hashlib.sha256(data).hexdigest()

@@ -13,6 +13,7 @@ import zipfile
 
 import numpy as np
 
+from .id_maps import ids
 from .spec import DEPTH16_SCALE
 
 FILES = {   # output -> the files (extensions after the key) it writes
@@ -68,11 +69,15 @@ def encode_arrays(raw: dict, outputs) -> dict:
         elif o == "depth":
             out["depth.npy"] = npy(raw["depth"].astype(np.float32, copy=False))
         elif o == "orientation":
-            out["orientation.npy"] = npy(raw["angle"].astype(np.float32, copy=False))
-            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float32, copy=False))
+            # float16: rounded by at most 2^-10 rad (0.056 degrees) below pi, 2^-12 in [0, 1],
+            # far below the degree steps of orientation-map methods (docs/dataset.md); float32
+            # values in [0, pi) round to at most 3.140625, so the range stays [0, pi)
+            out["orientation.npy"] = npy(raw["angle"].astype(np.float16))
+            out["orientation_conf.npy"] = npy(raw["confidence"].astype(np.float16))
         elif o == "ids":
-            out["strand_id.npy"] = npy(raw["strand"].astype(np.uint32, copy=False))
-            out["guide_id.npy"] = npy(raw["guide"].astype(np.uint32, copy=False))
+            strands, guides = raw["id_counts"]
+            out["strand_id.npy"] = npy(ids(raw["strand"], strands))
+            out["guide_id.npy"] = npy(ids(raw["guide"], guides))
         elif o == "camera":
             cam = dict(raw["camera"])
             if "depth16" in outputs:

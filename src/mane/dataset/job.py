@@ -1,7 +1,8 @@
 """One shard's work, the same for the local runner and Ray: render its samples in order on
-this process's GPU, make its cheap files here and hand its PNGs to an encoder (``submit(job)
--> future``), stream the encoded samples into the shard's temporary file in order (a writer
-thread, overlapping the next renders), rename it when complete.
+this process's GPU, one frame ahead (sample N + 1 is issued before sample N is read back, so
+the GPU renders while the CPU reads and packs), make its cheap files here and hand its PNGs to
+an encoder (``submit(job) -> future``), stream the encoded samples into the shard's temporary
+file in order (a writer thread, overlapping the next renders), rename it when complete.
 
 A fault hook for tests: with ``MANE_DATASET_EXIT_AFTER=N`` in its environment a worker process
 exits abruptly (os._exit, like a killed process) once it has rendered N samples.
@@ -44,7 +45,6 @@ def encode_timed(job: dict) -> tuple[dict, float]:
 def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=None, prefetch=None) -> dict:
     """Render shard ``k`` with SampleRenderer ``sr``; returns its manifest entry and timings.
     ``prefetch(fn, *args) -> future``: CPU workers that grow the next grooms meanwhile."""
-    global _rendered
     spec = sr.spec
     exit_after = int(os.environ.get(EXIT_AFTER_ENV, "0") or 0)
     t0, started = time.perf_counter(), time.time()
@@ -75,28 +75,40 @@ def render_shard(sr, k: int, out_dir, submit, *, in_flight: int = 8, on_sample=N
             if on_sample is not None:
                 on_sample()
 
+    def finish(ticket) -> None:   # sample N's read-back and files, while the GPU renders N + 1
+        global _rendered
+        nonlocal arrays_s, submit_s
+        if exit_after and _rendered >= exit_after:
+            os._exit(17)   # the fault hook: as abrupt as a kill
+        raw = sr.finish(ticket)
+        t = time.perf_counter()
+        files = encode_arrays(raw, spec.outputs)
+        arrays_s += time.perf_counter() - t
+        t = time.perf_counter()
+        pending.append((files, submit(png_job(raw, spec.outputs))))
+        submit_s += time.perf_counter() - t
+        _rendered += 1
+        drain(False)
+
     try:
         params = [sample_params(spec, i) for i in spec.shard_range(k)]
+        started_ticket = None
         for j, p in enumerate(params):
-            if exit_after and _rendered >= exit_after:
-                os._exit(17)   # the fault hook: as abrupt as a kill
             if prefetch is not None:
                 sr.prefetch(params[j:j + 2 * spec.views_per_groom + 2], prefetch)
-            raw = sr.render(p)
-            t = time.perf_counter()
-            files = encode_arrays(raw, spec.outputs)
-            arrays_s += time.perf_counter() - t
-            t = time.perf_counter()
-            pending.append((files, submit(png_job(raw, spec.outputs))))
-            submit_s += time.perf_counter() - t
-            _rendered += 1
-            drain(False)
+            ticket = sr.start(p)
+            if started_ticket is not None:
+                finish(started_ticket)
+            started_ticket = ticket
+        if started_ticket is not None:
+            finish(started_ticket)
         drain(True)
         while writes:
             write_s += writes.popleft().result()
         writer.shutdown()
         sha, size = shard.close()
     except BaseException:
+        sr.cancel()
         writer.shutdown(wait=True, cancel_futures=True)
         shard.abort()
         raise

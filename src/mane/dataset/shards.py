@@ -16,11 +16,13 @@ from pathlib import Path
 
 from ..errors import UsageError
 from .encode import expected_files
+from .id_maps import ID_DTYPES
 from .spec import DatasetSpec
 
 MANIFEST = "manifest.json"
 FORMAT = "mane-dataset/1"
 TMP_MARK = ".tmp-"
+IOV_MAX = 1024   # buffers per writev (POSIX's minimum is 16; Linux takes 1024)
 
 
 def shard_name(k: int) -> str:
@@ -44,7 +46,7 @@ class ShardFile:
 
     The bytes are those of the webdataset library's TarWriter (USTAR members named
     ``key.ext`` in sorted order, mode 0o444, owner mane, time 0; tests check them byte for byte),
-    but a sample's members are joined and hashed and written in one call: TarWriter's stream
+    but a sample's members are hashed and written in one call (writev): TarWriter's stream
     hands the file 10 KiB at a time, ~700 Python-level writes for a 7 MB sample, which measured
     42 ms a sample on the H200 host and bounded a GPU worker to 25 samples/s."""
 
@@ -59,10 +61,20 @@ class ShardFile:
         self.size = 0
         self.samples = 0
 
-    def _put(self, b) -> None:
-        self._h.update(b)       # both release the GIL for large buffers
-        self._f.write(b)
-        self.size += len(b)
+    def _put(self, *parts) -> None:
+        """Hash and append ``parts`` in one writev (no joined copy: a 4 MB sample's join was
+        a memcpy holding the GIL against the renderer); hashing and writing release it."""
+        views = [memoryview(b).cast("B") for b in parts if len(b)]
+        for v in views:
+            self._h.update(v)
+        fd = self._f.fileno()
+        while views:
+            n = os.writev(fd, views[:IOV_MAX])
+            self.size += n
+            while views and n >= len(views[0]):
+                n -= len(views.pop(0))
+            if n:
+                views[0] = views[0][n:]
 
     def write(self, files: dict) -> None:
         key = files["__key__"]
@@ -78,7 +90,7 @@ class ShardFile:
             ti.size, ti.mtime, ti.mode, ti.uname, ti.gname = len(data), 0, self.MODE, self.USER, self.GROUP
             parts += [ti.tobuf(tarfile.USTAR_FORMAT, "utf-8", "surrogateescape"), data,
                       bytes(-len(data) % tarfile.BLOCKSIZE)]
-        self._put(b"".join(parts))
+        self._put(*parts)
         self.samples += 1
 
     def close(self) -> tuple[str, int]:
@@ -163,7 +175,8 @@ def plan_resume(spec: DatasetSpec, out_dir) -> tuple[dict, list[int], dict]:
 # ---------------------------------------------------------------------- verify
 def verify(out_dir, decode: bool = True) -> dict:
     """Check a set: the manifest, every shard's checksum and size, its samples (count, keys in
-    order, every expected file) and, with ``decode``, that every file decodes. Returns a report
+    order, every expected file) and, with ``decode``, that every file decodes and every map's
+    .npy has its dtype, shape and range (ARRAYS). Returns a report
     {"ok": bool, "shards": n, "samples": n, "problems": [...]}."""
     out = Path(out_dir)
     m = read_manifest(out)
@@ -188,7 +201,7 @@ def verify(out_dir, decode: bool = True) -> dict:
             continue
         want = list(range(k * per, min((k + 1) * per, int(m["samples"]))))
         try:
-            got = _read_shard(path, files, decode)
+            got = _read_shard(path, files, decode, tuple(m["spec"]["size"]))
         except (tarfile.TarError, ValueError, OSError) as exc:
             problems.append(f"{name}: {exc}")
             continue
@@ -199,14 +212,14 @@ def verify(out_dir, decode: bool = True) -> dict:
     return {"ok": not problems, "shards": len(m["shards"]), "samples": samples, "problems": problems}
 
 
-def _read_shard(path: Path, files: list[str], decode: bool) -> dict:
+def _read_shard(path: Path, files: list[str], decode: bool, size: tuple) -> dict:
     got: dict = {}
     with tarfile.open(path, "r:") as tar:
         for ti in tar:
             key, _, ext = ti.name.partition(".")
             data = tar.extractfile(ti).read()
             if decode:
-                _decode(ext, data, ti.name)
+                _decode(ext, data, ti.name, size)
             got.setdefault(key, set()).add(ext)
     for key, exts in got.items():
         missing = sorted(set(files) - exts)
@@ -215,7 +228,31 @@ def _read_shard(path: Path, files: list[str], decode: bool) -> dict:
     return got
 
 
-def _decode(ext: str, data: bytes, name: str) -> None:
+_IDS = tuple(t.__name__ for t in ID_DTYPES)
+ARRAYS = {   # a map's .npy: (dtypes, channels); ranges checked in _check_array
+    "depth.npy": (("float32",), ()), "hdr.npy": (("float16",), (3,)),
+    "orientation.npy": (("float16",), ()), "orientation_conf.npy": (("float16",), ()),
+    "strand_id.npy": (_IDS, ()), "guide_id.npy": (_IDS, ()),
+}
+
+
+def _check_array(ext: str, a, size: tuple) -> None:
+    """A map's dtype, shape (H, W[, C]) and range, as docs/dataset.md describes them."""
+    import numpy as np
+
+    dtypes, channels = ARRAYS[ext]
+    w, h = size
+    if a.dtype.name not in dtypes or a.shape != (h, w, *channels):
+        raise ValueError(f"is {a.dtype.name} {a.shape}, expected {' or '.join(dtypes)} {(h, w, *channels)}")
+    if ext == "orientation.npy" and not np.all((a >= 0) & (a < np.float64(np.pi))):   # not pi as float16
+        raise ValueError("has angles outside [0, pi)")
+    if ext in ("orientation_conf.npy", "depth.npy") and not np.all(a >= 0):
+        raise ValueError("has negative or NaN values")
+    if ext == "orientation_conf.npy" and not np.all(a <= 1):
+        raise ValueError("has confidences above 1")
+
+
+def _decode(ext: str, data: bytes, name: str, size: tuple) -> None:
     import numpy as np
 
     try:
@@ -224,7 +261,9 @@ def _decode(ext: str, data: bytes, name: str) -> None:
 
             Image.open(io.BytesIO(data)).load()
         elif ext.endswith(".npy"):
-            np.load(io.BytesIO(data), allow_pickle=False)
+            a = np.load(io.BytesIO(data), allow_pickle=False)
+            if ext in ARRAYS:
+                _check_array(ext, a, size)
         elif ext.endswith(".npz"):
             with np.load(io.BytesIO(data), allow_pickle=False) as z:
                 for k in z.files:

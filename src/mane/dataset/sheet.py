@@ -36,7 +36,7 @@ def sample_rows(out_dir, count: int = 4) -> list[dict]:
                     rows.setdefault(key, {})[ext[:-4]] = np.asarray(Image.open(io.BytesIO(data)))
                 elif ext in ("depth.npy", "orientation.npy", "orientation_conf.npy"):
                     name_ = {"depth.npy": "depth", "orientation.npy": "angle", "orientation_conf.npy": "confidence"}[ext]
-                    rows.setdefault(key, {})[name_] = np.load(io.BytesIO(data))
+                    rows.setdefault(key, {})[name_] = np.load(io.BytesIO(data)).astype(np.float32)   # angles: float16
         if len(rows) >= count:
             break
     return [rows[k] for k in sorted(rows)[:count]]

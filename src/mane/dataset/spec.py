@@ -362,12 +362,21 @@ def load_spec(path) -> DatasetSpec:
 
 
 def estimate_bytes(spec: DatasetSpec) -> dict:
-    """Rough bytes per sample per output (PNG guessed at half its raw size), and the total."""
+    """Rough bytes per sample per output (PNG guessed at half its raw size), and the total.
+    Id maps: the dtype of the largest procedural groom's rendered strands (encode.id_dtype),
+    uint32 for hair files (their strand counts are known only once loaded)."""
+    import numpy as np
+
+    from .id_maps import id_dtype
+
     w, h = spec.size
     n = w * h
     strands = max((g.strands * g.points if g.style else 50_000 * 16) for g in spec.grooms)
+    spg = int(spec.render_settings().strands_per_guide)
+    guides = max((g.strands if g.style else 2 ** 32 - 1) for g in spec.grooms)
+    id_bytes = np.dtype(id_dtype(min(guides * spg, 2 ** 32 - 1))).itemsize + np.dtype(id_dtype(guides)).itemsize
     per = {"rgb": n * 3 // 2, "hdr": n * 6, "exr": n * 4, "mask": n // 4, "depth": n * 4, "depth16": n // 2,
-           "orientation": n * 8, "ids": n * 8, "camera": 3000, "strands": strands * 12}
+           "orientation": n * 4, "ids": n * id_bytes, "camera": 3000, "strands": strands * 12}
     files = {"orientation": 2, "ids": 2}
     sample = sum(per[o] + 512 * (1 + files.get(o, 1)) for o in spec.outputs)
     return {"per_output": {o: per[o] for o in spec.outputs}, "per_sample": sample,

@@ -3,6 +3,9 @@ arrays (the images and maps, the camera, the strands); encoding them is left to 
 
     sr = SampleRenderer(spec)                 # a headless context, one Renderer kept for all
     raw = sr.render(sample_params(spec, 3))   # dict of arrays and JSON-able values
+    a = sr.start(sample_params(spec, 4))      # or one frame ahead: issue 4, then 5, ...
+    b = sr.start(sample_params(spec, 5))
+    raw4 = sr.finish(a)                       # ... and read 4 while the GPU renders 5
 """
 from __future__ import annotations
 
@@ -19,6 +22,19 @@ from .sampling import SampleParams
 from .spec import DatasetSpec
 
 CV_FROM_GL = np.diag([1.0, -1.0, -1.0, 1.0])   # OpenCV camera axes (x right, y down, z forward)
+ROWS_ONE_THREAD = 16384   # (rows x 4) @ (4 x 4): OpenBLAS's one-thread size (SMP_THRESHOLD_MIN 65536 x 4)
+
+
+def to_camera(h: np.ndarray, cv: np.ndarray) -> np.ndarray:
+    """(P, 3) float32: (P, 4) float64 homogeneous points ``h`` through the 4x4 ``cv``, the
+    values of ``(h @ cv.T)[:, :3].astype(np.float32)``. The product goes in row blocks that
+    OpenBLAS runs on one thread (m * n * k <= 262,144): on the whole array it starts a thread
+    per core, which measured 26 ms for 50k points beside busy processes (1 ms alone); each
+    row is the same dot product either way."""
+    out = np.empty((len(h), 3), np.float32)
+    for i in range(0, len(h), ROWS_ONE_THREAD):
+        out[i:i + ROWS_ONE_THREAD] = (h[i:i + ROWS_ONE_THREAD] @ cv.T)[:, :3]
+    return out
 
 
 def groom_key(p: SampleParams) -> tuple:
@@ -58,6 +74,7 @@ class SampleRenderer:
     def __init__(self, spec: DatasetSpec, ctx=None, cache: int = 4):
         from ..gpu.context import get_context, renderer_name
         from ..render.aux_maps import AuxMaps
+        from ..render.readback import FrameReadback
         from ..render.renderer import Renderer
 
         self.spec = spec
@@ -71,8 +88,14 @@ class SampleRenderer:
         self._cache = int(cache)
         self._current = None   # (groom key, head) on the renderer now
         self._frame_of = (None,)   # (id, centroid, lo, hi, groom) of the last groom framed
-        # gpu: issuing the frame and waiting for it (ctx.finish); issue: of which the CPU's issuing
-        self.timings = {"prepare": 0.0, "gpu": 0.0, "issue": 0.0, "readback": 0.0}
+        self._homogeneous: tuple = (None, None)   # (groom, its points as (P, 4) float64 with w = 1)
+        # the maps but "segment" (no file holds it; AuxMaps.read has it after a render)
+        self.readback = FrameReadback(self.renderer, self.aux, hdr="hdr" in spec.outputs or "exr" in spec.outputs,
+                                      segment=False)
+        # seconds: prepare (the sample's scene on the CPU), issue (the CPU issuing the frame and
+        # its read-back copies), gpu_wait (waiting for the GPU to pass the frame's fence),
+        # readback (mapping the copies into arrays), camera_strands (camera.json, the strands)
+        self.timings = dict.fromkeys(("prepare", "issue", "gpu_wait", "readback", "camera_strands"), 0.0)
 
     # ------------------------------------------------------------------ scene pieces
     def head(self, name: str):
@@ -142,7 +165,13 @@ class SampleRenderer:
         return Camera(tuple(eye), tuple(centre), (0.0, 1.0, 0.0), p.fov_y, near=near, far=p.distance + radius)
 
     def render(self, p: SampleParams) -> dict:
-        from ..render.aux_maps import read_hdr
+        """Sample ``p``'s raw arrays (start and finish in one: the CPU waits for the GPU)."""
+        return self.finish(self.start(p))
+
+    def start(self, p: SampleParams) -> dict:
+        """Set up sample ``p``'s scene, issue its frame and queue its read-back; returns the
+        ticket ``finish`` takes. Start the next sample before finishing this one and the GPU
+        renders it while the CPU reads this one (at most ``readback.slots`` started at once)."""
         from ..render.lights import Light
         from ..render.renderer import ShadingAdapter
 
@@ -169,13 +198,21 @@ class SampleRenderer:
         lights = [Light("directional", tuple(d), tuple(c), float(i)) for d, c, i, _ in p.lights]
         t1 = time.perf_counter()
         r.render(cam, lights)
-        t_issued = time.perf_counter()
-        self.aux.finish()
+        slot = self.readback.start()
         t2 = time.perf_counter()
-        raw = {"key": p.key, "index": p.index, "rgb": r.read_image(), **self.aux.read()}
-        if "hdr" in self.spec.outputs or "exr" in self.spec.outputs:
-            raw["hdr"] = read_hdr(r)
-        t3 = time.perf_counter()
+        self.timings["prepare"] += t1 - t0
+        self.timings["issue"] += t2 - t1
+        return {"p": p, "slot": slot, "groom": groom, "camera": cam, "transform": transform,
+                "id_counts": (r.rendered_strands, r.strands.num_guides)}
+
+    def finish(self, ticket: dict) -> dict:
+        """The raw arrays of a started sample: waits for its frame, reads it back (see the
+        module's docstring for the keys)."""
+        t0 = time.perf_counter()
+        maps, waited = self.readback.read(ticket["slot"])
+        t1 = time.perf_counter()
+        p, cam, groom, transform = ticket["p"], ticket["camera"], ticket["groom"], ticket["transform"]
+        raw = {"key": p.key, "index": p.index, **maps, "id_counts": ticket["id_counts"]}
         w, h = self.settings.size
         view = cam.view()
         cv = CV_FROM_GL @ view
@@ -197,14 +234,24 @@ class SampleRenderer:
             "renderer": self.renderer_string,
         }
         if "strands" in self.spec.outputs:
-            pts = np.c_[groom.points.astype(np.float64), np.ones(groom.num_points)] @ cv.T
-            raw["strands"] = {"points": pts[:, :3].astype(np.float32), "counts": groom.counts.astype(np.int32)}
-        self.timings["prepare"] += t1 - t0
-        self.timings["gpu"] += t2 - t1
-        self.timings["issue"] += t_issued - t1
-        self.timings["readback"] += t3 - t2
+            raw["strands"] = {"points": self._camera_points(groom, cv), "counts": groom.counts.astype(np.int32)}
+        self.timings["gpu_wait"] += waited
+        self.timings["readback"] += t1 - t0 - waited
+        self.timings["camera_strands"] += time.perf_counter() - t1
         return raw
 
+    def cancel(self) -> None:
+        """Drop the samples started and not finished (a shard stopped by an error)."""
+        self.readback.cancel()
+
+    def _camera_points(self, groom, cv: np.ndarray) -> np.ndarray:
+        """The groom's points in camera space (its homogeneous points kept while it is the last
+        groom seen)."""
+        if self._homogeneous[0] is not groom:
+            self._homogeneous = (groom, np.c_[groom.points.astype(np.float64), np.ones(groom.num_points)])
+        return to_camera(self._homogeneous[1], cv)
+
     def release(self) -> None:
+        self.readback.release()
         self.aux.release()
         self.renderer.release()

@@ -85,26 +85,42 @@ class AuxMaps:
         self._points = int(expand.points)
         self._fresh = True
 
-    def finish(self) -> None:
-        """Wait until the GPU has finished the frame (to time rendering apart from read-back)."""
-        self.ctx.finish()
-
     def read(self) -> dict:
         """The last frame's maps (see the module's docstring), rows top first."""
+        self._check_fresh()
+        return self.unpack(self._out.read(), self._size)
+
+    def _check_fresh(self) -> None:
         if not self._fresh:
             raise UsageError("no ground-truth maps yet: render a frame with hair first")
-        w, h = self._size
-        planes = np.frombuffer(self._out.read(), np.uint32).reshape(PLANES, h, w)   # read-only views
+
+    def nbytes(self, segment: bool = True) -> int:
+        """The bytes of the last frame's maps (what copy_to writes)."""
+        self._check_fresh()
+        return self._out.size // PLANES * (PLANES - (not segment))
+
+    def copy_to(self, buffer, segment: bool = True) -> tuple[int, int]:
+        """Queue a GPU copy of the last frame's maps (without "segment": the others) into
+        ``buffer`` (at least ``nbytes``; for an asynchronous read-back, render/readback.py);
+        unpack(its bytes, the returned size, segment) gives the maps."""
+        self._check_fresh()
+        skip = 0 if segment else self._out.size // PLANES
+        self.ctx.copy_buffer(buffer, self._out, size=self._out.size - skip, read_offset=skip)
+        return self._size
+
+    @staticmethod
+    def unpack(data, size: tuple[int, int], segment: bool = True) -> dict:
+        """The maps' dict (the module's docstring) from the bytes of the aux buffer (from its
+        second plane on without ``segment``)."""
+        w, h = size
+        n = PLANES - (not segment)
+        planes = np.frombuffer(data, np.uint32, count=n * w * h).reshape(n, h, w)   # read-only views
         floats = planes.view(np.float32)
-        return {
-            "segment": planes[0].astype(np.int64) - 1,
-            "strand": planes[1],
-            "guide": planes[2],
-            "depth": floats[3],
-            "angle": floats[4],
-            "confidence": floats[5],
-            "alpha": floats[6],
-        }
+        first = PLANES - n
+        maps = {"segment": planes[0].astype(np.int64) - 1} if segment else {}
+        for k, name in enumerate(("strand", "guide", "depth", "angle", "confidence", "alpha"), start=1):
+            maps[name] = (planes if k < 3 else floats)[k - first]
+        return maps
 
     def _release_buffers(self) -> None:
         if self._out is not None:

@@ -1,0 +1,84 @@
+"""A GPU fence (glFenceSync / glClientWaitSync), which moderngl 5 does not expose: the CPU can
+wait for the commands issued before it without waiting for those issued after.
+
+    f = Fence()      # after the commands to wait for; flushes them to the GPU (glFlush)
+    ...              # issue more work
+    f.wait()         # blocks until the GPU has passed the fence; returns the seconds waited
+
+Where the GL loader lacks the entry points, ``Fence()`` only flushes if it can and ``wait``
+returns at once (a later read of a buffer then waits in the driver, as without a fence).
+Call it on the thread whose context issued the commands.
+"""
+from __future__ import annotations
+
+import ctypes
+import time
+
+GL_SYNC_GPU_COMMANDS_COMPLETE = 0x9117
+GL_SYNC_FLUSH_COMMANDS_BIT = 0x1
+GL_TIMEOUT_EXPIRED = 0x911B
+_fns: dict | None = None
+
+
+def _entry(name: str, restype, *argtypes):
+    """A core GL entry point through glvnd's libOpenGL/libGL, else eglGetProcAddress; None."""
+    fn = None
+    for lib in ("libOpenGL.so.0", "libGL.so.1"):
+        try:
+            fn = getattr(ctypes.CDLL(lib), name)
+            break
+        except (OSError, AttributeError):
+            continue
+    if fn is None:
+        try:
+            egl = ctypes.CDLL("libEGL.so.1")
+            egl.eglGetProcAddress.restype = ctypes.c_void_p
+            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
+            addr = egl.eglGetProcAddress(name.encode())
+            fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr) if addr else None
+        except OSError:
+            return None
+    if fn is not None:
+        fn.restype, fn.argtypes = restype, list(argtypes)
+    return fn
+
+
+def _gl() -> dict:
+    global _fns
+    if _fns is None:
+        _fns = {"fence": _entry("glFenceSync", ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
+                "wait": _entry("glClientWaitSync", ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
+                "delete": _entry("glDeleteSync", None, ctypes.c_void_p),
+                "flush": _entry("glFlush", None)}
+    return _fns
+
+
+def available() -> bool:
+    f = _gl()
+    return all(f[k] is not None for k in ("fence", "wait", "delete"))
+
+
+class Fence:
+    def __init__(self):
+        f = _gl()
+        self._sync = f["fence"](GL_SYNC_GPU_COMMANDS_COMPLETE, 0) if available() else None
+        if f["flush"] is not None:
+            f["flush"]()   # the GPU starts on what is queued now, not at the next implicit flush
+
+    def wait(self) -> float:
+        if self._sync is None:
+            return 0.0
+        f = _gl()
+        t = time.perf_counter()
+        try:
+            for _ in range(120):   # 1 s a try; after 2 minutes a read of the buffers waits instead
+                if f["wait"](self._sync, GL_SYNC_FLUSH_COMMANDS_BIT, 1_000_000_000) != GL_TIMEOUT_EXPIRED:
+                    break          # signalled (or GL_WAIT_FAILED: the driver's read waits instead)
+        finally:
+            self.release()
+        return time.perf_counter() - t
+
+    def release(self) -> None:
+        if self._sync is not None:
+            _gl()["delete"](self._sync)
+            self._sync = None
