@@ -14,7 +14,7 @@ import math
 import numpy as np
 import pytest
 
-from mane.bench import scale_bench
+from mane.bench import scale_bench, scale_rows
 
 
 def _cli(argv):
@@ -43,7 +43,7 @@ def sim_scale(gl):
 
 def _check_issue_row(r):
     key = r["issue_key"]
-    issue, target = scale_bench.ISSUE[key]
+    issue, target = scale_rows.ISSUE[key]
     unit = "s" if key.endswith("cold_start") else "ms"
     assert r[f"issue_{unit}"] == issue and r[f"target_{unit}"] == target, r["name"]
     assert f"measured_{unit}" in r and "met" in r
@@ -62,13 +62,13 @@ def test_render_scale_rows(render_scale):
     result, file_text = render_scale
     assert json.loads(file_text) == result
     assert result["meta"]["settings"]["sections"] == ["scale"]
-    assert result["meta"]["settings"]["scale"]["size"] == list(scale_bench.SCALE_CONFIG["quick"]["size"])
+    assert result["meta"]["settings"]["scale"]["size"] == list(scale_rows.SCALE_CONFIG["quick"]["size"])
     rows = result["results"]
-    assert {r["bench"] for r in rows} == set(scale_bench.RENDER_BENCHES)   # only the scale rows ran
+    assert {r["bench"] for r in rows} == set(scale_rows.RENDER_BENCHES)   # only the scale rows ran
     for r in rows:
         _check_issue_row(r)
     keys = [r["issue_key"] for r in rows]
-    cfg = scale_bench.SCALE_CONFIG["quick"]
+    cfg = scale_rows.SCALE_CONFIG["quick"]
     assert keys == ([k for k, _, _ in cfg["closeup"]] + [k for k, _ in cfg["strands"]]
                     + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start"])
     # the summary holds one line per row, with the same numbers
@@ -87,7 +87,7 @@ def test_render_scale_closeup_reports_its_coverage(render_scale):
         assert 0.0 <= r["coverage"] <= r["coverage_unoccluded"] <= 1.0
         assert r["coverage_met"] is (r["coverage"] >= r["want_coverage"])
         assert r["coverage_met"]      # the camera search stops at the first camera that reaches it
-        assert (r["azimuth"], r["distance_scale"]) in [tuple(c) for c in scale_bench.SCALE_CONFIG["quick"]["cameras"]]
+        assert (r["azimuth"], r["distance_scale"]) in [tuple(c) for c in scale_rows.SCALE_CONFIG["quick"]["cameras"]]
     assert any(r["status"] == "ok" for r in rows), [r["reason"] for r in rows]
 
 
@@ -113,7 +113,7 @@ def test_render_scale_loop_and_cold_start(render_scale):
 @pytest.mark.slow
 def test_sim_scale_rows(sim_scale):
     rows = sim_scale["results"]
-    assert {r["bench"] for r in rows} == set(scale_bench.SIM_BENCHES)
+    assert {r["bench"] for r in rows} == set(scale_rows.SIM_BENCHES)
     for r in rows:
         _check_issue_row(r)
     assert [s["name"] for s in sim_scale["scale"]] == [r["name"] for r in rows]
@@ -126,8 +126,8 @@ def test_issue_figures_and_targets():
             "strands_1m": (20.8, 8.3), "strands_2m": (37.6, 16.7), "crowd_lod": (None, 16.7),
             "sim_render": (21.3, 12.0), "cold_start": (2.8, 1.0), "sim_1m": (15.8, 8.0), "sim_2m": (58.0, 16.0)}
     for key, figures in want.items():
-        assert scale_bench.ISSUE[key] == figures, key
-    default = scale_bench.SCALE_CONFIG["default"]
+        assert scale_rows.ISSUE[key] == figures, key
+    default = scale_rows.SCALE_CONFIG["default"]
     assert default["size"] == (1920, 1080)
     assert [n for _, n in default["strands"]] == [100_000, 250_000, 500_000, 1_000_000, 2_000_000]
     assert default["crowd_heads"] * default["crowd_strands"] == 10_000_000
@@ -137,11 +137,11 @@ def test_issue_figures_and_targets():
 
 
 def test_issue_fields_met():
-    assert scale_bench.issue_fields("strands_1m", 8.0)["met"] is True
-    assert scale_bench.issue_fields("strands_1m", 9.0)["met"] is False
-    assert scale_bench.issue_fields("strands_100k", 1.0)["met"] is None      # no target
-    assert scale_bench.issue_fields("strands_1m", None)["met"] is None       # not measured
-    f = scale_bench.issue_fields("cold_start", 0.5, unit="s")
+    assert scale_rows.issue_fields("strands_1m", 8.0)["met"] is True
+    assert scale_rows.issue_fields("strands_1m", 9.0)["met"] is False
+    assert scale_rows.issue_fields("strands_100k", 1.0)["met"] is None      # no target
+    assert scale_rows.issue_fields("strands_1m", None)["met"] is None       # not measured
+    f = scale_rows.issue_fields("cold_start", 0.5, unit="s")
     assert (f["issue_s"], f["target_s"], f["measured_s"], f["met"]) == (2.8, 1.0, 0.5, True)
 
 
@@ -150,22 +150,22 @@ def test_steady_frame_rule():
     # 1.5x of it with no later frame beyond 3x; frame 5's 25 ms (2.5x) is allowed
     walls = [900.0, 200.0, 40.0, 10.0, 11.0, 25.0, 10.0, 10.0, 9.0, 10.0]
     ends = list(np.cumsum(walls) / 1e3 + 0.5)
-    s = scale_bench.steady(ends, walls)
+    s = scale_rows.steady(ends, walls)
     assert s["steady_frame_ms"] == 10.0 and s["first_steady_frame"] == 3
     assert s["to_steady_s"] == pytest.approx(0.5 + 1.15) and s["to_first_frame_s"] == pytest.approx(1.4)
     assert s["first_frames_mean_ms"] == pytest.approx(sum(walls) / len(walls))
     # a late hitch beyond 3x pushes the steady frame past it
     walls2 = walls[:7] + [40.0, 10.0, 10.0]
-    assert scale_bench.steady(ends, walls2)["first_steady_frame"] == 8
+    assert scale_rows.steady(ends, walls2)["first_steady_frame"] == 8
 
 
 def test_expanded_bytes_guard(gl):
     from mane.errors import GPUMemoryError
 
     # 1M strands, 17 guide points, 32 segments: 2 subdivisions a guide segment, 33 points of 32 bytes
-    assert scale_bench.expanded_bytes(1_000_000, 17, 32) == 1_000_000 * 33 * 32
+    assert scale_rows.expanded_bytes(1_000_000, 17, 32) == 1_000_000 * 33 * 32
     with pytest.raises(GPUMemoryError):
-        scale_bench.guard_bytes(gl, 1 << 50, "a petabyte")
+        scale_rows.guard_bytes(gl, 1 << 50, "a petabyte")
 
 
 @pytest.mark.gpu

@@ -796,7 +796,7 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
     settings["render_settings_fields"] = list(settings_fields())
     settings["sections"] = list(sections) if sections else list(SECTIONS)
     if sections and "scale" in sections:
-        from .scale_bench import SCALE_CONFIG
+        from .scale_rows import SCALE_CONFIG
 
         settings["scale"] = SCALE_CONFIG[mode]
     out = {"meta": envelope(ctx, target="render", mode=mode, settings=settings, timing=timing),
@@ -804,7 +804,7 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
            "targets": _targets(bench.rows, mode),
            "sweeps": _sweep_summary(bench.rows, bench)}
     if sections and "scale" in sections:
-        from .scale_bench import summary
+        from .scale_rows import summary
 
         out["scale"] = summary(bench.rows)
     return out
@@ -853,7 +853,7 @@ def format_text(result: dict) -> str:
         out.append(table(rs, [("config", "name", "{}")] + size_cols + frame_cols + pass_cols,
                          title=titles[section]))
     if result.get("scale") is not None:
-        from .scale_bench import format_text as scale_text
+        from .scale_rows import format_text as scale_text
 
         out += ["", scale_text(rows)]
     t = result["targets"]

@@ -1,160 +1,60 @@
-"""The ``scale`` section of ``mane bench render`` and ``mane bench sim`` (issue 14, "Speed where
-users need it", item 5): the workloads users meet, each row beside the figure the issue measured
-(``issue_ms``) and the target it is held to (``target_ms``).
+"""The render rows of the ``scale`` section (issue 14, "Speed where users need it", item 5): the
+workloads users meet, each row beside the figure the issue measured (``issue_ms``) and the target
+it is held to (``target_ms``); the figures, the configurations per mode, the sim rows and the
+summary are ``mane.bench.scale_rows``.
 
     mane bench render --section scale --json     # close-ups, strand counts, crowd, sim + render, cold start
     mane bench sim --section scale --json        # 1M and 2M guides x 32, full solver; cold start
     mane bench render --section scale --quick    # tiny stand-ins (llvmpipe, seconds): the JSON's shape only
 
-Render rows (``bench`` in each row; the timing is the render bench's ``Bench.measure``: warm-up,
-frames one at a time with GPU timer queries and a finish each, back to back, and gapless;
-``measured_ms`` is its ``gpu_ms`` mean where GPU timer queries are used, else ``frame_ms``):
+The timing is the render bench's ``Bench.measure`` (warm-up, frames one at a time with GPU timer
+queries and a finish each, back to back, and gapless); ``measured_ms`` is its ``gpu_ms`` mean where
+GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
 
 ``scale_closeup``
-    A close-up portrait at 1920x1080, default ``RenderSettings``: the camera moved in from the
-    default framing (``distance_scale``) until the hair covers at least ``want_coverage`` of the
-    frame (0.5; and 0.7 for the issue's 72% figure), 100k and 1M rendered strands. Coverage is
-    measured from frames themselves (the HDR target's alpha > 0.5 share, ``hair_coverage``):
-    ``coverage`` = pixels covered with the hair and head drawn minus those the head alone covers
-    (a lower bound: hair in front of the face is not counted), ``coverage_upper`` = the hair
-    alone without the head (an upper bound: hair the head hides is counted).
+    A close-up portrait at 1920x1080, default ``RenderSettings``: the first camera of the mode's
+    list ((azimuth, distance scale of the default framing): the default view moving in, then the
+    side, then the back) whose frame the hair covers at least ``want_coverage`` of (0.5; 0.7 for
+    the issue's 72% figure), 100k and 1M rendered strands (1M takes 100k's camera). ``coverage``
+    is measured from frames (``hair_coverage``): the share of pixels where the hair alone has HDR
+    alpha > 0.5 and, with the head drawn, a hair fragment is nearer than the head.
 ``scale_strands``
     Rendered strands {100k, 250k, 500k, 1M, 2M} at the default framing, 1920x1080, default
     ``RenderSettings``: one groom of ``guides`` guides, ``strands_per_guide`` = strands / guides.
 ``scale_crowd``
-    ``heads`` copies of one groom (each ``crowd_strands`` rendered strands) and head on a grid
+    ``crowd_heads`` copies of one groom (``crowd_strands`` rendered strands each) and head on a grid
     ``crowd_spacing`` m apart, framed whole, with the distance LOD (``RenderSettings.lod``) and
     without. The public API draws one groom a frame (``Renderer.render`` clears its target), so
-    the copies are one concatenated groom (``Groom.concatenate``) and one merged head mesh: the
-    memory grows with the heads; instancing one groom at many transforms is not in the renderer.
+    the copies are one concatenated groom (``Groom.concatenate``) and one merged head mesh: memory
+    grows with the heads (the expanded strands are sized for every strand at full detail, LOD or
+    not); instancing one groom at many transforms is not in the renderer.
 ``scale_sim_render``
-    The simulate + render loop: ``loop_guides`` x ``loop_points`` simulated with the full solver
-    (the sim bench's: DFTL, shape and bending, 8 capsules, mesh SDF, grid friction) and drawn as
+    The simulate + render loop: ``loop_guides`` x ``loop_points`` simulated with the sim bench's
+    full solver (DFTL, shape and bending, 8 capsules, mesh SDF, grid friction) and drawn as
     ``loop_guides`` x ``loop_spg`` rendered strands every frame: GPU ms of the step and of the
-    frame (GL_TIMESTAMP sections), the CPU's issue ms of each (``cpu_submit_ms``), the wall ms
-    with a finish each frame and the back-to-back ms per frame (``measured_ms``).
+    frame (GL_TIMESTAMP sections), the CPU's issue ms of each (``cpu_submit_ms``), the wall ms with
+    a finish each frame, and frames back to back (``pipelined_ms``: ``measured_ms``).
 ``scale_cold_start``
-    In a fresh child process (the programs are cached per context): seconds from creating the
-    Simulator and the Renderer to the end of the first frame and to the first steady frame (the
-    first whose wall time is within 1.5x of the median of the last half), and the mean of the
-    first ``cold_steps`` frames.
+    In a fresh child process (programs are cached per context): seconds from creating the
+    Simulator and the Renderer to the end of the first frame and of the first steady frame
+    (``scale_rows.steady``), and the first ``cold_steps`` frames' mean.
 
-Sim rows (``mane bench sim --section scale``): ``scale_sim`` (``sim_guides`` x 32, the full
-solver; ``measured_ms`` = steps back to back, as the sim bench's target) and
-``scale_sim_cold_start`` (the simulator alone, in a child process).
-
-Configurations too big for the GPU are refused before anything is built (``check_allocation``
-on an estimate of the largest buffer: a skipped row naming the bytes), and configurations too
-slow for the mode's budget are skipped with the reason.
+Configurations too big for the GPU are refused before anything is built (``check_allocation`` on
+the expanded strands' bytes: a skipped row naming them), those too slow for the mode's budget
+are skipped with the reason.
 """
 from __future__ import annotations
 
 import json
 import math
-import os
-import subprocess
 import sys
 import time
 
 import numpy as np
 
 from .common import Skip, stats
-
-# (issue figure ms, target ms) per row key; None: the issue gives no figure / holds it to no target
-ISSUE = {
-    "closeup_100k_50": (10.0, 4.0),    # issue: 10.0 ms at 46% coverage (the quick stand-in asks for 5%)
-    "closeup_100k_70": (13.5, 4.0),    # issue: 13.5 ms at 72% coverage
-    "closeup_1m_50": (51.9, 16.7),
-    "strands_100k": (5.7, None),
-    "strands_250k": (8.1, None),
-    "strands_500k": (13.0, None),
-    "strands_1m": (20.8, 8.3),
-    "strands_2m": (37.6, 16.7),
-    "crowd_lod": (None, 16.7),
-    "crowd_no_lod": (None, None),
-    "sim_render": (21.3, 12.0),
-    "cold_start": (2.8, 1.0),          # seconds
-    "sim_1m": (15.8, 8.0),
-    "sim_2m": (58.0, 16.0),
-    "sim_cold_start": (2.8, 1.0),      # seconds
-}
-ISSUE_NOTE = {
-    "closeup_100k_50": "issue 14: 10.0 ms at 46% hair coverage",
-    "closeup_100k_70": "issue 14: 13.5 ms at 72% hair coverage",
-    "cold_start": "issue 14: ~2.8 s before the first steady step (seconds, not ms)",
-    "sim_cold_start": "issue 14: ~2.8 s before the first steady step (seconds, not ms)",
-}
-RENDER_BENCHES = ("scale_closeup", "scale_strands", "scale_crowd", "scale_sim_render", "scale_cold_start")
-SIM_BENCHES = ("scale_sim", "scale_sim_cold_start")
-
-SCALE_CONFIG = {
-    # quick: tiny stand-ins with cheap settings (no shadows, one sample) and a coverage any
-    # groom reaches: the JSON's structure on llvmpipe in CI, no timing claim
-    "quick": dict(size=(160, 90), guides=64, points=17, render=dict(shadows="none", msaa=1),
-                  closeup=[("closeup_100k_50", 1024, 0.02)], cameras=((90.0, 0.5), (90.0, 0.3)),
-                  strands=[("strands_100k", 256), ("strands_1m", 1024)],
-                  crowd_heads=4, crowd_strands=256, crowd_spacing=0.6,
-                  loop_guides=64, loop_points=8, loop_spg=4, loop_frames=3, loop_grid=16, loop_sdf=16,
-                  cold_steps=4, cold_child=True, sim_guides=[("sim_1m", 256)], sim_points=8,
-                  warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0, sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
-    "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
-                    closeup=[("closeup_100k_50", 100_000, 0.5), ("closeup_100k_70", 100_000, 0.7),
-                             ("closeup_1m_50", 1_000_000, 0.5)],
-                    # (azimuth deg, distance scale) tried in order, the first whose hair coverage is
-                    # enough is the close-up: the default view moving in, then the side, the back
-                    cameras=tuple((az, d) for az in (25.0, 90.0, 180.0) for d in (0.8, 0.6, 0.45, 0.35, 0.28, 0.22)),
-                    strands=[("strands_100k", 100_000), ("strands_250k", 250_000), ("strands_500k", 500_000),
-                             ("strands_1m", 1_000_000), ("strands_2m", 2_000_000)],
-                    crowd_heads=100, crowd_strands=100_000, crowd_spacing=0.6,
-                    loop_guides=20_000, loop_points=32, loop_spg=50, loop_frames=60, loop_grid=64, loop_sdf=64,
-                    cold_steps=100, cold_child=True,
-                    sim_guides=[("sim_1m", 1_000_000), ("sim_2m", 2_000_000)], sim_points=32,
-                    warmup=3, frames=30, config_budget_s=8.0, total_budget_s=240.0, sim_steps=60,
-                    sim_budget_s=30.0, sim_total_budget_s=420.0),
-}
-SCALE_CONFIG["full"] = dict(SCALE_CONFIG["default"], frames=100, config_budget_s=20.0, total_budget_s=600.0,
-                            loop_frames=200, sim_steps=200, sim_budget_s=60.0,
-                            sim_total_budget_s=900.0)
-
-EXPANDED_POINT_BYTES = 32      # mane.render.passes.expand: a rendered point is two vec4s
-
-
-def _k(n: int) -> str:
-    return f"{n // 1_000_000}M" if n >= 1_000_000 and n % 1_000_000 == 0 else f"{n // 1000}k" if n >= 1000 else str(n)
-
-
-def issue_fields(key: str, measured, unit: str = "ms") -> dict:
-    """The row's comparison: issue figure, target, measured value and whether the target is met."""
-    issue, target = ISSUE[key]
-    met = None if target is None or measured is None else bool(measured <= target)
-    out = {"issue_key": key, f"issue_{unit}": issue, f"target_{unit}": target, f"measured_{unit}": measured,
-           "met": met}
-    if key in ISSUE_NOTE:
-        out["issue_note"] = ISSUE_NOTE[key]
-    return out
-
-
-def render_measured(row: dict) -> tuple[float | None, str]:
-    """A render row's GPU ms: the gapless ``gpu_ms`` where measured, else ``frame_ms`` (the CPU's
-    wall with a finish on software renderers)."""
-    g = (row.get("gpu_ms") or {}).get("mean")
-    if g is not None:
-        return g, "gpu_ms"
-    return (row.get("frame_ms") or {}).get("mean"), "frame_ms"
-
-
-def guard_bytes(ctx, nbytes: int, what: str) -> None:
-    """Refuse a configuration whose largest buffer cannot fit (GPUMemoryError: a skipped row)."""
-    from ..gpu.buffers import check_allocation
-
-    check_allocation(ctx, int(nbytes), what, reduce="Run a smaller configuration (--quick) on this GPU")
-
-
-def expanded_bytes(strands: int, points: int, segments: int = 32) -> int:
-    """Bytes of the render's expanded strands (the largest buffer of a big frame)."""
-    sub = max(1, math.ceil(segments / max(points - 1, 1)))
-    return int(strands) * ((points - 1) * sub + 1) * EXPANDED_POINT_BYTES
-
+from .scale_rows import SCALE_CONFIG, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
+from .scale_rows import short_count as _k
 
 # --------------------------------------------------------------------------- coverage
 def hair_coverage(ctx, settings, groom, head, camera) -> dict:
@@ -467,7 +367,7 @@ class RenderScale:
             res = cold_start(dict(S=S, N=N, spg=spg, size=list(cfg["size"]), steps=int(cfg["cold_steps"]),
                                   grid=int(cfg["loop_grid"]), sdf=int(cfg["loop_sdf"]), render=True,
                                   render_settings=dict(cfg["render"])),
-                             child=bool(cfg["cold_child"]), timeout=max(60.0, float(cfg["total_budget_s"]) / 2))
+                             timeout=max(60.0, float(cfg["total_budget_s"]) / 2))
             row = b._row("scale_cold_start", name, **fields, **res)
             row.update(issue_fields("cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
 
@@ -484,6 +384,7 @@ class Loop:
     procedural head (the Renderer reads the simulator's positions in place)."""
 
     def __init__(self, ctx, S: int, N: int, spg: int, render_settings, grid: int, sdf: int):
+        """``render_settings`` None: the simulator alone (the sim's cold start)."""
         from dataclasses import replace
 
         from ..render import Renderer
@@ -502,20 +403,23 @@ class Loop:
         t = time.perf_counter()
         self.sim = Simulator(sim_bench.scalp_groom(S, N), colliders, settings, ctx, points_per_strand=N)
         self.sim_build_s = time.perf_counter() - t
-        t = time.perf_counter()
-        self.renderer = Renderer(render_settings, ctx=ctx, profile=False)
-        self.renderer.set_strands(self.sim)
-        self.renderer.set_head(head)
-        self.camera = self.renderer.default_camera(points=None)
-        self.render_build_s = time.perf_counter() - t
+        self.render_build_s = None
+        if render_settings is not None:
+            t = time.perf_counter()
+            self.renderer = Renderer(render_settings, ctx=ctx, profile=False)
+            self.renderer.set_strands(self.sim)
+            self.renderer.set_head(head)
+            self.camera = self.renderer.default_camera(points=None)
+            self.render_build_s = time.perf_counter() - t
         self.motion = head_motion.preset("nod", pivot=sim_bench.NECK_PIVOT)
 
     def step(self) -> None:
         m = self.motion(self.sim.state.time + self.sim.settings.dt)
         self.sim.set_head_transform(m)
         self.sim.step()
-        self.renderer.set_head_transform(m)
-        self.renderer.strands_changed()
+        if self.renderer is not None:
+            self.renderer.set_head_transform(m)
+            self.renderer.strands_changed()
 
     def render(self) -> None:
         self.renderer.render(self.camera)
@@ -543,8 +447,9 @@ def _cold_run(spec: dict) -> dict:
     from ..render.settings import RenderSettings
 
     t0 = time.perf_counter()
+    render = bool(spec.get("render", True))
     rs = RenderSettings(**{"size": tuple(spec["size"]), **spec.get("render_settings", {}),
-                           "strands_per_guide": int(spec["spg"])})
+                           "strands_per_guide": int(spec["spg"])}) if render else None
     loop = Loop(ctx, S, N, int(spec["spg"]), rs, int(spec["grid"]), int(spec["sdf"]))
     built_s = time.perf_counter() - t0
     try:
@@ -552,7 +457,7 @@ def _cold_run(spec: dict) -> dict:
         for _ in range(steps):
             t = time.perf_counter()
             loop.step()
-            if spec.get("render", True):
+            if render:
                 loop.render()
             ctx.finish()
             now = time.perf_counter()
@@ -561,125 +466,7 @@ def _cold_run(spec: dict) -> dict:
     finally:
         loop.release()
     return dict(context_s=context_s, build_s=built_s, sim_build_s=loop.sim_build_s,
-                render_build_s=loop.render_build_s if spec.get("render", True) else None,
-                **steady(ends, walls))
-
-
-def steady(ends: list, walls_ms: list) -> dict:
-    """First frame's end, the first steady frame (wall within 1.5x of the median of the last half,
-    and every later one within 3x) and its end, and the frames' mean, seconds / ms."""
-    n = len(walls_ms)
-    tail = sorted(walls_ms[n // 2:])
-    med = tail[len(tail) // 2] if tail else None
-    first_steady = None
-    for i in range(n):
-        if walls_ms[i] <= 1.5 * med and all(w <= 3.0 * med for w in walls_ms[i + 1:]):
-            first_steady = i
-            break
-    return {"to_first_frame_s": ends[0] if ends else None,
-            "first_steady_frame": first_steady,
-            "to_steady_s": ends[first_steady] if first_steady is not None else None,
-            "steady_frame_ms": med, "first_frames_mean_ms": stats(walls_ms)["mean"],
-            "first_frames_ms": stats(walls_ms), "frames_ms": [round(w, 3) for w in walls_ms]}
-
-
-def cold_start(spec: dict, *, child: bool = True, timeout: float = 120.0) -> dict:
-    """``_cold_run`` in a fresh Python process (child, the true cold start: nothing compiled, no
-    cache warmed by this process) or in this one (the programs may be cached: a warm start)."""
-    if not child:
-        return dict(_cold_run(spec), process="this (programs may be cached: a warm start)")
-    env = dict(os.environ)
-    src = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-    env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
-    t = time.perf_counter()
-    try:
-        done = subprocess.run([sys.executable, "-m", "mane.bench.scale_bench", json.dumps(spec)], env=env,
-                              capture_output=True, text=True, timeout=timeout)
-    except subprocess.TimeoutExpired:
-        raise Skip(f"the cold-start child did not finish in {timeout:.0f} s") from None
-    if done.returncode != 0:
-        tail = (done.stderr or "").strip().splitlines()[-1:] or ["no message"]
-        raise RuntimeError(f"the cold-start child failed (exit {done.returncode}): {tail[0]}")
-    out = json.loads(done.stdout.strip().splitlines()[-1])
-    if "skip" in out:
-        raise Skip(out["skip"])
-    return dict(out, process="a fresh child process", child_wall_s=time.perf_counter() - t)
-
-
-# --------------------------------------------------------------------------- sim rows
-def sim_rows(bench) -> None:
-    """``scale_sim`` and ``scale_sim_cold_start`` into a ``sim_bench.Bench``."""
-    from ..sim import MeshCollider
-    from . import sim_bench
-
-    cfg = SCALE_CONFIG[bench.mode]
-    N = int(cfg["sim_points"])
-    bench.cfg = dict(bench.cfg, steps=cfg["sim_steps"], budget_s=cfg["sim_budget_s"])
-    for key, S in cfg["sim_guides"]:
-        name = f"{_k(S)} x {N} full solver"
-        fields = dict(strands=S, vertices=N, particles=S * N, grid_method="atomic",
-                      grid_resolution=bench.cfg["full_grid_res"], sdf_resolution=bench.cfg["sdf_res"], capsules=8)
-        sim = None
-        n_before = len(bench.rows)
-        with bench._guard("scale_sim", name, **fields):
-            from ..sim.state import check_fits
-
-            elapsed = time.perf_counter() - bench.started
-            if elapsed > float(cfg["sim_total_budget_s"]):
-                raise Skip(f"the {bench.mode} mode's time budget for the scale rows ({cfg['sim_total_budget_s']:.0f} s) "
-                           f"is spent ({elapsed:.0f} s)")
-
-            check_fits(bench.ctx, S, N, 9)   # before the groom is made: a clean refusal
-            colliders = sim_bench.body_capsules() + [MeshCollider(sim_bench.head_mesh(), resolution=bench.cfg["sdf_res"],
-                                                                  padding=0.02, margin=0.002, friction=0.2)]
-            sim = bench._simulator(S, N, colliders, bench._full_settings("atomic"))
-            row = bench._row("scale_sim", name, **fields, **bench._time_sim(sim))
-            row.update(issue_fields(key, row["pipelined_ms"]), measured_as="pipelined_ms")
-        if sim is not None:
-            sim.release()
-        if len(bench.rows) > n_before and bench.rows[-1].get("issue_key") is None:
-            bench.rows[-1].update(issue_fields(key, None))
-    S, G = int(cfg["loop_guides"]), int(cfg["cold_steps"])
-    Np = int(cfg["loop_points"])
-    name = f"cold start: simulate {_k(S)} x {Np} (full solver), {G} steps"
-    with bench._guard("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G):
-        res = cold_start(dict(S=S, N=Np, spg=1, size=[64, 64], steps=G, grid=int(cfg["loop_grid"]),
-                              sdf=int(cfg["loop_sdf"]), render=False), child=bool(cfg["cold_child"]))
-        row = bench._row("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, **res)
-        row.update(issue_fields("sim_cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
-
-
-# --------------------------------------------------------------------------- summary and text
-def summary(rows: list[dict]) -> list[dict]:
-    """One line per scale row: measured beside the issue's figure and the target."""
-    out = []
-    for r in rows:
-        if not r.get("issue_key"):
-            continue
-        unit = "s" if "issue_s" in r else "ms"
-        line = {"bench": r["bench"], "name": r["name"], "status": r["status"], "unit": unit,
-                "issue": r.get(f"issue_{unit}"), "target": r.get(f"target_{unit}"),
-                "measured": r.get(f"measured_{unit}"), "measured_as": r.get("measured_as"), "met": r.get("met")}
-        if "coverage" in r:
-            line["coverage"] = r["coverage"]
-        if r["status"] != "ok":
-            line["reason"] = r.get("reason")
-        out.append(line)
-    return out
-
-
-def format_text(rows: list[dict]) -> str:
-    from .common import table
-
-    lines = summary(rows)
-    if not lines:
-        return ""
-    return table(lines, [("config", "name", "{}"), ("status", "status", "{}"), ("unit", "unit", "{}"),
-                         ("measured", "measured", "{:.3f}"), ("issue", "issue", "{:.1f}"),
-                         ("target", "target", "{:.1f}"),
-                         ("met", lambda r: "-" if r["met"] is None else ("yes" if r["met"] else "no"), "{}"),
-                         ("coverage", "coverage", "{:.1%}")],
-                 title="Issue 14 scale rows: measured beside the issue's figure and the target")
+                render_build_s=loop.render_build_s, **steady(ends, walls))
 
 
 def _main(argv) -> int:

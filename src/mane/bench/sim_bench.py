@@ -630,12 +630,14 @@ class Bench(BenchRows):
 
     SECTIONS = ("dftl_core", "full_solver", "woodhouse", "flip", "chen_shares")
     EXTRA_SECTIONS = ("scale",)
-    """Run only when named (``mane bench sim --section scale``): issue 14's rows (scale_bench)."""
+    """Run only when named (``mane bench sim --section scale``): issue 14's rows (scale_rows)."""
 
     def scale(self) -> None:
-        from .scale_bench import sim_rows
+        from ..sim import MeshCollider
+        from .scale_rows import sim_rows
 
-        sim_rows(self)
+        sim_rows(self, lambda: body_capsules() + [MeshCollider(head_mesh(), resolution=self.cfg["sdf_res"],
+                                                               padding=0.02, margin=0.002, friction=0.2)])
 
     def run_all(self, sections=None) -> None:
         """Every section, or those named (``full_solver`` includes ``grid_friction``)."""
@@ -773,7 +775,7 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
                             f"(Fibonacci roots), procedural")
     settings["sections"] = list(sections) if sections else list(Bench.SECTIONS)
     if sections and "scale" in sections:
-        from .scale_bench import SCALE_CONFIG
+        from .scale_rows import SCALE_CONFIG
 
         settings["scale"] = SCALE_CONFIG[mode]
     out = {"meta": envelope(ctx, target="sim", mode=mode, settings=settings, timing=timing),
@@ -781,7 +783,7 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
            "targets": _targets(bench.rows, mode),
            "bandwidth": _bandwidth(bench.rows)}
     if sections and "scale" in sections:
-        from .scale_bench import summary
+        from .scale_rows import summary
 
         out["scale"] = summary(bench.rows)
     return out
@@ -876,7 +878,7 @@ def format_text(result: dict) -> str:
     else:
         out.append(f"integrate kernel DRAM bandwidth: {bw.get('note', 'not measured')}")
     if result.get("scale") is not None:
-        from .scale_bench import format_text as scale_text
+        from .scale_rows import format_text as scale_text
 
         out += ["", scale_text(rows)]
     bad = failures_table(rows)
