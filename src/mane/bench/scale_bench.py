@@ -360,16 +360,22 @@ class RenderScale:
     def cold_start(self) -> None:
         cfg, b = self.cfg, self.bench
         S, N, spg = int(cfg["loop_guides"]), int(cfg["loop_points"]), int(cfg["loop_spg"])
-        name = f"cold start: simulate {_k(S)} x {N} + render {_k(S * spg)} strands, {cfg['cold_steps']} frames"
-        fields = dict(sim_guides=S, sim_points=N, rendered_strands_requested=S * spg, steps=int(cfg["cold_steps"]))
-        with b._guard("scale_cold_start", name, **fields):
-            b._before_config()
-            res = cold_start(dict(S=S, N=N, spg=spg, size=list(cfg["size"]), steps=int(cfg["cold_steps"]),
-                                  grid=int(cfg["loop_grid"]), sdf=int(cfg["loop_sdf"]), render=True,
-                                  render_settings=dict(cfg["render"])),
-                             timeout=max(60.0, float(cfg["total_budget_s"]) / 2))
-            row = b._row("scale_cold_start", name, **fields, **res)
-            row.update(issue_fields("cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
+        for cache in cfg["cold_driver_cache"]:
+            name = (f"cold start: simulate {_k(S)} x {N} + render {_k(S * spg)} strands, {cfg['cold_steps']} frames"
+                    + ("" if cache else ", no driver shader cache"))
+            fields = dict(sim_guides=S, sim_points=N, rendered_strands_requested=S * spg,
+                          steps=int(cfg["cold_steps"]))
+            n_before = len(b.rows)
+            with b._guard("scale_cold_start", name, **fields):
+                b._before_config()
+                res = cold_start(dict(S=S, N=N, spg=spg, size=list(cfg["size"]), steps=int(cfg["cold_steps"]),
+                                      grid=int(cfg["loop_grid"]), sdf=int(cfg["loop_sdf"]), render=True,
+                                      render_settings=dict(cfg["render"])),
+                                 timeout=max(60.0, float(cfg["total_budget_s"]) / 2), driver_cache=cache)
+                row = b._row("scale_cold_start", name, **fields, **res)
+                row.update(issue_fields("cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
+            if len(b.rows) > n_before and "issue_key" not in b.rows[-1]:
+                b.rows[-1].update(issue_fields("cold_start", None, unit="s"))
 
     def run(self) -> None:
         self.closeups()

@@ -68,18 +68,22 @@ SCALE_CONFIG = {
                   crowd_heads=4, crowd_strands=256, crowd_spacing=0.6,
                   loop_guides=64, loop_points=8, loop_spg=4, loop_frames=3, loop_grid=16, loop_sdf=16,
                   cold_steps=4, sim_guides=[("sim_1m", 256)], sim_points=8,
-                  warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0, sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
+                  cold_driver_cache=(True,), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
+                  sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
     "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
                     closeup=[("closeup_100k_50", 100_000, 0.5), ("closeup_100k_70", 100_000, 0.7),
                              ("closeup_1m_50", 1_000_000, 0.5)],
                     # (azimuth deg, distance scale) tried in order, the first whose hair coverage is
                     # enough is the close-up: the default view moving in, then the side, the back
-                    cameras=tuple((az, d) for az in (25.0, 90.0, 180.0) for d in (0.8, 0.6, 0.45, 0.35, 0.28, 0.22)),
+                    cameras=tuple((az, d) for az in (25.0, 90.0, 180.0)
+                                  for d in (0.8, 0.6, 0.45, 0.35, 0.28, 0.22)),
                     strands=[("strands_100k", 100_000), ("strands_250k", 250_000), ("strands_500k", 500_000),
                              ("strands_1m", 1_000_000), ("strands_2m", 2_000_000)],
                     crowd_heads=100, crowd_strands=100_000, crowd_spacing=0.6,
                     loop_guides=20_000, loop_points=32, loop_spg=50, loop_frames=60, loop_grid=64, loop_sdf=64,
-                    cold_steps=100,
+                    # the cold start with the driver's on-disk shader cache as it is (a user's
+                    # second launch), then with it off (the first launch after an install)
+                    cold_steps=100, cold_driver_cache=(True, False),
                     sim_guides=[("sim_1m", 1_000_000), ("sim_2m", 2_000_000)], sim_points=32,
                     warmup=3, frames=30, config_budget_s=8.0, total_budget_s=240.0, sim_steps=60,
                     sim_budget_s=30.0, sim_total_budget_s=420.0),
@@ -147,11 +151,17 @@ def steady(ends: list, walls_ms: list) -> dict:
             "first_frames_ms": stats(walls_ms), "frames_ms": [round(w, 3) for w in walls_ms]}
 
 
-def cold_start(spec: dict, *, timeout: float = 120.0) -> dict:
+# what turns a driver's on-disk shader cache off (NVIDIA, Mesa)
+NO_DRIVER_SHADER_CACHE = {"__GL_SHADER_DISK_CACHE": "0", "MESA_SHADER_CACHE_DISABLE": "true"}
+
+
+def cold_start(spec: dict, *, timeout: float = 120.0, driver_cache: bool = True) -> dict:
     """``mane.bench.scale_bench``'s cold run in a fresh Python process (nothing compiled, no
-    program cache of this process): the child's JSON. A child that cannot fit or lacks a
-    feature answers a skip."""
+    program cache of this process; ``driver_cache`` False: the driver's on-disk shader cache off
+    too): the child's JSON. A child that cannot fit or lacks a feature answers a skip."""
     env = dict(os.environ)
+    if not driver_cache:
+        env.update(NO_DRIVER_SHADER_CACHE)
     src = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     t = time.perf_counter()
@@ -166,7 +176,8 @@ def cold_start(spec: dict, *, timeout: float = 120.0) -> dict:
     out = json.loads(done.stdout.strip().splitlines()[-1])
     if "skip" in out:
         raise Skip(out["skip"])
-    return dict(out, process="a fresh child process", child_wall_s=time.perf_counter() - t)
+    return dict(out, process="a fresh child process", driver_shader_cache=bool(driver_cache),
+                child_wall_s=time.perf_counter() - t)
 
 
 # --------------------------------------------------------------------------- sim rows
@@ -187,8 +198,8 @@ def sim_rows(bench, colliders) -> None:
 
             elapsed = time.perf_counter() - bench.started
             if elapsed > float(cfg["sim_total_budget_s"]):
-                raise Skip(f"the {bench.mode} mode's time budget for the scale rows ({cfg['sim_total_budget_s']:.0f} s) "
-                           f"is spent ({elapsed:.0f} s)")
+                raise Skip(f"the {bench.mode} mode's time budget for the scale rows "
+                           f"({cfg['sim_total_budget_s']:.0f} s) is spent ({elapsed:.0f} s)")
 
             check_fits(bench.ctx, S, N, 9)   # before the groom is made: a clean refusal
             sim = bench._simulator(S, N, colliders(), bench._full_settings("atomic"))
@@ -206,6 +217,8 @@ def sim_rows(bench, colliders) -> None:
                               sdf=int(cfg["loop_sdf"]), render=False))
         row = bench._row("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, **res)
         row.update(issue_fields("sim_cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
+    if bench.rows and bench.rows[-1]["bench"] == "scale_sim_cold_start" and "issue_key" not in bench.rows[-1]:
+        bench.rows[-1].update(issue_fields("sim_cold_start", None, unit="s"))
 
 
 # --------------------------------------------------------------------------- summary and text
