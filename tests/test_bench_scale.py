@@ -217,3 +217,27 @@ def test_unknown_section_is_refused(gl):
     assert rc == 2 and "unknown sim bench section 'nope'" in stderr
     rc, _, stderr = _cli(["bench", "oit", "--section", "scale", "--quick", "--json"])
     assert rc == 2 and "has no sections" in stderr
+
+
+def test_big_configurations_are_refused_cleanly(gl, monkeypatch):
+    """With 64 KiB of GPU memory (MANE_GPU_MEMORY) every render and sim scale row is a skipped row
+    naming the bytes it needed, before any groom is grown or state allocated."""
+    from mane.bench import render_bench, sim_bench
+
+    monkeypatch.setenv("MANE_GPU_MEMORY", "64K")
+    bench = render_bench.Bench(gl, "quick")
+    try:
+        scale = scale_bench.RenderScale(bench)
+        scale.strands()
+        scale.crowd()
+        scale.closeups()
+    finally:
+        bench.release()
+    assert bench.rows and all(r["status"] == "skipped" and "needs" in r["reason"] for r in bench.rows), \
+        [(r["name"], r["status"], r["reason"]) for r in bench.rows]
+    assert all(r["met"] is None and r["measured_ms"] is None for r in bench.rows)
+    assert bench.work._masters == {}                 # nothing grown
+    sb = sim_bench.Bench(gl, "quick")
+    scale_rows.sim_rows(sb, lambda: pytest.fail("colliders built for a state that does not fit"))
+    sims = [r for r in sb.rows if r["bench"] == "scale_sim"]
+    assert sims and all(r["status"] == "skipped" and "out of GPU memory" in r["reason"] for r in sims)

@@ -170,8 +170,18 @@ class RenderScale:
             row.update(issue_fields(key, measured), measured_as=how)
         return row
 
-    def _skip(self, bench: str, key: str, name: str, reason: str, **fields):
-        row = self.bench._skip_row(bench, name, reason, **fields)
+    def _skip(self, bench: str, key: str, name: str, exc: Exception, **fields):
+        """The row of a configuration that failed before its timing: skipped for a known reason
+        (out of memory, a missing feature, the budget, a setting refused), else an error."""
+        import traceback
+
+        from ..errors import GLFeatureError, GPUMemoryError, UsageError
+
+        known = isinstance(exc, (Skip, GPUMemoryError, GLFeatureError, UsageError))
+        reason = str(exc) if isinstance(exc, Skip) else f"{type(exc).__name__}: {exc}"
+        row = self.bench._skip_row(bench, name, reason, status="skipped" if known else "error", **fields)
+        if not known:
+            row["traceback"] = "".join(traceback.format_exception(exc, limit=5))
         row.update(issue_fields(key, None))
         return row
 
@@ -193,7 +203,7 @@ class RenderScale:
                 s = self._settings(strands_per_guide=spg)
                 scale, cov = self._closeup_camera(_render_settings(s), groom, head, want)
             except Exception as exc:   # out of memory, too slow, ...: the row says why
-                self._skip(f"scale_closeup", key, name, f"{type(exc).__name__}: {exc}", **fields)
+                self._skip("scale_closeup", key, name, exc, **fields)
                 continue
             camera = (lambda c: lambda r: r.default_camera(azimuth=c[0], distance_scale=c[1], points=None))(scale)
             row = self._measure("scale_closeup", key, name, groom, head, "default_groom", s, camera,
@@ -252,7 +262,7 @@ class RenderScale:
                 guard_bytes(self.ctx, expanded_bytes(guides * spg, cfg["points"]), f"{name}: the expanded strands")
                 groom = self._groom(guides)
             except Exception as exc:
-                self._skip("scale_strands", key, name, f"{type(exc).__name__}: {exc}", **fields)
+                self._skip("scale_strands", key, name, exc, **fields)
                 continue
             self._measure("scale_strands", key, name, groom, self.bench.work.head, "default_groom",
                           self._settings(strands_per_guide=spg), None, **fields)
@@ -275,7 +285,7 @@ class RenderScale:
                 if built is None:
                     built = crowd(self._groom(guides), self.bench.work.head, heads, float(cfg["crowd_spacing"]))
             except Exception as exc:
-                self._skip("scale_crowd", key, name, f"{type(exc).__name__}: {exc}", lod=lod, **fields)
+                self._skip("scale_crowd", key, name, exc, lod=lod, **fields)
                 continue
             self._measure("scale_crowd", key, name, built[0], built[1], f"default_groom x {heads}",
                           self._settings(strands_per_guide=spg, lod=lod), None, lod=lod, **fields)
