@@ -208,15 +208,8 @@ class RenderScale:
             camera = (lambda c: lambda r: r.default_camera(azimuth=c[0], distance_scale=c[1], points=None))(scale)
             row = self._measure("scale_closeup", key, name, groom, head, "default_groom", s, camera,
                                 azimuth=scale[0], distance_scale=scale[1], **fields)
-            if row is not None and row["status"] == "ok":
-                # the coverage of the timed frame's settings and camera
-                rs = _render_settings(s)
-                probe = self._probe_renderer(rs, groom, head)
-                row.update(hair_coverage(self.ctx, rs, groom, head, camera(probe)))
-                probe.release()
-                row["coverage_met"] = bool(row["coverage"] >= want)
-            elif row is not None:
-                row.update(cov)
+            if row is not None:   # the coverage at the timed frame's size, groom and camera
+                row.update(cov, coverage_met=bool(cov["coverage"] >= want))
 
     def _probe_renderer(self, s, groom, head):
         from ..render import Renderer
