@@ -217,6 +217,8 @@ def test_unknown_section_is_refused(gl):
     assert rc == 2 and "unknown sim bench section 'nope'" in stderr
     rc, _, stderr = _cli(["bench", "oit", "--section", "scale", "--quick", "--json"])
     assert rc == 2 and "has no sections" in stderr
+    rc, _, stderr = _cli(["bench", "quality", "--section", "scale", "--quick"])
+    assert rc == 2 and "has no sections" in stderr
 
 
 def test_big_configurations_are_refused_cleanly(gl, monkeypatch):

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import sys
 from pathlib import Path
 
@@ -64,6 +65,9 @@ def run(args) -> int:
         raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
     mode = "quick" if args.quick else "full" if args.full else "default"
     module = importlib.import_module(TARGETS[args.target][0])
+    if getattr(args, "section", None) and (hasattr(module, "run_cli")
+                                           or "sections" not in inspect.signature(module.run).parameters):
+        raise UsageError(f"mane bench {args.target} has no sections (--section is for sim, render and limits)")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of
@@ -82,10 +86,6 @@ def run(args) -> int:
             print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True)
     kwargs = {}
     if getattr(args, "section", None):
-        import inspect
-
-        if "sections" not in inspect.signature(module.run).parameters:
-            raise UsageError(f"mane bench {args.target} has no sections (--section is for sim, render and limits)")
         kwargs["sections"] = [s.strip() for s in args.section.split(",") if s.strip()]
     ctx = get_context()
     try:

@@ -234,6 +234,12 @@ def summary(rows: list[dict]) -> list[dict]:
                 "measured": r.get(f"measured_{unit}"), "measured_as": r.get("measured_as"), "met": r.get("met")}
         if "coverage" in r:
             line["coverage"] = r["coverage"]
+        # beside the measurement: the CPU's time to issue it, and the loop's two GPU parts
+        sub = r.get("cpu_submit_ms") or r.get("submit_ms") or {}
+        line["cpu_submit_ms"] = (sub.get("total") or {}).get("mean") if "total" in sub else sub.get("mean")
+        if r["bench"] == "scale_sim_render":
+            line["sim_gpu_ms"] = (r.get("sim_gpu_ms") or {}).get("mean")
+            line["render_gpu_ms"] = (r.get("render_gpu_ms") or {}).get("mean")
         if r["status"] != "ok":
             line["reason"] = r.get("reason")
         out.append(line)
@@ -250,5 +256,6 @@ def format_text(rows: list[dict]) -> str:
                          ("measured", "measured", "{:.3f}"), ("issue", "issue", "{:.1f}"),
                          ("target", "target", "{:.1f}"),
                          ("met", lambda r: "-" if r["met"] is None else ("yes" if r["met"] else "no"), "{}"),
-                         ("coverage", "coverage", "{:.1%}")],
+                         ("coverage", "coverage", "{:.1%}"), ("CPU issue ms", "cpu_submit_ms", "{:.3f}"),
+                         ("sim GPU ms", "sim_gpu_ms", "{:.3f}"), ("render GPU ms", "render_gpu_ms", "{:.3f}")],
                  title="Issue 14 scale rows: measured beside the issue's figure and the target")
