@@ -71,6 +71,10 @@ def test_render_scale_rows(render_scale):
     cfg = scale_rows.SCALE_CONFIG["quick"]
     assert keys == ([k for k, _, _ in cfg["closeup"]] + [k for k, _ in cfg["strands"]]
                     + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start"])
+    from mane.bench import render_bench
+
+    text = render_bench.format_text(result)
+    assert "Issue 14 scale rows" in text and all(r["name"] in text for r in rows)
     # the summary holds one line per row, with the same numbers
     assert [(s["name"], s["measured"], s["issue"], s["target"]) for s in result["scale"]] == \
         [(r["name"], r.get("measured_ms", r.get("measured_s")), r.get("issue_ms", r.get("issue_s")),
@@ -117,6 +121,10 @@ def test_sim_scale_rows(sim_scale):
     for r in rows:
         _check_issue_row(r)
     assert [s["name"] for s in sim_scale["scale"]] == [r["name"] for r in rows]
+    from mane.bench import sim_bench
+
+    text = sim_bench.format_text(sim_scale)
+    assert "Issue 14 scale rows" in text and all(r["name"] in text for r in rows)
 
 
 def test_issue_figures_and_targets():

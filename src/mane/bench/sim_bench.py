@@ -800,6 +800,11 @@ def format_text(result: dict) -> str:
     out = [title_line(meta),
            f"timing: step {tm['step_source']}, passes {tm['pass_source']}; all times ms; "
            f"{tm['total_seconds']:.1f} s in all"]
+    if meta.get("settings", {}).get("sections") == ["scale"]:   # issue 14's rows alone
+        from .scale_rows import format_text as scale_text
+
+        bad = failures_table(rows)
+        return "\n".join(out + ["", scale_text(rows)] + (["", bad] if bad else []))
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
     step_cols = [("step mean", stat_of("step_ms", "mean"), "{:.3f}"),
                  ("median", stat_of("step_ms", "median"), "{:.3f}"),
