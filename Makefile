@@ -13,7 +13,7 @@ demo: $(STAMP)
 	$(VENV)/bin/mane demo
 
 test: $(STAMP)
-	$(PY) -m pytest -q
+	$(PY) -m pytest -q --durations=15
 
 test-fast: $(STAMP)
 	$(PY) -m pytest -q -m 'not slow'

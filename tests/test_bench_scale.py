@@ -102,7 +102,8 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert loop["status"] == "ok", loop["reason"]
     for key in ("sim_gpu_ms", "render_gpu_ms", "wall_ms"):
         assert loop[key]["n"] == loop["frames_timed"] and loop[key]["mean"] > 0
-    assert set(loop["cpu_submit_ms"]) == {"sim", "render", "total"}
+    assert set(loop["cpu_submit_ms"]) == set(loop["cpu_submit_profiled_ms"]) == {"sim", "render", "total"}
+    assert all(loop["cpu_submit_ms"][k]["n"] == loop["frames_timed"] for k in ("sim", "render", "total"))
     assert loop["rendered_strands"] == loop["rendered_strands_requested"]
     cold = rows["scale_cold_start"]
     assert cold["status"] == "ok", cold["reason"]

@@ -282,3 +282,43 @@ def test_karis_r_lobe_as_wide_and_shifted_as_marschners():
     assert abs(peak - 2 * s.shift) <= 0.05 * abs(2 * s.shift), (math.degrees(peak), math.degrees(2 * s.shift))
     assert abs(std - 2 * s.roughness) <= 0.1 * 2 * s.roughness, (math.degrees(std), math.degrees(2 * s.roughness))
     assert abs(mean - 2 * s.shift) <= 0.1 * abs(2 * s.shift)
+
+
+@pytest.mark.parametrize("preset", ["brown", "blond"])
+def test_marschner_trt_carries_chiangs_trt_energy(preset):
+    """Marschner's caustic treatment (Hunz Algorithm 1) removes the TRT caustic and puts a glint
+    of weight k_G back. At the default k_G the TRT lobe integrated over azimuth and theta_o is
+    within 0.7-1.1 of Chiang's far-field TRT (the NumPy twin of Chiang 2016, the path tracer's
+    model) on the same fibre; at the old 0.5 it was 0.39-0.62 (issue 12's "TRT 0.16-0.59x")."""
+    import warnings
+
+    from mane.render.shading.chiang import beta_m_from_roughness
+    from mane.render.shading.luts import marschner_lobes
+    from mane.twins import chiang as C
+
+    s = ShadingSettings(melanin=preset)
+    m = R.material(s)
+    phis = np.linspace(0.0, math.pi, 181)
+    tos = np.radians(np.linspace(-85.0, 85.0, 35))
+    TO, PH = np.meshgrid(tos, phis, indexing="ij")
+
+    def energy(trt, ti):   # (theta_o, phi, 3) -> (3,): over phi in [-pi, pi] and theta_o
+        per_o = 2.0 * np.trapezoid(trt, phis, axis=1)
+        return np.trapezoid(per_o * np.cos(tos)[:, None], tos, axis=0)
+
+    ratios = {}
+    for glint in (s.glint, 0.5):
+        out = []
+        for ti in np.radians([-40.0, -20.0, 0.0, 20.0]):
+            TI = np.full_like(TO, ti)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                _, _, trt = marschner_lobes(TI, TO, PH, m["sigma_a"], eta=m["eta"], beta_r=m["roughness"],
+                                            alpha_r=m["shift"], glint=glint, energy_clamp=False)
+            chiang = C.fibre(TI, TO, PH, m["sigma_a"], roughness=beta_m_from_roughness(m["roughness"]),
+                             shift=m["shift"], beta_n=s.beta_n, eta=m["eta"], n_h=32, lobes=True)[2]
+            out.append(energy(trt * math.cos(ti), ti)[0] / energy(chiang, ti)[0])
+        ratios[glint] = np.array(out)
+    assert s.glint == 1.0
+    assert np.all((ratios[1.0] > 0.7) & (ratios[1.0] < 1.1)), ratios
+    assert np.all(ratios[0.5] < 0.65), ratios

@@ -234,8 +234,9 @@ def summary(rows: list[dict]) -> list[dict]:
                 "measured": r.get(f"measured_{unit}"), "measured_as": r.get("measured_as"), "met": r.get("met")}
         if "coverage" in r:
             line["coverage"] = r["coverage"]
-        # beside the measurement: the CPU's time to issue it, and the loop's two GPU parts
-        sub = r.get("cpu_submit_ms") or r.get("submit_ms") or {}
+        # beside the measurement: the CPU's time to issue it (without profiler sections where
+        # measured so), and the loop's two GPU parts
+        sub = r.get("cpu_submit_ms") or r.get("submit_bare_ms") or r.get("submit_ms") or {}
         line["cpu_submit_ms"] = (sub.get("total") or {}).get("mean") if "total" in sub else sub.get("mean")
         if r["bench"] == "scale_sim_render":
             line["sim_gpu_ms"] = (r.get("sim_gpu_ms") or {}).get("mean")

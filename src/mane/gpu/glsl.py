@@ -207,12 +207,30 @@ def _stamps(files) -> tuple:
 RECHECK_SECONDS = 1.0
 
 
+# (kind, paths, defines in the caller's order, include dirs, extra) -> _key's key: a call site
+# asks with the same arguments every frame, and hashing them is cheaper than sorting and
+# formatting the defines again
+_keys: dict = {}
+
+
 def _key(kind: str, paths, defines, include_dirs, extra=()) -> tuple:
     # Paths are used as given (callers pass absolute paths beside their module): resolving
     # them on every call cost more than the draw it served.
-    return (kind, tuple(str(p) for p in paths),
-            tuple(sorted(((str(k), repr(v)) for k, v in (defines or {}).items()))),
-            tuple(str(d) for d in include_dirs), tuple(extra))
+    try:
+        d = defines or {}
+        fast = (kind, tuple(paths), tuple(d), tuple(map(repr, d.values())), tuple(include_dirs), tuple(extra))
+        key = _keys.get(fast)
+    except TypeError:   # an unhashable path or argument: the slow key only
+        fast = key = None
+    if key is None:
+        key = (kind, tuple(str(p) for p in paths),
+               tuple(sorted(((str(k), repr(v)) for k, v in (defines or {}).items()))),
+               tuple(str(d) for d in include_dirs), tuple(extra))
+        if fast is not None:
+            if len(_keys) > 4096:
+                _keys.clear()
+            _keys[fast] = key
+    return key
 
 
 def _cached(ctx, key):

@@ -7,6 +7,7 @@ from pathlib import Path
 import numpy as np
 
 from ..gpu.glsl import program
+from ..gpu.uniforms import write_uniform
 
 HERE = Path(__file__).resolve().parent
 
@@ -83,14 +84,14 @@ class GizmoPass:
             if v.sphere is not None and v.show_sphere:
                 ctx.enable(ctx.DEPTH_TEST)
                 p = self._prog
-                p["u_view_proj"].write(view_proj)
+                write_uniform(p["u_view_proj"], view_proj)
                 if "u_eye" in p:
-                    p["u_eye"].value = eye
+                    write_uniform(p["u_eye"], eye)
                 hot = v.dragging_sphere or v.hover_sphere
                 c = v.sphere.transform[:3, 3]
-                p["u_sphere"].value = (float(c[0]), float(c[1]), float(c[2]), float(v.sphere.radius))
-                p["u_color"].value = (0.35, 0.75, 1.6) if hot else (0.25, 0.45, 0.9)
-                p["u_alpha"].value = 0.25 if hot else 0.15
+                write_uniform(p["u_sphere"], (float(c[0]), float(c[1]), float(c[2]), float(v.sphere.radius)))
+                write_uniform(p["u_color"], (0.35, 0.75, 1.6) if hot else (0.25, 0.45, 0.9))
+                write_uniform(p["u_alpha"], 0.25 if hot else 0.15)
                 self._vao.render()
             if v.show_light_handles and v.lights:
                 self._handles(view_proj, eye)
@@ -130,16 +131,16 @@ class GizmoPass:
         if len(lines):
             self._lines.write(lines.tobytes())
         hp, lp = self._handle_prog, self._line_prog
-        hp["u_view_proj"].write(view_proj)
-        lp["u_view_proj"].write(view_proj)
+        write_uniform(hp["u_view_proj"], view_proj)
+        write_uniform(lp["u_view_proj"], view_proj)
         if "u_eye" in hp:
-            hp["u_eye"].value = eye
+            write_uniform(hp["u_eye"], eye)
         ctx.enable(ctx.DEPTH_TEST)
         try:
             for depth_func, fade in ((">=", 0.35), ("<", 1.0)):
                 ctx.depth_func = depth_func
-                hp["u_fade"].value = fade
-                lp["u_fade"].value = fade
+                write_uniform(hp["u_fade"], fade)
+                write_uniform(lp["u_fade"], fade)
                 if len(lines):
                     self._line_vao.render(ctx.LINES, vertices=len(lines))
                 if len(balls):

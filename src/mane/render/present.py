@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 from ..gpu.glsl import program
+from ..gpu.uniforms import write_uniform
 
 HERE = Path(__file__).resolve().parent
 
@@ -31,5 +32,5 @@ class Presenter:
         ctx.disable(ctx.BLEND)
         src_texture.filter = (ctx.LINEAR, ctx.LINEAR)
         src_texture.use(0)
-        self.prog["u_image"].value = 0
+        write_uniform(self.prog["u_image"], 0)
         self.vao.render(ctx.TRIANGLES, vertices=3)

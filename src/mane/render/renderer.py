@@ -23,6 +23,7 @@ from ..errors import UsageError
 from ..gpu.context import get_context, renderer_name
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
+from ..gpu.uniforms import write_uniform
 from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
@@ -44,6 +45,7 @@ class ShadingAdapter:
         self.name = name
         self.options = dict(options or {})
         self.hair_color = tuple(hair_color) if hair_color is not None else None
+        self._defines = None
         kwargs = {"model": name, **self.options}
         if self.hair_color is not None:
             if self.options.get("melanin") is not None:
@@ -57,7 +59,9 @@ class ShadingAdapter:
             raise UsageError(f"bad shading settings {kwargs}: {exc}") from None
 
     def defines(self) -> dict:
-        return dict(self.settings.defines())
+        if self._defines is None:
+            self._defines = dict(self.settings.defines())   # ShadingSettings is frozen
+        return dict(self._defines)
 
     @property
     def color(self) -> tuple:
@@ -92,6 +96,10 @@ class Renderer(GpuOwner):
         self._initial_fbo = self.ctx.fbo
         self._head_gpu = None
         self._vaos: dict = {}
+        self._scene_box = None        # scene_bbox's last box and what it was made from
+        self._camera_view = None      # (key, View) of the last camera
+        self._light_views: dict = {}  # (light, map size, scene box) -> View
+        self._default_lights = None
         self._frames_dirty = True
         self._geometry_version = 0
         self._targets: dict = {}
@@ -297,7 +305,7 @@ class Renderer(GpuOwner):
 
     def draw_head(self, prog) -> None:
         """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current transform."""
-        prog["u_head_model"].write(np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
+        write_uniform(prog["u_head_model"], np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
         self.head_vao(prog).render()
 
     def head_vao(self, prog):
@@ -321,19 +329,29 @@ class Renderer(GpuOwner):
         return self.shading.color
 
     def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
-        los, his = [], []
-        if self.strands is not None:
-            lo, hi = self.strands.bbox()
-            pad = self.strand_pad()
-            los.append(lo - pad)
-            his.append(hi + pad)
-        if self.head is not None and self.settings.draw_head:
-            lo, hi = self.head.bbox()
-            los.append(lo)
-            his.append(hi)
-        if not los:
-            return np.full(3, -0.5), np.full(3, 0.5)
-        return np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float)
+        """The hair's box (padded by strand_pad) and the head's, around the world's axes."""
+        st_box = self.strands.bbox() if self.strands is not None else None
+        pad = self.strand_pad() if st_box is not None else 0.0
+        draw_head = self.head is not None and bool(self.settings.draw_head)
+        key = (pad, draw_head)
+        memo = self._scene_box
+        # the strands keep their box until it is refreshed (a new tuple); the head until set_head
+        if memo is None or memo[0] is not st_box or memo[1] is not self.head or memo[2] != key:
+            los, his = [], []
+            if st_box is not None:
+                los.append(st_box[0] - pad)
+                his.append(st_box[1] + pad)
+            if draw_head:
+                lo, hi = self.head.bbox()
+                los.append(lo)
+                his.append(hi)
+            if not los:
+                box = (np.full(3, -0.5), np.full(3, 0.5))
+            else:
+                box = (np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float))
+            memo = self._scene_box = (st_box, self.head, key, box)
+        lo, hi = memo[3]
+        return lo.copy(), hi.copy()
 
     def scene_center(self) -> np.ndarray:
         lo, hi = self.scene_bbox()
@@ -465,6 +483,21 @@ class Renderer(GpuOwner):
 
     # ------------------------------------------------------------------ views
     def camera_view(self, camera: Camera) -> View:
+        """The camera's View (kept while the camera and the settings it depends on are the same:
+        its uniforms are then made once)."""
+        s = self.settings
+        try:
+            key = (camera, s.render_size, s.min_pixel_width, s.supersample)
+            memo = self._camera_view
+            if memo is not None and memo[0] == key:
+                return memo[1]
+        except TypeError:   # a camera made with lists: nothing kept
+            key = None
+        view = self._camera_view_of(camera)
+        self._camera_view = (key, view) if key is not None else None
+        return view
+
+    def _camera_view_of(self, camera: Camera) -> View:
         w, h = self.settings.render_size
         vp = camera.projection(w / h) @ camera.view()
         pixel = 2.0 * math.tan(math.radians(camera.fov_y) / 2.0) / h
@@ -472,8 +505,21 @@ class Renderer(GpuOwner):
         return View(vp, np.asarray(camera.eye, float), camera.forward, False, pixel, min_px)
 
     def light_view(self, light: Light) -> View:
-        """Light 0's view fitted around the scene's bounding sphere."""
+        """Light 0's view fitted around the scene's bounding sphere (kept while the light, the
+        scene's box and the map size are the same)."""
         lo, hi = self.scene_bbox()
+        key = (light, int(self.settings.shadow_map_size), lo.tobytes(), hi.tobytes())
+        try:
+            view = self._light_views.get(key)
+        except TypeError:   # an unhashable light: nothing kept
+            return self._light_view_of(light, lo, hi)
+        if view is None:
+            if len(self._light_views) >= 4 * MAX_LIGHTS:
+                self._light_views.clear()
+            view = self._light_views[key] = self._light_view_of(light, lo, hi)
+        return view
+
+    def _light_view_of(self, light: Light, lo, hi) -> View:
         center = 0.5 * (lo + hi)
         radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
         n = int(self.settings.shadow_map_size)
@@ -499,17 +545,27 @@ class Renderer(GpuOwner):
     def _hair_depth_range(self, lv: View) -> tuple[float, float]:
         if self.strands is None:
             return (0.0, 1.0)
-        lo, hi = self.strands.bbox()
+        box = self.strands.bbox()
         pad = self.strand_pad()
+        memo = lv.__dict__.get("_hair_depth_range")   # kept on the (kept) light view
+        if memo is not None and memo[0] is box and memo[1] == pad:
+            return memo[2]
+        lo, hi = box
         lo, hi = lo - pad, hi + pad
         corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
         z = (corners - lv.eye) @ lv.forward
-        return float(z.min()), float(z.max())
+        out = (float(z.min()), float(z.max()))
+        lv.__dict__["_hair_depth_range"] = (box, pad, out)
+        return out
 
     # ------------------------------------------------------------------ rendering
     def render(self, camera: Camera | None = None, lights: list[Light] | None = None) -> Frame:
         camera = camera if camera is not None else self.default_camera()
-        lights = list(lights) if lights is not None else default_lights()
+        if lights is None:
+            if self._default_lights is None:
+                self._default_lights = tuple(default_lights())   # Lights are frozen
+            lights = self._default_lights
+        lights = list(lights)
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
         one = self.settings.oit != "none" or (self.compute_raster and not self.settings.head_msaa)

@@ -16,6 +16,7 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from ..gpu.glsl import compute_shader
+from ..gpu.uniforms import write_uniform
 from .bindings import B_FRAMES, B_POSITIONS
 
 HERE = Path(__file__).resolve().parent
@@ -122,8 +123,8 @@ class StrandBuffers:
     def update_frames(self) -> None:
         """Rebuild the transported frames from the current positions (a compute dispatch)."""
         cs = compute_shader(self.ctx, PASSES / "guide_frames.comp")
-        cs["u_n"] = self.points_per_strand
-        cs["u_num_guides"] = self.num_guides
+        write_uniform(cs["u_n"], self.points_per_strand)
+        write_uniform(cs["u_num_guides"], self.num_guides)
         self.bind()
         cs.run((self.num_guides + 63) // 64)
         self.ctx.memory_barrier()

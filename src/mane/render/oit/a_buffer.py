@@ -21,6 +21,7 @@ import numpy as np
 
 from ...errors import GPUMemoryError
 from ..bindings import B_PPLL_COUNTER, B_PPLL_NODES, IMG_OIT_HEADS
+from ..passes.base import set_uniform
 from .base import END, OitMethod
 
 NODE_BYTES = 16
@@ -130,11 +131,11 @@ class PPLLMethod(OitMethod):
         self.get("nodes").bind_to_storage_buffer(B_PPLL_NODES)
         self.get("counter").bind_to_storage_buffer(B_PPLL_COUNTER)
         try:
-            prog["u_oit_capacity"].value = int(self.capacity)
+            set_uniform(prog, "u_oit_capacity", int(self.capacity))
         except KeyError:
             pass
         try:
-            prog["u_oit_max_steps"].value = int(min(self.capacity, 1 << 20))
+            set_uniform(prog, "u_oit_max_steps", int(min(self.capacity, 1 << 20)))
         except KeyError:
             pass
 

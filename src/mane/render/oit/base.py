@@ -26,6 +26,7 @@ from ...errors import GLFeatureError, GPUMemoryError, UsageError
 from ...gpu.buffers import buffer as gpu_buffer
 from ...gpu.buffers import check_allocation
 from ...gpu.glsl import compute_shader, program
+from ...gpu.uniforms import write_uniform
 from ..bindings import B_CLEAR, IMG_CLEAR
 from ..passes.base import HERE as PASSES_DIR
 from ..passes.base import PASS_SHADE, RENDER_DIR, Frame, bind_lighting, draw_hair, hair_program, set_uniform
@@ -162,17 +163,17 @@ class OitMethod:
         count = int(count if count is not None else buf.size // 4)
         cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 0})
         buf.bind_to_storage_buffer(B_CLEAR)
-        cs["u_value"].value = int(value) & 0xFFFFFFFF
-        cs["u_count"].value = count
+        write_uniform(cs["u_value"], int(value) & 0xFFFFFFFF)
+        write_uniform(cs["u_count"], count)
         gx, gy = _groups(count)
         cs.run(gx, gy, 1)
 
     def clear_image(self, tex, value: int) -> None:
         cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 1})
         tex.bind_to_image(IMG_CLEAR, read=False, write=True)
-        cs["u_value"].value = int(value) & 0xFFFFFFFF
+        write_uniform(cs["u_value"], int(value) & 0xFFFFFFFF)
         w, h = tex.size
-        cs["u_size"].value = (w, h)
+        write_uniform(cs["u_size"], (w, h))
         gx, gy = _groups(w * h)
         cs.run(gx, gy, 1)
 

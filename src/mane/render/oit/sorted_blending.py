@@ -53,8 +53,8 @@ class SortedBlending(OitMethod):
         set_uniform(cs, "u_n", st.points_per_strand)
         set_uniform(cs, "u_patches", self.patches)
         set_uniform(cs, "u_padded", n)
-        cs["u_eye"].value = tuple(float(x) for x in frame.view.eye)
-        cs["u_view_dir"].value = tuple(float(x) for x in frame.view.forward)
+        set_uniform(cs, "u_eye", tuple(float(x) for x in frame.view.eye))
+        set_uniform(cs, "u_view_dir", tuple(float(x) for x in frame.view.forward))
         cs.run(*_groups(n), 1)
         ctx.memory_barrier()
         local = compute_shader(ctx, HERE / "bitonic.comp", defines={"LOCAL": 1})
@@ -68,13 +68,13 @@ class SortedBlending(OitMethod):
         while k <= n:
             j = k // 2
             while j >= BLOCK:
-                glob["u_k"].value = k
-                glob["u_j"].value = j
+                set_uniform(glob, "u_k", k)
+                set_uniform(glob, "u_j", j)
                 glob.run(*_groups(n // 2), 1)
                 ctx.memory_barrier()
                 d += 1
                 j //= 2
-            local["u_k"].value = k
+            set_uniform(local, "u_k", k)
             local.run(blocks, 1, 1)
             ctx.memory_barrier()
             d += 1

@@ -1,6 +1,7 @@
 """What the passes share: the Frame they run on, uniform helpers and the hair draw."""
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 from typing import NamedTuple
@@ -10,6 +11,7 @@ import moderngl
 import numpy as np
 
 from ...gpu.glsl import program
+from ...gpu.uniforms import write_uniform
 from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST,
                         TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
@@ -17,6 +19,14 @@ from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
 HERE = Path(__file__).resolve().parent
 RENDER_DIR = HERE.parent
+
+
+@functools.lru_cache(maxsize=None)
+def shader_path(name: str) -> Path:
+    """``HERE / name``, made once (a Path join on every draw cost more than the lookup it served)."""
+    return HERE / name
+
+
 MAX_ISOLINES = 64
 
 INTERPOLATION_IDS = {"catmull_rom": 0, "bspline": 1, "bezier": 2}
@@ -52,6 +62,16 @@ class View:
     pixel_size: float          # world size of a pixel: at unit depth (perspective) or anywhere (ortho)
     min_pixel_width: float
 
+    def uniforms(self) -> dict:
+        """set_view's uniforms (made once: a view is not changed after it is made)."""
+        u = self.__dict__.get("_uniforms")
+        if u is None:
+            u = self.__dict__["_uniforms"] = {
+                "u_view_proj": mat_bytes(self.view_proj), "u_eye": tuple(map(float, self.eye)),
+                "u_view_dir": tuple(map(float, self.forward)), "u_ortho": int(self.ortho),
+                "u_pixel_size": float(self.pixel_size), "u_min_pixel_width": float(self.min_pixel_width)}
+        return u
+
 
 @dataclass
 class Frame:
@@ -66,36 +86,32 @@ class Frame:
     shadow_views: list = field(default_factory=list)     # (View, depth range) of lights 1.. that cast
     index: int = 0
     targets: dict = field(default_factory=dict)
+    memo: dict = field(default_factory=dict)   # uniforms the passes share, made once a frame
 
 
 def set_uniform(prog, name: str, value) -> bool:
-    """Set a uniform if the program has it (the driver drops unused ones); False when absent."""
-    try:
-        u = prog[name]
-    except KeyError:
+    """Set a uniform if the program has it (the driver drops unused ones); False when absent.
+    A value the uniform holds already is not written again (mane.gpu.uniforms): every write
+    to a render program's uniform goes through here or ``write_uniform``."""
+    u = prog.get(name, None)
+    if u is None:   # optimised away or not declared
         return False
-    if isinstance(value, np.ndarray) and value.shape == (4, 4):
-        u.write(mat_bytes(value))
-    elif isinstance(value, np.ndarray):
-        u.value = tuple(float(x) for x in value.reshape(-1))
-    elif isinstance(value, (list, tuple)) and value and isinstance(value[0], (list, tuple, np.ndarray)):
+    cls = value.__class__
+    if cls is np.ndarray:
+        value = mat_bytes(value) if value.shape == (4, 4) else tuple(map(float, value.reshape(-1)))
+    elif (cls is list or cls is tuple) and value and isinstance(value[0], (list, tuple, np.ndarray)):
         # the driver may trim an array to what the shader uses; a shorter list is zero-padded
         n = int(getattr(u, "array_length", len(value)) or len(value))
-        vals = [tuple(float(x) for x in v) for v in value[:n]]
-        vals += [tuple(0.0 for _ in vals[0])] * (n - len(vals))
-        u.value = vals[0] if n == 1 else vals
-    else:
-        u.value = value
+        vals = [tuple(map(float, v)) for v in value[:n]]
+        vals += [(0.0,) * len(vals[0])] * (n - len(vals))
+        value = vals[0] if n == 1 else vals
+    write_uniform(u, value)
     return True
 
 
 def set_view(prog, view: View) -> None:
-    set_uniform(prog, "u_view_proj", view.view_proj)
-    set_uniform(prog, "u_eye", tuple(float(x) for x in view.eye))
-    set_uniform(prog, "u_view_dir", tuple(float(x) for x in view.forward))
-    set_uniform(prog, "u_ortho", int(view.ortho))
-    set_uniform(prog, "u_pixel_size", float(view.pixel_size))
-    set_uniform(prog, "u_min_pixel_width", float(view.min_pixel_width))
+    for name, value in view.uniforms().items():
+        set_uniform(prog, name, value)
 
 
 def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str | None = None,
@@ -116,18 +132,18 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     }
     defines.update(shading.defines())
     defines.update(extra_defines or {})
-    frag = HERE / "hair.frag"
+    frag = shader_path("hair.frag")
     if fragment_file is not None:
         frag = fragment_file
     if pulls(renderer, capture=capture, geometry_file=geometry_file):
         # pipeline="compute": vertex pulling from the expanded strands (passes/expand.py)
-        prog = program(renderer.ctx, vertex=HERE / "hair_pull.vert", fragment=frag, defines=defines,
+        prog = program(renderer.ctx, vertex=shader_path("hair_pull.vert"), fragment=frag, defines=defines,
                        include_dirs=[RENDER_DIR])
         prog.mane_pulls = True
         return prog
-    geom = geometry_file if geometry_file is not None else HERE / "hair.geom"
-    return program(renderer.ctx, vertex=HERE / "hair.vert", tess_control=HERE / "hair.tesc",
-                   tess_evaluation=HERE / "hair.tese", geometry=geom, fragment=frag,
+    geom = geometry_file if geometry_file is not None else shader_path("hair.geom")
+    return program(renderer.ctx, vertex=shader_path("hair.vert"), tess_control=shader_path("hair.tesc"),
+                   tess_evaluation=shader_path("hair.tese"), geometry=geom, fragment=frag,
                    defines=defines, include_dirs=[RENDER_DIR])
 
 
@@ -204,8 +220,29 @@ def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) 
 def bind_lighting(renderer, prog, frame: Frame, *, pcf: int | None = None) -> None:
     """Lights, ambient and light 0's shadow maps (texture units 1..3); ``pcf``: the PCF kernel
     of the shadow look-ups (default the settings' ``pcf``, the hair's)."""
+    s = renderer.settings
+    for name, value in _lighting_uniforms(renderer, frame).items():
+        set_uniform(prog, name, value)
+    if frame.light_view is not None:
+        set_uniform(prog, "u_pcf", int(s.pcf if pcf is None else pcf))
+    t = frame.targets
+    if "shadow_map" in t:
+        t["shadow_map"].use(TEX_SHADOW_MAP)
+        set_uniform(prog, "u_shadow_map", TEX_SHADOW_MAP)
+    if "dom" in t:
+        t["dom"].use(TEX_DOM)
+        set_uniform(prog, "u_dom", TEX_DOM)
+    bind_shadow_methods(renderer, prog, frame)
+    bind_extra_shadows(renderer, prog, frame)
+
+
+def _lighting_uniforms(renderer, frame: Frame) -> dict:
+    """bind_lighting's uniforms but the PCF kernel, made once a frame (the frame's lights,
+    views and the settings do not change while it is drawn)."""
+    memo = frame.memo.get("lighting")
+    if memo is not None:
+        return memo
     lights = frame.lights[:MAX_LIGHTS]
-    center = renderer.scene_center()
     vecs, rads = [], []
     for light in lights:
         if light.is_point:
@@ -218,53 +255,56 @@ def bind_lighting(renderer, prog, frame: Frame, *, pcf: int | None = None) -> No
     while len(vecs) < MAX_LIGHTS:
         vecs.append((0.0, 1.0, 0.0, 0.0))
         rads.append((0.0, 0.0, 0.0))
-    set_uniform(prog, "u_num_lights", len(lights))
-    set_uniform(prog, "u_light_vec", vecs)
-    set_uniform(prog, "u_light_radiance", rads)
     a = float(renderer.settings.ambient)
-    set_uniform(prog, "u_ambient", (a, a, a))
+    out = {"u_num_lights": len(lights), "u_light_vec": vecs, "u_light_radiance": rads, "u_ambient": (a, a, a)}
     lv = frame.light_view
     if lv is not None:
-        set_uniform(prog, "u_light_view_proj", lv.view_proj)
-        set_uniform(prog, "u_light_eye", tuple(float(x) for x in lv.eye))
-        set_uniform(prog, "u_light_dir", tuple(float(x) for x in lv.forward))
         s = renderer.settings
-        texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
-        set_uniform(prog, "u_shadow_bias", float(s.shadow_bias) * texel)
-        set_uniform(prog, "u_shadow_texel", float(texel))
-        set_uniform(prog, "u_normal_offset", float(s.shadow_normal_offset))
-        set_uniform(prog, "u_slope_bias", float(s.shadow_slope_bias))
-        set_uniform(prog, "u_shadow_density", float(s.shadow_density))
-        set_uniform(prog, "u_pcf", int(s.pcf if pcf is None else pcf))
+        texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(renderer.scene_center() - lv.eye))
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
-        set_uniform(prog, "u_dom_layers", tuple(float(f) * ext for f in s.dom_layers))
-    t = frame.targets
-    if "shadow_map" in t:
-        t["shadow_map"].use(TEX_SHADOW_MAP)
-        set_uniform(prog, "u_shadow_map", TEX_SHADOW_MAP)
-    if "dom" in t:
-        t["dom"].use(TEX_DOM)
-        set_uniform(prog, "u_dom", TEX_DOM)
-    bind_shadow_methods(renderer, prog, frame)
-    bind_extra_shadows(renderer, prog, frame)
-
+        out.update({"u_light_view_proj": mat_bytes(lv.view_proj), "u_light_eye": tuple(float(x) for x in lv.eye),
+                    "u_light_dir": tuple(float(x) for x in lv.forward),
+                    "u_shadow_bias": float(s.shadow_bias) * texel, "u_shadow_texel": float(texel),
+                    "u_normal_offset": float(s.shadow_normal_offset), "u_slope_bias": float(s.shadow_slope_bias),
+                    "u_shadow_density": float(s.shadow_density),
+                    "u_dom_layers": tuple(float(f) * ext for f in s.dom_layers)})
+    frame.memo["lighting"] = out
+    return out
 
 
 def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
     """Lights 1.. that cast shadows: their maps (units 16.. and 20..) and light views."""
-    s = renderer.settings
     maps = frame.targets.get("extra_shadow_maps", [])
     doms = frame.targets.get("extra_doms", [])
     n = 1 + len(maps) if frame.light_view is not None else 0
     set_uniform(prog, "u_num_shadow_lights", n)
     if "u_xshadow_map" not in prog:
         return
+    for name, value in _extra_shadow_uniforms(renderer, frame, len(maps)).items():
+        set_uniform(prog, name, value)
+    for k in range(MAX_SHADOW_LIGHTS):
+        if 1 <= k <= len(maps):
+            maps[k - 1].use(TEX_XSHADOW_FIRST + k)
+            if k <= len(doms):
+                doms[k - 1].use(TEX_XDOM_FIRST + k)
+    set_uniform(prog, "u_xshadow_map", [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
+    if "u_xdom" in prog:
+        set_uniform(prog, "u_xdom", [TEX_XDOM_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
+
+
+def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
+    """bind_extra_shadows' light views, made once a frame."""
+    key = ("extra_shadows", num_maps)
+    memo = frame.memo.get(key)
+    if memo is not None:
+        return memo
+    s = renderer.settings
     center = renderer.scene_center()
     eyes, dirs, biases, layers = [(0.0, 0.0, 0.0)], [(0.0, 0.0, 1.0)], [0.0], [(1.0, 2.0, 3.0)]
     texels = [0.0]
     mats = [np.eye(4)]
-    for k, (lv, (lo, hi)) in enumerate(frame.shadow_views[:len(maps)]):
+    for k, (lv, (lo, hi)) in enumerate(frame.shadow_views[:num_maps]):
         mats.append(lv.view_proj)
         eyes.append(tuple(float(x) for x in lv.eye))
         dirs.append(tuple(float(x) for x in lv.forward))
@@ -276,20 +316,12 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
     while len(mats) < MAX_SHADOW_LIGHTS:
         mats.append(np.eye(4)); eyes.append((0.0, 0.0, 0.0)); dirs.append((0.0, 0.0, 1.0))
         biases.append(0.0); layers.append((1.0, 2.0, 3.0)); texels.append(0.0)
-    prog["u_xlight_view_proj"].write(b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]))
-    set_uniform(prog, "u_xlight_eye", eyes[:MAX_SHADOW_LIGHTS])
-    set_uniform(prog, "u_xlight_dir", dirs[:MAX_SHADOW_LIGHTS])
-    set_uniform(prog, "u_xshadow_bias", biases[:MAX_SHADOW_LIGHTS])
-    set_uniform(prog, "u_xshadow_texel", texels[:MAX_SHADOW_LIGHTS])
-    set_uniform(prog, "u_xdom_layers", layers[:MAX_SHADOW_LIGHTS])
-    for k in range(MAX_SHADOW_LIGHTS):
-        if 1 <= k <= len(maps):
-            maps[k - 1].use(TEX_XSHADOW_FIRST + k)
-            if k <= len(doms):
-                doms[k - 1].use(TEX_XDOM_FIRST + k)
-    set_uniform(prog, "u_xshadow_map", [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
-    if "u_xdom" in prog:
-        set_uniform(prog, "u_xdom", [TEX_XDOM_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
+    out = frame.memo[key] = {
+        "u_xlight_view_proj": b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]),
+        "u_xlight_eye": eyes[:MAX_SHADOW_LIGHTS], "u_xlight_dir": dirs[:MAX_SHADOW_LIGHTS],
+        "u_xshadow_bias": biases[:MAX_SHADOW_LIGHTS], "u_xshadow_texel": texels[:MAX_SHADOW_LIGHTS],
+        "u_xdom_layers": layers[:MAX_SHADOW_LIGHTS]}
+    return out
 
 
 def adsm_coverage(renderer, frame: Frame) -> float:
@@ -320,7 +352,7 @@ def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
             tex.use(TEX_OSM_FIRST + k)
         try:
             n = max(int(prog["u_osm"].array_length), len(maps))
-            prog["u_osm"].value = [TEX_OSM_FIRST + min(k, len(maps) - 1) for k in range(n)]
+            set_uniform(prog, "u_osm", [TEX_OSM_FIRST + min(k, len(maps) - 1) for k in range(n)])
         except KeyError:
             pass
         set_uniform(prog, "u_osm_targets", len(maps))

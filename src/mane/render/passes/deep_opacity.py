@@ -19,7 +19,7 @@ import math
 
 from ...gpu.glsl import compute_shader, program
 from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
-from .base import (FAR, HERE, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
+from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
                    read_f32, set_uniform, set_view)
 from .light_depth import LightDepthPass
 
@@ -72,7 +72,7 @@ class DeepOpacityPass(LightDepthPass):
         draw_hair(r, prog, frame.light_view)
         ctx.disable(ctx.BLEND)
         # 3. z0 into alpha
-        pack = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "dom_pack.frag")
+        pack = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("dom_pack.frag"))
         set_uniform(pack, "u_dom_depth", TEX_DOM_Z0)
         self.opacity_fbo.color_mask = (False, False, False, True)
         self.opacity_fbo.use()   # moderngl applies a framebuffer's colour mask when it is bound
@@ -103,7 +103,7 @@ class DeepOpacityPass(LightDepthPass):
             scan_light_depths(r, frame.light_view, n, dom_pass,
                               layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
                               strand_opacity=float(r.settings.strand_opacity))
-        pack = compute_shader(ctx, HERE / "dom_pack.comp", include_dirs=[RENDER_DIR])
+        pack = compute_shader(ctx, shader_path("dom_pack.comp"), include_dirs=[RENDER_DIR])
         set_uniform(pack, "u_size", n)
         set_uniform(pack, "u_far", float(FAR))
         self.opacity.bind_to_image(IMG_DOM, read=False, write=True)
@@ -129,7 +129,7 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
-    cs = compute_shader(ctx, HERE / "dom_raster.comp", {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
+    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
     set_view(cs, view)
     set_uniform(cs, "u_raster_size", (n, n))
     set_uniform(cs, "u_grid", 1)

@@ -147,7 +147,6 @@ def _ids():
 
 
 def _set(prog, name, value) -> None:
-    try:
-        prog[name].value = value
-    except KeyError:
-        pass
+    from .base import set_uniform
+
+    set_uniform(prog, name, value)

@@ -31,7 +31,7 @@ from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
-from .base import HERE, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
@@ -124,7 +124,7 @@ class HairComputePass(Pass):
         raster_defines = {**defines, "RASTER_STATS": 1} if stats is not None else defines
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
-                cs = compute_shader(ctx, HERE / "hair_raster.comp", {**raster_defines, "RASTER_PASS": raster_pass},
+                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**raster_defines, "RASTER_PASS": raster_pass},
                                     include_dirs=[RENDER_DIR])
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)
@@ -138,7 +138,7 @@ class HairComputePass(Pass):
         for hook in self.after_raster:
             hook(frame)
         with r.profiler.section("hair_shade"):
-            cs = compute_shader(ctx, HERE / "hair_shade.comp", {**defines, **r.shading.defines(),
+            cs = compute_shader(ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(),
                                                                 **shadow_defines(r.settings)},
                                 include_dirs=[RENDER_DIR])
             self._set_common(cs, frame, size, grid, expand.points)

@@ -2,7 +2,7 @@
 from __future__ import annotations
 
 from ...gpu.glsl import program
-from .base import HERE, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .base import shader_path, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 
 
 class HeadPass(Pass):
@@ -16,7 +16,7 @@ class HeadPass(Pass):
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
-        prog = program(ctx, vertex=HERE / "head.vert", fragment=HERE / "head.frag",
+        prog = program(ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
                        defines={"PASS": 0, **shadow_defines(s)})
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)

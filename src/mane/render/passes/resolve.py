@@ -2,16 +2,24 @@
 5-tap filter, exposure, tone mapping (ACES or Reinhard), background and sRGB encoding."""
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from ...gpu.glsl import program
 from ..bindings import TEX_HDR
-from .base import HERE, TONE_IDS, Frame, Pass, set_uniform
+from .base import shader_path, TONE_IDS, Frame, Pass, set_uniform
 
 
 def srgb_to_linear(c):
     c = np.asarray(c, dtype=np.float64)
     return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
+
+
+@functools.lru_cache(maxsize=16)
+def _background(srgb: tuple) -> tuple:
+    """The background's linear RGB uniform (made once per colour)."""
+    return tuple(float(x) for x in srgb_to_linear(srgb))
 
 
 class ResolvePass(Pass):
@@ -24,11 +32,15 @@ class ResolvePass(Pass):
         s = r.settings
         hdr = r.resolved_hdr()    # blits the multisampled target when there is one
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
-        prog = program(ctx, vertex=HERE / "fullscreen.vert", fragment=HERE / "resolve.frag",
+        prog = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("resolve.frag"),
                        defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]})
         hdr.use(TEX_HDR)
         set_uniform(prog, "u_hdr", TEX_HDR)
-        set_uniform(prog, "u_background", tuple(float(x) for x in srgb_to_linear(s.background)))
+        try:
+            background = _background(tuple(s.background))
+        except TypeError:
+            background = tuple(float(x) for x in srgb_to_linear(s.background))
+        set_uniform(prog, "u_background", background)
         set_uniform(prog, "u_exposure", float(s.exposure))
         out = r.output_fbo()
         out.use()

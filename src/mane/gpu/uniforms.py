@@ -1,0 +1,48 @@
+"""Uniform writes that skip the GL call when the bytes have not changed since the last write.
+
+Most of a frame's uniforms (the settings' constants, texture units, the lights) hold the same
+value from one frame to the next; a program keeps its uniforms, so writing them again only
+costs the CPU (moderngl's Python setter, then the driver). ``write_uniform`` packs the value
+as moderngl's ``Uniform.value`` setter does, remembers the bytes on the uniform object and
+writes only when they differ. The remembered bytes are only right if every write to that
+uniform goes through here: code that sets uniforms of mane's render programs must not use
+``prog[name].value = ...``, ``prog[name] = ...`` or ``prog[name].write(...)`` directly
+(tests/test_render_frame_cache.py checks ``mane.render``).
+"""
+from __future__ import annotations
+
+import struct
+
+_LAST = "_mane_sent"
+_PLAIN = (int, float, bool, tuple, list, bytes)
+
+
+def uniform_bytes(uniform, value) -> bytes:
+    """``value`` packed as moderngl's ``Uniform.value`` setter packs it (bytes pass through)."""
+    if isinstance(value, (bytes, bytearray)):
+        return bytes(value)
+    fmt = uniform.fmt
+    if uniform.array_length > 1:
+        if uniform.dimension > 1:
+            return b"".join(struct.pack(fmt, *row) for row in value)
+        return b"".join(struct.pack(fmt, item) for item in value)
+    if uniform.dimension > 1:
+        return struct.pack(fmt, *value)
+    return struct.pack(fmt, value)
+
+
+def write_uniform(uniform, value) -> None:
+    """Write ``value`` (a moderngl uniform value: a number, a tuple, a list of them, or the
+    bytes) unless the uniform was last written the same value (an equal number of the same
+    type, an equal tuple; 0.0 and -0.0 count as equal)."""
+    last = uniform.__dict__.get(_LAST)
+    if last is not None and last.__class__ is value.__class__ and last == value:
+        return
+    uniform.write(uniform_bytes(uniform, value))
+    uniform.__dict__[_LAST] = value if value.__class__ in _PLAIN else None
+
+
+def forget_uniforms(program) -> None:
+    """Forget what was written to ``program``'s uniforms (after something wrote them directly)."""
+    for member in getattr(program, "_members", {}).values():
+        member.__dict__.pop(_LAST, None)
