@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import argparse
 import importlib
+import inspect
 import sys
 from pathlib import Path
 
@@ -30,6 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     size.add_argument("--quick", action="store_true", help="small configurations, a few steps (seconds, any GPU)")
     size.add_argument("--full", action="store_true", help="more configurations and steps (minutes)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    parser.add_argument("--section", metavar="NAMES", default=None,
+                        help="sim, render, limits: only these sections, comma-separated; 'scale' (issue 14's rows: "
+                             "close-ups, 100k-2M strands, a crowd, simulate + render, 1M-2M guides, cold start) "
+                             "runs only when named")
     # all / quality: --out is a folder
     parser.add_argument("--only", metavar="TARGETS", help="all: only these targets, comma-separated (e.g. sim,render)")
     parser.add_argument("--baseline", metavar="DIR", help="all: another run's --out folder (e.g. --quick on a CPU) "
@@ -60,6 +65,9 @@ def run(args) -> int:
         raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
     mode = "quick" if args.quick else "full" if args.full else "default"
     module = importlib.import_module(TARGETS[args.target][0])
+    if getattr(args, "section", None) and (hasattr(module, "run_cli")
+                                           or "sections" not in inspect.signature(module.run).parameters):
+        raise UsageError(f"mane bench {args.target} has no sections (--section is for sim, render and limits)")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of
@@ -76,9 +84,12 @@ def run(args) -> int:
     else:             # a log: one line per step
         def progress(msg):
             print(f"mane bench {args.target}: {msg}", file=sys.stderr, flush=True)
+    kwargs = {}
+    if getattr(args, "section", None):
+        kwargs["sections"] = [s.strip() for s in args.section.split(",") if s.strip()]
     ctx = get_context()
     try:
-        result = sanitise(module.run(ctx, mode, progress=progress))
+        result = sanitise(module.run(ctx, mode, progress=progress, **kwargs))
     finally:
         if bar is not None:
             bar.close()

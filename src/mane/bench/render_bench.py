@@ -808,11 +808,44 @@ def _sweep_summary(rows: list[dict], bench) -> dict:
     return out
 
 
-def run(ctx, mode: str = "default", progress=None) -> dict:
-    """Every section of ``mode`` ("quick", "default", "full"): the JSON object."""
+# sections run only when asked for (``mane bench render --section scale``), not by default
+EXTRA_SECTIONS = ("scale",)
+RUN_SECTIONS = {"target": "target", "target_rasterizer": "target", "hunz_shading": "hunz_shading",
+                "hunz_shadows": "hunz_shadows", "vulkan_guides": "vulkan", "vulkan_divisions": "vulkan",
+                "vulkan_strands_per_guide": "vulkan", "vulkan_pcf": "vulkan", "chen_lod": "chen_lod",
+                "woodhouse_msaa": "woodhouse"}
+
+
+def run_sections(bench, sections) -> None:
+    """The named sections (``SECTIONS``, ``EXTRA_SECTIONS``) in order, each method once."""
+    unknown = [s for s in sections if s not in RUN_SECTIONS and s not in EXTRA_SECTIONS]
+    if unknown:
+        raise UsageError(f"unknown render bench section {', '.join(unknown)}; sections: "
+                         f"{', '.join(SECTIONS + EXTRA_SECTIONS)}")
+    done = set()
+    for s in sections:
+        method = RUN_SECTIONS.get(s, s)
+        if method in done:
+            continue
+        done.add(method)
+        if method == "scale":
+            from .scale_bench import RenderScale
+
+            RenderScale(bench).run()
+        else:
+            getattr(bench, method)()
+
+
+def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
+    """Every section of ``mode`` ("quick", "default", "full"), or only ``sections`` (names of
+    ``SECTIONS`` and ``EXTRA_SECTIONS``: "scale" is issue 14's rows, mane.bench.scale_bench):
+    the JSON object."""
     bench = Bench(ctx, mode, progress)
     try:
-        bench.run_all()
+        if sections:
+            run_sections(bench, list(sections))
+        else:
+            bench.run_all()
     finally:
         bench.release()
     cfg = bench.cfg
@@ -835,10 +868,20 @@ def run(ctx, mode: str = "default", progress=None) -> dict:
     settings["workload"] = (f"procedural default scene (mane.grooming.scene: default head, groom from "
                             f"{bench.work.source or 'default_groom'}); a configuration renders the first G guides")
     settings["render_settings_fields"] = list(settings_fields())
-    return {"meta": envelope(ctx, target="render", mode=mode, settings=settings, timing=timing),
-            "results": bench.rows,
-            "targets": {**_targets(bench.rows, mode), "sim_render_loop": bench.loop},
-            "sweeps": _sweep_summary(bench.rows, bench)}
+    settings["sections"] = list(sections) if sections else list(SECTIONS)
+    if sections and "scale" in sections:
+        from .scale_rows import SCALE_CONFIG
+
+        settings["scale"] = SCALE_CONFIG[mode]
+    out = {"meta": envelope(ctx, target="render", mode=mode, settings=settings, timing=timing),
+           "results": bench.rows,
+           "targets": {**_targets(bench.rows, mode), "sim_render_loop": bench.loop},
+           "sweeps": _sweep_summary(bench.rows, bench)}
+    if sections and "scale" in sections:
+        from .scale_rows import summary
+
+        out["scale"] = summary(bench.rows)
+    return out
 
 
 # --------------------------------------------------------------------------- text output
@@ -873,13 +916,20 @@ def format_text(result: dict) -> str:
         "chen_lod": "Chen Table 5: viewing distance (x framing distance), LOD on / off",
         "woodhouse_msaa": "Woodhouse Table 5.1: his workload with and without 4x MSAA",
     }
+    asked = meta.get("settings", {}).get("sections") or SECTIONS
     for section in SECTIONS:
-        out.append("")
         rs = ok(section)
+        if not rs and section not in asked:
+            continue
+        out.append("")
         seen = {n for r in rs for n in (r.get("passes_ms") or {})}
         pass_cols = [(n, _pass(n), "{:.3f}") for n in names if n in seen and n != "frames"]
         out.append(table(rs, [("config", "name", "{}")] + size_cols + frame_cols + pass_cols,
                          title=titles[section]))
+    if result.get("scale") is not None:
+        from .scale_rows import format_text as scale_text
+
+        out += ["", scale_text(rows)]
     t = result["targets"]
     val = t.get("full_head_50k_ms")
     out.append("")

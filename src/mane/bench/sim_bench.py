@@ -55,6 +55,7 @@ import time
 
 import numpy as np
 
+from ..errors import UsageError
 from .common import (title_line, BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
                      time_each, time_pipelined)
 
@@ -628,12 +629,22 @@ class Bench(BenchRows):
         return str(self.ctx.info.get("GL_RENDERER", "unknown"))
 
     SECTIONS = ("dftl_core", "full_solver", "woodhouse", "flip", "chen_shares")
+    EXTRA_SECTIONS = ("scale",)
+    """Run only when named (``mane bench sim --section scale``): issue 14's rows (scale_rows)."""
+
+    def scale(self) -> None:
+        from ..sim import MeshCollider
+        from .scale_rows import sim_rows
+
+        sim_rows(self, lambda: body_capsules() + [MeshCollider(head_mesh(), resolution=self.cfg["sdf_res"],
+                                                               padding=0.02, margin=0.002, friction=0.2)])
 
     def run_all(self, sections=None) -> None:
         """Every section, or those named (``full_solver`` includes ``grid_friction``)."""
         for name in sections or self.SECTIONS:
-            if name not in self.SECTIONS:
-                raise ValueError(f"unknown section {name!r}; sections: {', '.join(self.SECTIONS)}")
+            if name not in self.SECTIONS + self.EXTRA_SECTIONS:
+                raise UsageError(f"unknown sim bench section {name!r}; sections: "
+                                 f"{', '.join(self.SECTIONS + self.EXTRA_SECTIONS)}")
             getattr(self, name)()
 
 
@@ -762,10 +773,20 @@ def run(ctx, mode: str = "default", progress=None, sections=None) -> dict:
     settings["head_motion"] = "nod about the neck, 20 deg at 0.5 Hz"
     settings["workload"] = (f"straight strands of {STRAND_LENGTH} m on a scalp cap of radius {HEAD_RADIUS} m "
                             f"(Fibonacci roots), procedural")
-    return {"meta": envelope(ctx, target="sim", mode=mode, settings=settings, timing=timing),
-            "results": bench.rows,
-            "targets": _targets(bench.rows, mode),
-            "bandwidth": _bandwidth(bench.rows)}
+    settings["sections"] = list(sections) if sections else list(Bench.SECTIONS)
+    if sections and "scale" in sections:
+        from .scale_rows import SCALE_CONFIG
+
+        settings["scale"] = SCALE_CONFIG[mode]
+    out = {"meta": envelope(ctx, target="sim", mode=mode, settings=settings, timing=timing),
+           "results": bench.rows,
+           "targets": _targets(bench.rows, mode),
+           "bandwidth": _bandwidth(bench.rows)}
+    if sections and "scale" in sections:
+        from .scale_rows import summary
+
+        out["scale"] = summary(bench.rows)
+    return out
 
 
 # --------------------------------------------------------------------------- text output
@@ -779,6 +800,11 @@ def format_text(result: dict) -> str:
     out = [title_line(meta),
            f"timing: step {tm['step_source']}, passes {tm['pass_source']}; all times ms; "
            f"{tm['total_seconds']:.1f} s in all"]
+    if meta.get("settings", {}).get("sections") == ["scale"]:   # issue 14's rows alone
+        from .scale_rows import format_text as scale_text
+
+        bad = failures_table(rows)
+        return "\n".join(out + ["", scale_text(rows)] + (["", bad] if bad else []))
     ok = lambda bench: [r for r in rows if r["bench"] == bench and r["status"] == "ok"]  # noqa: E731
     step_cols = [("step mean", stat_of("step_ms", "mean"), "{:.3f}"),
                  ("median", stat_of("step_ms", "median"), "{:.3f}"),
@@ -856,6 +882,10 @@ def format_text(result: dict) -> str:
                       else " (peak unknown for this renderer)"))
     else:
         out.append(f"integrate kernel DRAM bandwidth: {bw.get('note', 'not measured')}")
+    if result.get("scale") is not None:
+        from .scale_rows import format_text as scale_text
+
+        out += ["", scale_text(rows)]
     bad = failures_table(rows)
     if bad:
         out += ["", bad]
