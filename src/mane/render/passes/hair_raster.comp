@@ -33,12 +33,17 @@ void visit(ivec2 q, float z, float cov) {
 #endif
     uint idx = sample_index(q, u_raster_size.x / u_grid, u_grid);
     uint zb = floatBitsToUint(z);
+    // Read before the atomics, which run at the L2's atomic rate (docs/performance.md): a
+    // sample's nearest depth only falls and its coverage only grows during the dispatch, so a
+    // value read here (perhaps stale) that already beats this segment's makes the atomic a
+    // no-op; and coverage past COVER_SATURATED (alpha 1 - e^-12) is not worth adding to.
 #if VIS64
-    atomicMin(vis[idx], (uint64_t(zb) << 32) | uint64_t(g_id));
-    atomicAdd(cover[idx], cover_units(cov));
+    uint64_t key = (uint64_t(zb) << 32) | uint64_t(g_id);
+    if (key < vis[idx]) atomicMin(vis[idx], key);
+    if (cover[idx] < COVER_SATURATED) atomicAdd(cover[idx], cover_units(cov));
 #elif RASTER_PASS == 0
-    atomicMin(vis_depth[idx], zb);
-    atomicAdd(cover[idx], cover_units(cov));
+    if (zb < vis_depth[idx]) atomicMin(vis_depth[idx], zb);
+    if (cover[idx] < COVER_SATURATED) atomicAdd(cover[idx], cover_units(cov));
 #else
     if (vis_depth[idx] == zb) {
         atomicMax(vis_id[idx], g_id + 1u);   // 0: none
