@@ -43,6 +43,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shadows", default=None, help="fidelity: shadow methods, comma-separated (default all)")
     parser.add_argument("--grid", action="store_true", help="fidelity: every model x every shadow method")
     parser.add_argument("--rasterizer", default=None, help="fidelity: auto, hardware or compute (default auto)")
+    parser.add_argument("--decompose", action="store_true",
+                        help="fidelity: what the default's per-pixel error is made of (mane.bench.fidelity_decompose)")
     parser.add_argument("--cache", default=None, help="fidelity: reference image cache folder "
                                                       "(default $MANE_REFERENCE_CACHE or ~/.cache/mane/reference)")
 

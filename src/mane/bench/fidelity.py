@@ -315,7 +315,9 @@ def format_markdown(result: dict) -> str:
 
 
 def run_cli(args) -> int:
-    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png."""
+    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png; with
+    ``--decompose`` the per-pixel error's decomposition (fidelity_decompose) in
+    DIR/fidelity_decompose.json."""
     from ..gpu import get_context
 
     mode = "quick" if args.quick else "full" if args.full else "default"
@@ -324,6 +326,19 @@ def run_cli(args) -> int:
 
     def listed(text):
         return [t.strip() for t in text.split(",") if t.strip()] if text else None
+
+    if getattr(args, "decompose", False):
+        from . import fidelity_decompose
+
+        result = sanitise(fidelity_decompose.run(get_context(), mode, progress, spp=getattr(args, "spp", None),
+                                                 size=getattr(args, "size", None),
+                                                 scenes=listed(getattr(args, "scenes", None)),
+                                                 cache_dir=getattr(args, "cache", None)))
+        text = to_json(result)
+        if out_dir is not None:
+            write_result(out_dir, "fidelity_decompose.json", text)
+        print(text if args.json else fidelity_decompose.format_text(result))
+        return 0
 
     result = sanitise(run(get_context(), mode, progress, image_dir=(out_dir / "fidelity") if out_dir else None,
                            size=getattr(args, "size", None), spp=getattr(args, "spp", None),
