@@ -216,3 +216,11 @@ def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
     assert set(p["blur"]) == {"0.5", "1.0", "2.0"} and len(p["shift"]["best"]) == 2
     assert "reference_noise" not in p                          # no seed-1 reference in an empty cache
     assert "default" in fidelity_decompose.format_text(res)
+
+
+def test_cli_bench_fidelity_decompose_rejects_an_unknown_scene(gl, capsys):
+    pytest.importorskip("mitsuba")
+    from mane.app.cli import main
+
+    assert main(["bench", "fidelity", "--quick", "--decompose", "--scenes", "nowhere"]) == 2
+    assert "unknown fidelity scene" in capsys.readouterr().err

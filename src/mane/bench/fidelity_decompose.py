@@ -27,6 +27,7 @@ VARIANTS = {
     # name: mane's settings overrides on top of the bench's scene settings (fidelity.base_settings)
     "default": {},
     "strand_spread 5 (the renderer's tilt)": {"strand_spread": 5.0},
+    "msaa 8 (3 x 3 grid)": {"msaa": 8},
     "msaa 16 (4 x 4 grid)": {"msaa": 16},
     "supersample 2": {"supersample": 2},
     "msaa 16 + supersample 2": {"msaa": 16, "supersample": 2},
