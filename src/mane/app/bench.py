@@ -62,6 +62,8 @@ def run(args) -> int:
         raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
     mode = "quick" if args.quick else "full" if args.full else "default"
     module = importlib.import_module(TARGETS[args.target][0])
+    if args.target == "fidelity" and getattr(args, "decompose", False):
+        module = importlib.import_module("mane.bench.fidelity_decompose")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of

@@ -7,7 +7,8 @@ Scenes (``SCENES``): Sintel's groom (``../shared/data/tressfx/sintel_hair.tfx``,
 metres; 228 guides x 16 strands) brown (eumelanin 1.3, pheomelanin 0.2) and blond (0.3, 0.1),
 no head; and a curly procedural groom on the default head (grooming's "curly" style). One
 white directional light, black background, no ambient, 320 x 320, the renderer's default
-camera; ``strand_spread`` 0 (the reference cannot tilt a fibre's shading direction off its curve). The real-time image is the renderer's linear HDR target (``realtime_linear``: tone
+camera; ``strand_spread`` 0 (the reference cannot tilt a fibre's shading direction off its
+curve). The real-time image is the renderer's linear HDR target (``realtime_linear``: tone
 mapping off, exposure 1); the reference is ``mane.reference.render`` of the very strands the
 renderer expanded, with the material of the same settings (``HairMaterial.from_settings``).
 
@@ -315,9 +316,8 @@ def format_markdown(result: dict) -> str:
 
 
 def run_cli(args) -> int:
-    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png; with
-    ``--decompose`` the per-pixel error's decomposition (fidelity_decompose) in
-    DIR/fidelity_decompose.json."""
+    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png
+    (``--decompose``: fidelity_decompose.run_cli)."""
     from ..gpu import get_context
 
     mode = "quick" if args.quick else "full" if args.full else "default"
@@ -326,19 +326,6 @@ def run_cli(args) -> int:
 
     def listed(text):
         return [t.strip() for t in text.split(",") if t.strip()] if text else None
-
-    if getattr(args, "decompose", False):
-        from . import fidelity_decompose
-
-        result = sanitise(fidelity_decompose.run(get_context(), mode, progress, spp=getattr(args, "spp", None),
-                                                 size=getattr(args, "size", None),
-                                                 scenes=listed(getattr(args, "scenes", None)),
-                                                 cache_dir=getattr(args, "cache", None)))
-        text = to_json(result)
-        if out_dir is not None:
-            write_result(out_dir, "fidelity_decompose.json", text)
-        print(text if args.json else fidelity_decompose.format_text(result))
-        return 0
 
     result = sanitise(run(get_context(), mode, progress, image_dir=(out_dir / "fidelity") if out_dir else None,
                            size=getattr(args, "size", None), spp=getattr(args, "spp", None),

@@ -171,4 +171,24 @@ def format_text(result: dict) -> str:
     return "\n".join(lines)
 
 
-__all__ = ["run", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers"]
+def run_cli(args) -> int:
+    """``mane bench fidelity --decompose [--out DIR]``: the table, DIR/fidelity_decompose.json."""
+    import sys
+    from pathlib import Path
+
+    from ..gpu import get_context
+    from .common import sanitise, to_json, write_result
+
+    mode = "quick" if args.quick else "full" if args.full else "default"
+    progress = None if args.quiet else (lambda msg: print(f"mane bench fidelity: {msg}", file=sys.stderr, flush=True))
+    scenes = [t.strip() for t in args.scenes.split(",") if t.strip()] if getattr(args, "scenes", None) else None
+    result = sanitise(run(get_context(), mode, progress, spp=getattr(args, "spp", None), size=getattr(args, "size", None),
+                          scenes=scenes, cache_dir=getattr(args, "cache", None)))
+    text = to_json(result)
+    if args.out:
+        write_result(Path(args.out), "fidelity_decompose.json", text)
+    print(text if args.json else format_text(result))
+    return 0
+
+
+__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers"]
