@@ -144,3 +144,83 @@ def test_bench_fidelity_skips_sintel_without_the_shared_data(gl, monkeypatch):
     monkeypatch.setattr(fidelity, "data_dir", lambda: None)
     res = fidelity.run(gl, "quick", scenes=["sintel_brown"], size=(16, 16), spp=1)
     assert res["results"] == [] and "not found" in res["scenes"]["sintel_brown"]["skipped"]
+
+
+def test_bench_scene_shades_with_the_tangents_of_the_curves_the_reference_draws(gl):
+    """The path tracer's hair BSDF takes its fibre direction from the curve it intersects
+    (Mitsuba's bsplinecurve through the expanded points: at knot j the derivative is
+    (C[j+1] - C[j-1]) / 2 of the interpolating control points, NumPy here); the real-time side
+    shades with the expand pass's tangents. The bench's scene must give both the same fibre
+    direction: ``strand_spread``'s per-strand tilt (5 degrees RMS by default) is a tangent the
+    reference cannot draw, and it alone was 0.06 of Sintel brown's 0.53 per-pixel relative MAE."""
+    from mane.bench import fidelity
+    from mane.reference.scene import bspline_control_points, expanded_strands
+
+    groom, head = _tiny_scene()
+    settings = fidelity.base_settings(fidelity.SCENES["curly_head"], (32, 32))
+    strands = expanded_strands(groom, settings, head=head, ctx=gl)
+    ctrl, _ = bspline_control_points(strands.points)
+    curve = ctrl[:, 2:] - ctrl[:, :-2]
+    curve /= np.linalg.norm(curve, axis=-1, keepdims=True)
+    shaded = strands.tangents / np.linalg.norm(strands.tangents, axis=-1, keepdims=True)
+    angle = np.degrees(np.arccos(np.clip((curve * shaded).sum(-1), -1.0, 1.0)))
+    # the chords of the 12-point test strands alone leave ~2 degrees RMS; a 5-degree RMS tilt
+    # on top gives ~5
+    assert np.sqrt(np.mean(angle ** 2)) < 3.0
+
+
+def test_decompose_shift_moves_right_and_down_and_best_shift_finds_the_offset():
+    from mane.bench import fidelity_decompose as fd
+
+    img = np.zeros((24, 24, 3))
+    img[10, 8] = 1.0
+    moved = fd.shifted(img, 1.0, 2.0)                  # one column right, two rows down
+    assert np.unravel_index(np.argmax(moved[..., 0]), moved.shape[:2]) == (12, 9)
+    # a smooth picture and its copy half a pixel to the left: the shift that undoes it is +0.5 in x
+    y, x = np.mgrid[0:32, 0:32].astype(float)
+    ref = np.repeat(np.exp(-((x - 15.3) ** 2 + (y - 16.0) ** 2) / 18.0)[..., None], 3, axis=2)
+    test = np.repeat(np.exp(-((x - 14.8) ** 2 + (y - 16.0) ** 2) / 18.0)[..., None], 3, axis=2)
+    res = fd.best_shift(test, ref, np.ones((32, 32), bool))
+    assert res["best"] == [0.5, 0.0]
+    assert res["best_relative_mae"] < 0.1 * res["unshifted_relative_mae"]
+
+
+def test_decompose_blur_keeps_the_mean_and_numbers_sum_the_coverage():
+    from mane.bench import fidelity_decompose as fd
+
+    rng = np.random.default_rng(0)
+    img = rng.random((40, 40, 3))
+    b = fd.blur(img, 1.0)
+    assert abs(b.mean() - img.mean()) < 2e-3 and b.std() < 0.5 * img.std()   # white noise: std / (2 sqrt(pi))
+    ref = np.full((4, 4, 3), 0.5)
+    cov = np.full((4, 4), 0.8)
+    alpha = np.full((4, 4), 0.6)
+    n = fd.numbers(ref * 1.2, alpha, ref, cov, cov > 0.5)
+    assert n["luminance_ratio"] == pytest.approx(1.2)
+    assert n["relative_mae"] == pytest.approx(0.1 / 0.5)              # |0.6 - 0.5| over luminance 0.5
+    assert n["coverage_ratio"] == pytest.approx(0.75)
+
+
+def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
+    pytest.importorskip("mitsuba")
+    from mane.bench import fidelity, fidelity_decompose
+
+    monkeypatch.setattr(fidelity, "load_scene", lambda scene, guides=0: _tiny_scene())
+    variants = {"default": {}, "msaa 16 (4 x 4 grid)": {"msaa": 16}}
+    res = fidelity_decompose.run(gl, "quick", size=(32, 32), spp=4, variants=variants, cache_dir=tmp_path / "cache")
+    assert [r["variant"] for r in res["results"]] == list(variants)
+    for row in res["results"]:
+        for key in ("relative_mae", "relative_mae_box4", "luminance_ratio", "falloff_ratio", "coverage_ratio"):
+            assert np.isfinite(row[key]), key
+    p = res["probes"]["curly_head"]
+    assert set(p["blur"]) == {"0.5", "1.0", "2.0"} and len(p["shift"]["best"]) == 2
+    assert "reference_noise" not in p                          # no seed-1 reference in an empty cache
+    assert "default" in fidelity_decompose.format_text(res)
+
+
+def test_cli_bench_fidelity_decompose_rejects_an_unknown_scene(gl, capsys):
+    pytest.importorskip("mitsuba")
+    from mane.app.cli import main
+
+    assert main(["bench", "fidelity", "--quick", "--decompose", "--scenes", "nowhere"]) == 2
+    assert "unknown fidelity scene" in capsys.readouterr().err

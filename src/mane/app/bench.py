@@ -48,6 +48,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shadows", default=None, help="fidelity: shadow methods, comma-separated (default all)")
     parser.add_argument("--grid", action="store_true", help="fidelity: every model x every shadow method")
     parser.add_argument("--rasterizer", default=None, help="fidelity: auto, hardware or compute (default auto)")
+    parser.add_argument("--decompose", action="store_true",
+                        help="fidelity: what the default's per-pixel error is made of (mane.bench.fidelity_decompose)")
     parser.add_argument("--cache", default=None, help="fidelity: reference image cache folder "
                                                       "(default $MANE_REFERENCE_CACHE or ~/.cache/mane/reference)")
 
@@ -68,6 +70,8 @@ def run(args) -> int:
     if getattr(args, "section", None) and (hasattr(module, "run_cli")
                                            or "sections" not in inspect.signature(module.run).parameters):
         raise UsageError(f"mane bench {args.target} has no sections (--section is for sim, render and limits)")
+    if args.target == "fidelity" and getattr(args, "decompose", False):
+        module = importlib.import_module("mane.bench.fidelity_decompose")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of

@@ -7,7 +7,8 @@ Scenes (``SCENES``): Sintel's groom (``../shared/data/tressfx/sintel_hair.tfx``,
 metres; 228 guides x 16 strands) brown (eumelanin 1.3, pheomelanin 0.2) and blond (0.3, 0.1),
 no head; and a curly procedural groom on the default head (grooming's "curly" style). One
 white directional light, black background, no ambient, 320 x 320, the renderer's default
-camera. The real-time image is the renderer's linear HDR target (``realtime_linear``: tone
+camera; ``strand_spread`` 0 (the reference cannot tilt a fibre's shading direction off its
+curve). The real-time image is the renderer's linear HDR target (``realtime_linear``: tone
 mapping off, exposure 1); the reference is ``mane.reference.render`` of the very strands the
 renderer expanded, with the material of the same settings (``HairMaterial.from_settings``).
 
@@ -104,12 +105,17 @@ def load_scene(scene: Scene, curly_guides: int = 300):
 def base_settings(scene: Scene, size, **overrides):
     """The real-time settings of a fixed scene: RenderSettings' defaults (its shading_options
     too) with the scene's melanin (no RGB hair_color), no ambient, black background, linear output
-    (tone mapping off, exposure 1), 16 strands per guide."""
+    (tone mapping off, exposure 1), 16 strands per guide, and ``strand_spread`` 0: the shaded
+    fibre direction is the curve's own, which is all the path tracer can draw (Mitsuba's hair
+    BSDF takes it from the curve it hits; a per-strand tilt of the shading tangent alone is not
+    a curve), so both sides shade the same fibres (docs/quality.md, "Where the per-pixel error
+    lives")."""
     from ..render import RenderSettings
 
     options = {**RenderSettings().shading_options, "melanin": tuple(scene.melanin)}   # the user's defaults + melanin
     kw = dict(size=tuple(size), strands_per_guide=16, hair_color=None, shading_options=options,
-              ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none", exposure=1.0, supersample=1)
+              ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none", exposure=1.0, supersample=1,
+              strand_spread=0.0)
     kw.update(overrides)
     return RenderSettings(**kw)
 
@@ -310,7 +316,8 @@ def format_markdown(result: dict) -> str:
 
 
 def run_cli(args) -> int:
-    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png."""
+    """``mane bench fidelity [--out DIR]``: DIR/fidelity.json and DIR/fidelity/*.png
+    (``--decompose``: fidelity_decompose.run_cli)."""
     from ..gpu import get_context
 
     mode = "quick" if args.quick else "full" if args.full else "default"

@@ -1,0 +1,194 @@
+"""``mane bench fidelity --decompose [--spp N] [--scenes ...]``: what the default model's
+per-pixel error against the path tracer is made of.
+
+    result = run(ctx, "default", spp=256, scenes=["sintel_brown"], progress=print)
+
+For each fixed scene (``fidelity.SCENES``, the bench's own settings and reference): the default
+frame against the reference, then the same frame with one thing changed on mane's side
+(``VARIANTS``: more coverage samples, sharper or fibre-resolving shadows, no shadows, the
+renderer's per-strand tangent tilt back on), each with the relative MAE per pixel and over 4 x 4
+blocks, the luminance and falloff ratios and the hair coverage (mane's HDR alpha over the
+reference's coverage, summed over the hair pixels). Probes on the default frame
+(``probes``): both images blurred by a Gaussian of sigma 0.5, 1 and 2 pixels (the spatial scale
+the error lives at); mane's image shifted by up to half a pixel (cubic, both sides blurred by
+0.7 px first so that the shift's own smoothing does not count; a camera or pixel-centre
+mismatch shows as a best offset away from 0); and, when a second reference of seed 1 is in the
+cache, the two references against each other (the reference's own noise; one reference is
+about 1/sqrt(2) of that from the converged image). Results in docs/quality.md, "Where the
+per-pixel error lives".
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from . import fidelity_metrics as fm
+
+VARIANTS = {
+    # name: mane's settings overrides on top of the bench's scene settings (fidelity.base_settings)
+    "default": {},
+    "strand_spread 5 (the renderer's tilt)": {"strand_spread": 5.0},
+    "msaa 8 (3 x 3 grid)": {"msaa": 8},
+    "msaa 16 (4 x 4 grid)": {"msaa": 16},
+    "supersample 2": {"supersample": 2},
+    "msaa 16 + supersample 2": {"msaa": 16, "supersample": 2},
+    "pcf 1": {"pcf": 1},
+    "opacity map 1024, pcf 1, strand_opacity 0.5": {"shadow_map_size": 1024, "pcf": 1, "strand_opacity": 0.5},
+    "opacity map 2048, pcf 1, strand_opacity 1, msaa 16": {"shadow_map_size": 2048, "pcf": 1, "strand_opacity": 1.0,
+                                                            "msaa": 16},
+    "hard shadow map 2048, pcf 1, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "pcf": 1,
+                                             "shadow_bias": 1.0, "msaa": 16},
+    "no shadows": {"shadows": "none"},
+}
+BLUR_SIGMAS = (0.5, 1.0, 2.0)
+SHIFTS = (-0.5, -0.25, 0.0, 0.25, 0.5)
+SHIFT_BLUR = 0.7
+
+
+def blur(img, sigma: float) -> np.ndarray:
+    """Each channel of an (H, W[, C]) image blurred by a Gaussian of ``sigma`` pixels."""
+    from scipy.ndimage import gaussian_filter
+
+    a = np.asarray(img, np.float64)
+    if a.ndim == 2:
+        return gaussian_filter(a, sigma)
+    return np.stack([gaussian_filter(a[..., c], sigma) for c in range(a.shape[-1])], axis=-1)
+
+
+def shifted(img, dx: float, dy: float) -> np.ndarray:
+    """The image moved by (dx, dy) pixels (+x right, +y down the rows), cubic spline."""
+    from scipy.ndimage import shift
+
+    a = np.asarray(img, np.float64)
+    return np.stack([shift(a[..., c], (dy, dx), order=3, mode="nearest") for c in range(a.shape[-1])], axis=-1)
+
+
+def best_shift(test, ref, mask, shifts=SHIFTS, sigma: float = SHIFT_BLUR) -> dict:
+    """Relative MAE of ``test`` moved by each (dx, dy) in shifts x shifts, both blurred by
+    ``sigma`` first: {"best": (dx, dy), "best_relative_mae", "unshifted_relative_mae"}."""
+    t, r = blur(test, sigma), blur(ref, sigma)
+    scores = {(dx, dy): fm.relative_mae(shifted(t, dx, dy), r, mask) for dy in shifts for dx in shifts}
+    best = min(scores, key=scores.get)
+    return {"best": [float(best[0]), float(best[1])], "best_relative_mae": scores[best],
+            "unshifted_relative_mae": scores[(0.0, 0.0)], "blur_sigma": sigma}
+
+
+def numbers(img, alpha, ref, cov, mask) -> dict:
+    return {"relative_mae": fm.relative_mae(img, ref, mask), "relative_mae_box4": fm.relative_mae_box(img, ref, mask, 4),
+            "luminance_ratio": fm.luminance_ratio(img, ref, mask), "falloff_ratio": fm.falloff_ratio(img, ref, mask),
+            "coverage_ratio": float(np.sum(alpha[mask]) / max(np.sum(cov[mask]), 1e-12))}
+
+
+def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scenes=None, variants=None,
+        cache_dir=None, seed: int = 0) -> dict:
+    """The decomposition table (module doc); ``variants`` a dict like ``VARIANTS`` (default it)."""
+    from .. import reference
+    from ..errors import UsageError
+    from ..reference import cache as _cache
+    from ..render import Renderer
+    from ..render.lights import Light
+    from . import fidelity
+    from .common import envelope
+
+    cfg = fidelity.MODE_CONFIG[mode]
+    size = tuple(size) if size is not None else cfg["size"]
+    spp = int(spp) if spp is not None else cfg["spp"]
+    variants = dict(VARIANTS if variants is None else variants)
+    say = progress or (lambda msg: None)
+    light = Light(*fidelity.LIGHT)
+    rows, probes = [], {}
+    for name in (list(scenes) if scenes else list(cfg["scenes"])):
+        if name not in fidelity.SCENES:
+            raise UsageError(f"unknown fidelity scene {name!r}; one of {', '.join(fidelity.SCENES)}")
+        scene = fidelity.SCENES[name]
+        groom, head = fidelity.load_scene(scene, cfg["curly_guides"])
+        base = fidelity.base_settings(scene, size, rasterizer="compute")
+        r0 = Renderer(base.replace(pipeline="compute", oit="none"), ctx=ctx, profile=False)
+        try:
+            r0.set_strands(groom)
+            r0.set_head(head)
+            strands = reference.renderer_strands(r0)
+            camera = r0.default_camera()
+        finally:
+            r0.release()
+        material = reference.HairMaterial.from_settings(base)
+        common = dict(strands=strands, head=head, camera=camera, lights=[light], settings=base, spp=spp,
+                      material=material)
+        say(f"{name}: reference at {spp} spp")
+        ref = reference.render(**common, seed=seed, cache_dir=cache_dir, progress=lambda m: say(f"{name}: {m}"))
+        cov = reference.hair_coverage(strands=strands, head=head, camera=camera, settings=base,
+                                      spp=min(max(spp, 4), 16), seed=seed, cache_dir=cache_dir)
+        mask = cov >= 0.5
+        frames = {}
+        for label, overrides in variants.items():
+            r = Renderer(base.replace(**overrides), ctx=ctx, profile=False)
+            try:
+                r.set_strands(groom)
+                r.set_head(head)
+                rgba = fidelity.realtime_linear(r, camera, [light])
+            finally:
+                r.release()
+            frames[label] = rgba
+            row = {"scene": name, "variant": label, "overrides": overrides,
+                   **numbers(rgba[..., :3], rgba[..., 3], ref, cov, mask)}
+            rows.append(row)
+            say(f"{name} {label}: relative MAE {row['relative_mae']:.3f} / {row['relative_mae_box4']:.3f}")
+        p = {}
+        if "default" in frames:
+            img = frames["default"][..., :3]
+            p["blur"] = {str(s): fm.relative_mae(blur(img, s), blur(ref, s), mask) for s in BLUR_SIGMAS}
+            p["shift"] = best_shift(img, ref, mask)
+        other = _cache.load(_cache.default_dir() if cache_dir is None else cache_dir,
+                            reference.cache_key(**common, seed=seed + 1))
+        if other is not None:
+            p["reference_noise"] = {"relative_mae": fm.relative_mae(other, ref, mask),
+                                    "relative_mae_box4": fm.relative_mae_box(other, ref, mask, 4),
+                                    "blur": {str(s): fm.relative_mae(blur(other, s), blur(ref, s), mask)
+                                             for s in BLUR_SIGMAS}}
+        probes[name] = p
+    meta = envelope(ctx, target="fidelity-decompose", mode=mode,
+                    settings={"size": list(size), "spp": spp, "seed": seed, "variants": variants})
+    return {"meta": meta, "results": rows, "probes": probes}
+
+
+def format_text(result: dict) -> str:
+    from .common import table, title_line
+
+    cols = [("scene", "scene", "{}"), ("variant", "variant", "{}"),
+            ("rel MAE px", "relative_mae", "{:.3f}"), ("rel MAE 4x4", "relative_mae_box4", "{:.3f}"),
+            ("lum", "luminance_ratio", "{:.3f}"), ("falloff", "falloff_ratio", "{:.3f}"),
+            ("coverage", "coverage_ratio", "{:.3f}")]
+    lines = [title_line(result["meta"]), table(result["results"], cols)]
+    for name, p in result["probes"].items():
+        if "blur" in p:
+            lines.append(f"{name}: blurred both sides " + ", ".join(f"sigma {s}: {v:.3f}" for s, v in p["blur"].items()))
+        if "shift" in p:
+            s = p["shift"]
+            lines.append(f"{name}: best shift {s['best']} px: {s['best_relative_mae']:.3f} "
+                         f"(unshifted {s['unshifted_relative_mae']:.3f}, both blurred {s['blur_sigma']} px)")
+        if "reference_noise" in p:
+            n = p["reference_noise"]
+            lines.append(f"{name}: reference seed 1 vs seed 0: {n['relative_mae']:.3f} / {n['relative_mae_box4']:.3f}")
+    return "\n".join(lines)
+
+
+def run_cli(args) -> int:
+    """``mane bench fidelity --decompose [--out DIR]``: the table, DIR/fidelity_decompose.json."""
+    import sys
+    from pathlib import Path
+
+    from ..gpu import get_context
+    from .common import sanitise, to_json, write_result
+
+    mode = "quick" if args.quick else "full" if args.full else "default"
+    progress = None if args.quiet else (lambda msg: print(f"mane bench fidelity: {msg}", file=sys.stderr, flush=True))
+    scenes = [t.strip() for t in args.scenes.split(",") if t.strip()] if getattr(args, "scenes", None) else None
+    result = sanitise(run(get_context(), mode, progress, spp=getattr(args, "spp", None), size=getattr(args, "size", None),
+                          scenes=scenes, cache_dir=getattr(args, "cache", None)))
+    text = to_json(result)
+    if args.out:
+        write_result(Path(args.out), "fidelity_decompose.json", text)
+    print(text if args.json else format_text(result))
+    return 0
+
+
+__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers"]
