@@ -67,7 +67,7 @@ GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # shadow look-ups of the head and the hair cost more than their shading).
 SOFTWARE_LADDER = (
     ("2 strands per guide", dict(strands_per_guide=2)),
-    ("1-texel shadow filter", dict(pcf=1)),   # bilinear: 4 texel reads instead of 9
+    ("1-texel shadow filter", dict(pcf=1, head_pcf=1)),   # bilinear: 4 texel reads instead of 9, hair and skin
     ("no shadows", dict(shadows="none")),
     ("1 strand per guide", dict(strands_per_guide=1)),
 )
