@@ -625,7 +625,7 @@ try:
     print(json.dumps(dict(first=first, state=w.auto_quality_state, fps=w.auto_quality_fps, viewer_fps=w.fps,
                           frames=w.frames, steps=w.quality_steps, status=w.status, report=w.quality_report(),
                           error=w.error, target=w.target_fps, size=list(s.size),
-                          settings={k: getattr(s, k) for k in ("strands_per_guide", "pcf", "shadows", "segments")})))
+                          settings={k: getattr(s, k) for k in ("strands_per_guide", "pcf", "head_pcf", "shadows", "segments")})))
 finally:
     w.close()
 """
