@@ -120,6 +120,21 @@ def base_settings(scene: Scene, size, **overrides):
     return RenderSettings(**kw)
 
 
+def drawn_strands(ctx, settings, groom, head):
+    """(the renderer's expanded strands as the reference draws them, its default camera) of a
+    scene under ``settings``."""
+    from .. import reference
+    from ..render import Renderer
+
+    r = Renderer(settings.replace(pipeline="compute", oit="none"), ctx=ctx, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        return reference.renderer_strands(r), r.default_camera()
+    finally:
+        r.release()
+
+
 def realtime_linear(renderer, camera=None, lights=None) -> np.ndarray:
     """Render a frame and read the renderer's linear HDR target: (H, W, 4) float32, RGB
     premultiplied by coverage (= radiance over black) and alpha, top row first. Needs
@@ -205,14 +220,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
             say(f"{name}: skipped ({exc})")
             continue
         base = base_settings(scene, size, shading=default_model, rasterizer=rasterizer)
-        r0 = Renderer(base.replace(pipeline="compute", oit="none"), ctx=ctx, profile=False)
-        try:
-            r0.set_strands(groom)
-            r0.set_head(head)
-            strands = reference.renderer_strands(r0)
-            camera = r0.default_camera()
-        finally:
-            r0.release()
+        strands, camera = drawn_strands(ctx, base, groom, head)
         material = reference.HairMaterial.from_settings(base)
         t0 = time.perf_counter()
         key = reference.cache_key(strands=strands, head=head, camera=camera, lights=[light], settings=base, spp=spp,

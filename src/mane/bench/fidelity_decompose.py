@@ -102,14 +102,7 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
         scene = fidelity.SCENES[name]
         groom, head = fidelity.load_scene(scene, cfg["curly_guides"])
         base = fidelity.base_settings(scene, size, rasterizer="compute")
-        r0 = Renderer(base.replace(pipeline="compute", oit="none"), ctx=ctx, profile=False)
-        try:
-            r0.set_strands(groom)
-            r0.set_head(head)
-            strands = reference.renderer_strands(r0)
-            camera = r0.default_camera()
-        finally:
-            r0.release()
+        strands, camera = fidelity.drawn_strands(ctx, base, groom, head)
         material = reference.HairMaterial.from_settings(base)
         common = dict(strands=strands, head=head, camera=camera, lights=[light], settings=base, spp=spp,
                       material=material)

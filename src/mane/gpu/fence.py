@@ -14,42 +14,21 @@ from __future__ import annotations
 import ctypes
 import time
 
+from .entry_points import gl_entry
+
 GL_SYNC_GPU_COMMANDS_COMPLETE = 0x9117
 GL_SYNC_FLUSH_COMMANDS_BIT = 0x1
 GL_TIMEOUT_EXPIRED = 0x911B
 _fns: dict | None = None
 
 
-def _entry(name: str, restype, *argtypes):
-    """A core GL entry point through glvnd's libOpenGL/libGL, else eglGetProcAddress; None."""
-    fn = None
-    for lib in ("libOpenGL.so.0", "libGL.so.1"):
-        try:
-            fn = getattr(ctypes.CDLL(lib), name)
-            break
-        except (OSError, AttributeError):
-            continue
-    if fn is None:
-        try:
-            egl = ctypes.CDLL("libEGL.so.1")
-            egl.eglGetProcAddress.restype = ctypes.c_void_p
-            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-            addr = egl.eglGetProcAddress(name.encode())
-            fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr) if addr else None
-        except OSError:
-            return None
-    if fn is not None:
-        fn.restype, fn.argtypes = restype, list(argtypes)
-    return fn
-
-
 def _gl() -> dict:
     global _fns
     if _fns is None:
-        _fns = {"fence": _entry("glFenceSync", ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
-                "wait": _entry("glClientWaitSync", ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
-                "delete": _entry("glDeleteSync", None, ctypes.c_void_p),
-                "flush": _entry("glFlush", None)}
+        _fns = {"fence": gl_entry("glFenceSync", ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint),
+                "wait": gl_entry("glClientWaitSync", ctypes.c_uint, ctypes.c_void_p, ctypes.c_uint, ctypes.c_uint64),
+                "delete": gl_entry("glDeleteSync", None, ctypes.c_void_p),
+                "flush": gl_entry("glFlush", None)}
     return _fns
 
 

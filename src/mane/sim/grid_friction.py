@@ -53,6 +53,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GLFeatureError, UsageError
+from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
 from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_TILES,
@@ -85,36 +86,14 @@ METHOD_ALIASES = {"splat": "atomic", "scatter": "atomic", "gpu": "atomic",
 GL_FRAMEBUFFER = 0x8D40
 GL_COLOR_ATTACHMENT0 = 0x8CE0
 GL_FRAMEBUFFER_COMPLETE = 0x8CD5
-_gl_cache: dict[str, object] = {}
 
 
 def _gl(name: str, restype, *argtypes):
-    """A core GL entry point through glvnd's libOpenGL/libGL (or eglGetProcAddress)."""
-    if name in _gl_cache:
-        return _gl_cache[name]
-    fn = None
-    for lib in ("libOpenGL.so.0", "libGL.so.1", "libGL.so"):
-        try:
-            fn = getattr(ctypes.CDLL(lib), name)
-            break
-        except (OSError, AttributeError):
-            continue
-    if fn is None:
-        try:
-            egl = ctypes.CDLL("libEGL.so.1")
-            egl.eglGetProcAddress.restype = ctypes.c_void_p
-            egl.eglGetProcAddress.argtypes = [ctypes.c_char_p]
-            addr = egl.eglGetProcAddress(name.encode())
-            if addr:
-                fn = ctypes.CFUNCTYPE(restype, *argtypes)(addr)
-        except OSError:
-            pass
+    """A core GL entry point (mane.gpu.entry_points); GLFeatureError where there is none."""
+    fn = gl_entry(name, restype, *argtypes)
     if fn is None:
         raise GLFeatureError(f"cannot find the OpenGL function {name} (needed for the layered "
                              f"3D-texture framebuffer of GridFriction(method='raster')); use method='atomic'")
-    fn.restype = restype
-    fn.argtypes = list(argtypes)
-    _gl_cache[name] = fn
     return fn
 
 
