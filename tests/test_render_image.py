@@ -152,8 +152,9 @@ def test_deep_opacity_layers(gl):
 @pytest.mark.parametrize("aa", [dict(msaa=2), dict(msaa=4), dict(supersample=2), dict(msaa=4, supersample=2),
                                 dict(msaa=8)])
 def test_antialiasing_modes(gl, aa, rasterizer):
-    # the head's silhouette: MSAA (and supersampling) with either rasteriser for the hair
-    r = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)), rasterizer=rasterizer, **aa)
+    # the head's silhouette: MSAA (and supersampling) with either rasteriser for the hair (the
+    # compute rasteriser draws the head multisampled when asked: head_msaa, off by default)
+    r = make(gl, fan_groom(), sphere(0.05, (0, 0.2, 0)), rasterizer=rasterizer, head_msaa=True, **aa)
     try:
         img = r.render_image(CAM)
         assert r.samples <= int(gl.info["GL_MAX_SAMPLES"])
