@@ -97,27 +97,13 @@ def _frame_from_direction(t: np.ndarray) -> np.ndarray:
     return np.stack([t, y, z], axis=2)
 
 
-def min_rotation_from_x(u: np.ndarray) -> np.ndarray:
-    """(S,3,3) the smallest rotation taking e_x to the unit vectors u (S,3)."""
-    c = u[:, 0]
-    v = np.stack([np.zeros_like(c), -u[:, 2], u[:, 1]], axis=1)  # e_x x u
-    K = np.zeros((len(u), 3, 3))
-    K[:, 0, 1], K[:, 0, 2] = -v[:, 2], v[:, 1]
-    K[:, 1, 0], K[:, 1, 2] = v[:, 2], -v[:, 0]
-    K[:, 2, 0], K[:, 2, 1] = -v[:, 1], v[:, 0]
-    opposite = c < -1.0 + 1e-6
-    denom = np.where(opposite, 1.0, 1.0 + c)
-    R = c[:, None, None] * np.eye(3) + K + v[:, :, None] * v[:, None, :] / denom[:, None, None]
-    R[opposite] = np.diag([-1.0, -1.0, 1.0])
-    return R
-
-
 def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """(S,N,3): the rest strands cut at ``scale`` of their arc length (tips collapse on the cut)."""
+    """(S,N,3): the rest strands cut at ``scale`` of their arc length (tips collapse on the cut).
+    Uncut (every scale >= 1): ``rest`` itself, not a copy."""
+    if np.all(scale >= 1.0):
+        return rest
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
     arc = np.concatenate([np.zeros((len(rest), 1)), np.cumsum(seg, axis=1)], axis=1)
-    if np.all(scale >= 1.0):
-        return rest.copy()
     cut = arc[:, -1] * scale
     a = np.minimum(arc, cut[:, None])  # (S,N) wanted arc of each particle
     N = rest.shape[1]
@@ -130,44 +116,84 @@ def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return rest[S_idx, j] * (1 - w) + rest[S_idx, j + 1] * w
 
 
+def carried_refs(d: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
+    """(S,N-1,3) float64: F_k^T d_k for segments d (S,N-1,3) of lengths seg (S,N-1), the bind
+    frame carried root to tip: F_0 = R0 (S,3,3); F_{k+1} = F_k times the
+    smallest rotation taking e_x to the unit F_k^T d_k (diag(-1, -1, 1) when nearly opposite), unchanged past an empty segment (|d_k| <= 1e-12). All strands at once for each
+    k, a frame held as (column, component, strand)."""
+    S, M, _ = d.shape
+    D = np.ascontiguousarray(d.transpose(1, 2, 0))        # (M, 3, S)
+    F = np.ascontiguousarray(R0.transpose(2, 1, 0))       # F[j, i]: component i of column j
+    out = np.empty((M, 3, S))
+    R = np.empty((3, 3, S))
+    eye = np.array([[1.0], [0.0], [0.0]])
+    flip = np.diag([-1.0, -1.0, 1.0])[:, :, None]
+    for k in range(M):
+        dk = D[k]
+        ref = out[k]
+        np.multiply(F[:, 0], dk[0], out=ref)
+        ref += F[:, 1] * dk[1]
+        ref += F[:, 2] * dk[2]                            # F^T d
+        if k == M - 1:
+            break
+        ok = seg[:, k] > 1e-12
+        u = ref / np.where(ok, seg[:, k], 1.0)
+        u /= np.where(ok, np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), 1.0)
+        u = np.where(ok, u, eye)                          # e_x: R = I, the frame stays
+        c, u1, u2 = u
+        opposite = c < -1.0 + 1e-6
+        den = np.where(opposite, 1.0, 1.0 + c)
+        u12 = u1 * u2 / den
+        # the smallest rotation taking e_x to u: c I + [e_x x u]_x + (e_x x u)(e_x x u)^T / (1 + c)
+        R[0, 0], R[0, 1], R[0, 2] = c, -u1, -u2
+        R[1, 0], R[1, 1], R[1, 2] = u1, c + u2 * u2 / den, -u12
+        R[2, 0], R[2, 1], R[2, 2] = u2, -u12, c + u1 * u1 / den
+        if opposite.any():
+            R[:, :, opposite] = flip
+        # column j of F R: sum_i F[i] R[i, j]
+        G = F[0][None] * R[0][:, None]
+        G += F[1][None] * R[1][:, None]
+        G += F[2][None] * R[2][:, None]
+        F = G
+    return out.transpose(2, 0, 1)
+
+
 def rest_data(base: np.ndarray, scale: np.ndarray, inv_mass: np.ndarray) -> dict:
     """Every rest-derived buffer's contents (float32) for base strands (S,N,3) and length scales (S,)."""
     S, N, _ = base.shape
+    base = np.asarray(base, dtype=np.float64)
     rest = haircut(base, scale)
-    base_seg = np.linalg.norm(np.diff(base, axis=1), axis=2)
-    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
-    d_all = np.diff(rest, axis=1)
-    info = np.zeros((S, N, 4))
+    d = np.diff(rest, axis=1)  # (S,N-1,3)
+    seg = np.sqrt(np.einsum("snk,snk->sn", d, d))
+    base_seg = seg if rest is base else np.linalg.norm(np.diff(base, axis=1), axis=2)
+    info = np.zeros((S, N, 4), np.float32)
     info[:, 1:, 0] = seg
     info[:, 1:, 1] = np.cumsum(seg, axis=1)
     # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
-    e0, e1 = d_all[:, :-1], d_all[:, 1:]
-    sn = np.linalg.norm(np.cross(e0, e1), axis=2)
+    e0, e1 = d[:, :-1], d[:, 1:]
+    cx = e0[..., 1] * e1[..., 2] - e0[..., 2] * e1[..., 1]
+    cy = e0[..., 2] * e1[..., 0] - e0[..., 0] * e1[..., 2]
+    cz = e0[..., 0] * e1[..., 1] - e0[..., 1] * e1[..., 0]
+    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
     info[:, 2:, 2] = np.where((seg[:, :-1] > 1e-12) & (seg[:, 1:] > 1e-12),
                               np.arctan2(sn, np.einsum("snk,snk->sn", e0, e1)), 0.0)
     info[:, 1:, 3] = base_seg
     # local shape: bind frames propagated root to tip
-    d = np.diff(rest, axis=1)  # (S,N-1,3)
     t0 = d[:, 0] / np.maximum(seg[:, :1], 1e-30)
     t0[seg[:, 0] <= 1e-12] = (0.0, -1.0, 0.0)
     R0 = _frame_from_direction(t0)
-    refs = np.zeros((S, N, 4))
-    F = R0.copy()
-    for k in range(N - 1):
-        refs[:, k + 1, :3] = np.einsum("sji,sj->si", F, d[:, k])  # F^T d
-        ok = seg[:, k] > 1e-12
-        if np.any(ok):
-            u = np.einsum("sji,sj->si", F[ok], d[ok, k] / seg[ok, k, None])
-            u /= np.linalg.norm(u, axis=1, keepdims=True)
-            F[ok] = F[ok] @ min_rotation_from_x(u)
-    frames = np.zeros((S, 3, 4))
+    refs = np.zeros((S, N, 4), np.float32)
+    refs[:, 1:, :3] = carried_refs(d, seg, R0)
+    frames = np.zeros((S, 3, 4), np.float32)
     frames[:, :, :3] = np.transpose(R0, (0, 2, 1))  # row c = column c of R0
-    pos = np.concatenate([rest, inv_mass.reshape(S, N, 1)], axis=2)
+    pos = np.empty((S, N, 4), np.float32)
+    pos[:, :, :3] = rest
+    pos[:, :, 3] = inv_mass.reshape(S, N)
     return {
-        "rest_positions": pos.astype(np.float32).reshape(-1, 4),
-        "rest_info": info.astype(np.float32).reshape(-1, 4),
-        "shape_refs": refs.astype(np.float32).reshape(-1, 4),
-        "root_frames": frames.astype(np.float32).reshape(-1, 4),
+        "rest_positions": pos.reshape(-1, 4),
+        "rest_info": info.reshape(-1, 4),
+        "shape_refs": refs.reshape(-1, 4),
+        "root_frames": frames.reshape(-1, 4),
     }
 
 
