@@ -116,85 +116,111 @@ def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return rest[S_idx, j] * (1 - w) + rest[S_idx, j + 1] * w
 
 
-def carried_refs(d: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
-    """(S,N-1,3) float64: F_k^T d_k for segments d (S,N-1,3) of lengths seg (S,N-1), the bind
-    frame carried root to tip: F_0 = R0 (S,3,3); F_{k+1} = F_k times the
-    smallest rotation taking e_x to the unit F_k^T d_k (diag(-1, -1, 1) when nearly opposite), unchanged past an empty segment (|d_k| <= 1e-12). All strands at once for each
-    k, a frame held as (column, component, strand)."""
-    S, M, _ = d.shape
-    D = np.ascontiguousarray(d.transpose(1, 2, 0))        # (M, 3, S)
+def carried_refs(D: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
+    """(3,M,S) float64: F_k^T d_k for segments D (3,M,S) (component, segment, strand) of lengths
+    seg (M,S), the bind frame carried root to tip: F_0 = R0 (S,3,3); F_{k+1} = F_k times the
+    smallest rotation taking e_x to the unit F_k^T d_k (diag(-1, -1, 1) when nearly opposite),
+    unchanged past an empty segment (|d_k| <= 1e-12). All strands at once for each k, a frame
+    held as (column, component, strand)."""
+    _, M, S = D.shape
     F = np.ascontiguousarray(R0.transpose(2, 1, 0))       # F[j, i]: component i of column j
-    out = np.empty((M, 3, S))
+    out = np.empty((3, M, S))
+    ok = seg > 1e-12
+    safe = np.where(ok, seg, 1.0)
     R = np.empty((3, 3, S))
-    eye = np.array([[1.0], [0.0], [0.0]])
+    G, tmp = np.empty((3, 3, S)), np.empty((3, 3, S))
+    u, t = np.empty((3, S)), np.empty(S)
     flip = np.diag([-1.0, -1.0, 1.0])[:, :, None]
     for k in range(M):
-        dk = D[k]
-        ref = out[k]
-        np.multiply(F[:, 0], dk[0], out=ref)
-        ref += F[:, 1] * dk[1]
-        ref += F[:, 2] * dk[2]                            # F^T d
+        ref = out[:, k]
+        np.multiply(F[:, 0], D[0, k], out=ref)
+        ref += F[:, 1] * D[1, k]
+        ref += F[:, 2] * D[2, k]                          # F^T d
         if k == M - 1:
             break
-        ok = seg[:, k] > 1e-12
-        u = ref / np.where(ok, seg[:, k], 1.0)
-        u /= np.where(ok, np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]), 1.0)
-        u = np.where(ok, u, eye)                          # e_x: R = I, the frame stays
+        np.divide(ref, safe[k], out=u)
+        np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2], out=t)
+        okk = ok[k]
+        if okk.all():
+            u /= t
+        else:
+            u /= np.where(okk, t, 1.0)
+            u[:, ~okk] = ((1.0,), (0.0,), (0.0,))         # e_x: R = I, the frame stays
         c, u1, u2 = u
         opposite = c < -1.0 + 1e-6
-        den = np.where(opposite, 1.0, 1.0 + c)
-        u12 = u1 * u2 / den
+        den = 1.0 + c
+        if opposite.any():
+            den[opposite] = 1.0
         # the smallest rotation taking e_x to u: c I + [e_x x u]_x + (e_x x u)(e_x x u)^T / (1 + c)
+        np.multiply(u1, u2, out=t)
+        t /= den
         R[0, 0], R[0, 1], R[0, 2] = c, -u1, -u2
-        R[1, 0], R[1, 1], R[1, 2] = u1, c + u2 * u2 / den, -u12
-        R[2, 0], R[2, 1], R[2, 2] = u2, -u12, c + u1 * u1 / den
+        R[1, 0], R[1, 2], R[2, 0], R[2, 1] = u1, -t, u2, -t
+        np.multiply(u2, u2, out=t)
+        t /= den
+        np.add(c, t, out=R[1, 1])
+        np.multiply(u1, u1, out=t)
+        t /= den
+        np.add(c, t, out=R[2, 2])
         if opposite.any():
             R[:, :, opposite] = flip
         # column j of F R: sum_i F[i] R[i, j]
-        G = F[0][None] * R[0][:, None]
-        G += F[1][None] * R[1][:, None]
-        G += F[2][None] * R[2][:, None]
-        F = G
-    return out.transpose(2, 0, 1)
+        np.multiply(F[0][None], R[0][:, None], out=G)
+        G += np.multiply(F[1][None], R[1][:, None], out=tmp)
+        G += np.multiply(F[2][None], R[2][:, None], out=tmp)
+        F, G = G, F
+    return out
+
+
+REST_CHUNK = 4096
+"""strands per block of ``rest_data`` (its temporaries stay in cache; strands are independent)."""
 
 
 def rest_data(base: np.ndarray, scale: np.ndarray, inv_mass: np.ndarray) -> dict:
     """Every rest-derived buffer's contents (float32) for base strands (S,N,3) and length scales (S,)."""
     S, N, _ = base.shape
     base = np.asarray(base, dtype=np.float64)
+    scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (S,))
+    out = {"rest_positions": np.empty((S, N, 4), np.float32), "rest_info": np.zeros((S, N, 4), np.float32),
+           "shape_refs": np.zeros((S, N, 4), np.float32), "root_frames": np.zeros((S, 3, 4), np.float32)}
+    out["rest_positions"][:, :, 3] = np.asarray(inv_mass, dtype=np.float32).reshape(S, N)
+    for lo in range(0, S, REST_CHUNK):
+        sl = slice(lo, min(S, lo + REST_CHUNK))
+        _rest_block(base[sl], scale[sl], *(arr[sl] for arr in out.values()))
+    return {name: arr.reshape(-1, 4) for name, arr in out.items()}
+
+
+def _rest_block(base, scale, pos, info, refs, frames) -> None:
+    """``rest_data`` for a block of strands, into its float32 outputs (pos's w already set).
+    Worked on component-major (3, S, N-1) segments; the frame carrying on (3, N-1, S)."""
     rest = haircut(base, scale)
-    d = np.diff(rest, axis=1)  # (S,N-1,3)
-    seg = np.sqrt(np.einsum("snk,snk->sn", d, d))
-    base_seg = seg if rest is base else np.linalg.norm(np.diff(base, axis=1), axis=2)
-    info = np.zeros((S, N, 4), np.float32)
+    pos[:, :, :3] = rest
+    D = np.diff(rest.transpose(2, 0, 1), axis=2)             # (3, S, N-1)
+    seg = np.sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2])  # (S, N-1)
+    if rest is base:
+        base_seg = seg
+    else:
+        B = np.diff(base.transpose(2, 0, 1), axis=2)
+        base_seg = np.sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2])
     info[:, 1:, 0] = seg
     info[:, 1:, 1] = np.cumsum(seg, axis=1)
-    # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
-    e0, e1 = d[:, :-1], d[:, 1:]
-    cx = e0[..., 1] * e1[..., 2] - e0[..., 2] * e1[..., 1]
-    cy = e0[..., 2] * e1[..., 0] - e0[..., 0] * e1[..., 2]
-    cz = e0[..., 0] * e1[..., 1] - e0[..., 1] * e1[..., 0]
-    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
-    info[:, 2:, 2] = np.where((seg[:, :-1] > 1e-12) & (seg[:, 1:] > 1e-12),
-                              np.arctan2(sn, np.einsum("snk,snk->sn", e0, e1)), 0.0)
     info[:, 1:, 3] = base_seg
+    # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
+    a, b = D[:, :, :-1], D[:, :, 1:]
+    cx = a[1] * b[2] - a[2] * b[1]
+    cy = a[2] * b[0] - a[0] * b[2]
+    cz = a[0] * b[1] - a[1] * b[0]
+    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
+    angle = np.arctan2(sn, a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+    angle[(seg[:, :-1] <= 1e-12) | (seg[:, 1:] <= 1e-12)] = 0.0
+    info[:, 2:, 2] = angle
     # local shape: bind frames propagated root to tip
-    t0 = d[:, 0] / np.maximum(seg[:, :1], 1e-30)
+    t0 = D[:, :, 0].T / np.maximum(seg[:, :1], 1e-30)
     t0[seg[:, 0] <= 1e-12] = (0.0, -1.0, 0.0)
     R0 = _frame_from_direction(t0)
-    refs = np.zeros((S, N, 4), np.float32)
-    refs[:, 1:, :3] = carried_refs(d, seg, R0)
-    frames = np.zeros((S, 3, 4), np.float32)
+    DT = np.ascontiguousarray(D.transpose(0, 2, 1))
+    refs[:, 1:, :3] = carried_refs(DT, np.ascontiguousarray(seg.T), R0).transpose(2, 1, 0)
     frames[:, :, :3] = np.transpose(R0, (0, 2, 1))  # row c = column c of R0
-    pos = np.empty((S, N, 4), np.float32)
-    pos[:, :, :3] = rest
-    pos[:, :, 3] = inv_mass.reshape(S, N)
-    return {
-        "rest_positions": pos.reshape(-1, 4),
-        "rest_info": info.reshape(-1, 4),
-        "shape_refs": refs.reshape(-1, 4),
-        "root_frames": frames.reshape(-1, 4),
-    }
 
 
 def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
