@@ -310,8 +310,7 @@ class SimState:
         state = cls(ctx, S, N, buffers, rest, np.ascontiguousarray(inv_mass, dtype=np.float32),
                     np.ones(S))
         buffers["velocities"].before_read = state.settle
-        state.upload_rest()
-        state.reset()
+        state.reset(state.upload_rest())
         return state
 
     # ---- a deferred friction gather
@@ -333,23 +332,30 @@ class SimState:
         if friction is not None:
             run(friction)
 
-    def upload_rest(self) -> None:
-        for name, arr in rest_data(self.base_rest, self.length_scale, self.inv_mass).items():
-            self.buffers[name].write(np.ascontiguousarray(arr).tobytes())
+    def upload_rest(self) -> np.ndarray:
+        """Write every rest-derived buffer; returns the rest positions written ((P, 4) float32)."""
+        data = rest_data(self.base_rest, self.length_scale, self.inv_mass)
+        for name, arr in data.items():
+            self.buffers[name].write(arr)   # C-contiguous float32: written as it is, no bytes copy
+        return data["rest_positions"]
 
-    def reset(self) -> None:
-        """Every particle at its rest position under the current head transform, at rest."""
+    def reset(self, rest: np.ndarray | None = None) -> None:
+        """Every particle at its rest position under the current head transform, at rest.
+        ``rest``: the rest_positions buffer's contents when the caller has them (else read back)."""
         self.take_pending()
-        rest = self.read("rest_positions")
-        pos = np.empty_like(rest)
-        pos[:, :3] = transform_points(self.head, rest[:, :3])
-        pos[:, 3] = rest[:, 3]
-        data = pos.astype(np.float32).tobytes()
-        self.buffers["positions"].write(data)
-        self.buffers["prev_positions"].write(data)
-        zero = np.zeros((self.num_particles, 4), np.float32).tobytes()
-        self.buffers["velocities"].write(zero)
-        self.buffers["corrections"].write(zero)
+        if rest is None:
+            rest = self.read("rest_positions")
+        if np.array_equal(self.head, np.eye(4)):
+            pos = rest            # exact: x @ I + 0 in float64 rounds back to x
+        else:
+            pos = np.empty_like(rest)
+            pos[:, :3] = transform_points(self.head, rest[:, :3])
+            pos[:, 3] = rest[:, 3]
+        pos = np.ascontiguousarray(pos, dtype=np.float32)
+        self.buffers["positions"].write(pos)
+        self.buffers["prev_positions"].write(pos)
+        self.buffers["velocities"].clear()
+        self.buffers["corrections"].clear()
         self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
         self.time, self.steps, self.accumulator, self.last_dt = 0.0, 0, 0.0, 0.0
         self.collider_worlds = None
