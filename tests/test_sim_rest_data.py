@@ -6,6 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from mane.sim import state
 from mane.sim.state import rest_data, transform_points
 from mane.twins import sim as ref
 
@@ -135,6 +136,23 @@ def test_rest_data_matches_the_per_point_loop(cut):
     np.testing.assert_array_equal(new["rest_positions"], old["rest_positions"])
     # the input is left as it was (the uncut haircut hands back the array itself)
     np.testing.assert_array_equal(base, strands())
+
+
+def test_rest_data_blocks_are_independent(monkeypatch):
+    """Blocks of REST_CHUNK strands, some all uncut (the no-copy path), some partly cut, give
+    what one block gives and what the old loop gives."""
+    base = strands(S=300, seed=11)
+    S, N, _ = base.shape
+    scale = np.ones(S)
+    scale[150:300:7] = np.linspace(0.3, 0.95, len(scale[150:300:7]))
+    w = inv_mass(S, N)
+    whole = rest_data(base, scale, w)
+    monkeypatch.setattr(state, "REST_CHUNK", 37)
+    blocks = rest_data(base, scale, w)
+    old = _old_rest_data(base, scale, w)
+    for name in old:
+        np.testing.assert_array_equal(blocks[name], whole[name])
+        close(blocks[name], old[name])
 
 
 def test_rest_data_bind_frames_match_the_twin():

@@ -148,8 +148,9 @@ def carried_refs(D: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
             u[:, ~okk] = ((1.0,), (0.0,), (0.0,))         # e_x: R = I, the frame stays
         c, u1, u2 = u
         opposite = c < -1.0 + 1e-6
+        flipped = opposite.any()
         den = 1.0 + c
-        if opposite.any():
+        if flipped:
             den[opposite] = 1.0
         # the smallest rotation taking e_x to u: c I + [e_x x u]_x + (e_x x u)(e_x x u)^T / (1 + c)
         np.multiply(u1, u2, out=t)
@@ -162,7 +163,7 @@ def carried_refs(D: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
         np.multiply(u1, u1, out=t)
         t /= den
         np.add(c, t, out=R[2, 2])
-        if opposite.any():
+        if flipped:
             R[:, :, opposite] = flip
         # column j of F R: sum_i F[i] R[i, j]
         np.multiply(F[0][None], R[0][:, None], out=G)
