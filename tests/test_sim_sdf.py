@@ -7,7 +7,7 @@ import trimesh
 
 from mane.errors import UsageError
 from mane.mesh import Mesh
-from mane.sim.sdf import MeshSDF, bake_sdf, closest_points_on_triangles
+from mane.sim.sdf import MeshSDF, bake_sdf, closest_points_on_triangles, near_samples
 
 pytestmark = pytest.mark.gpu
 
@@ -45,6 +45,20 @@ def test_closest_point_regions():
     for p, want in cases.items():
         got = closest_points_on_triangles(np.array([p], float), a, b, c)[0]
         np.testing.assert_allclose(got, want, atol=1e-12)
+
+
+def test_near_samples_covers_every_node_within_the_query_bound():
+    """The bake queries only the nodes ``near_samples`` marks: every node within 2.5 h of a
+    sample (brute force) must be among them, and the mark must not be the whole grid."""
+    rng = np.random.default_rng(2)
+    shape, lo, h = (23, 17, 20), np.array([-0.3, 0.1, 0.2]), 0.05
+    pts = lo + rng.uniform(0.0, 1.0, (40, 3)) * (np.array(shape) - 1) * h
+    pts[:4] = lo + np.array([[0, 0, 0], [22, 16, 19], [0, 16, 0], [21.999, 0.001, 10.5]]) * h  # box edges
+    nodes = lo + np.indices(shape).reshape(3, -1).T * h
+    dist = np.linalg.norm(nodes[:, None] - pts[None], axis=2).min(axis=1)
+    mark = near_samples(pts, lo, h, shape, 2).reshape(-1)
+    assert mark[dist <= 2.5 * h].all()
+    assert not mark.all()
 
 
 def test_sphere_sign_and_distance(sphere_sdf, sphere):

@@ -157,6 +157,24 @@ def _parity_inside(triangles, lo, h, shape, axis):
     return inside.transpose(order)
 
 
+def near_samples(points, lo, h, shape, reach: int) -> np.ndarray:
+    """(shape) bool: the nodes from ``reach`` below to ``reach + 1`` above the cell of a point on
+    every axis (reach 2: every node within 2.5 h of a point, whatever its place in its cell)."""
+    cell = np.clip(np.floor((points - lo) / h).astype(np.int64), 0, np.array(shape) - 1)
+    mark = np.zeros(shape, bool)
+    mark[cell[:, 0], cell[:, 1], cell[:, 2]] = True
+    for axis in range(3):   # separable dilation by [-reach, reach + 1] nodes along each axis
+        m = np.moveaxis(mark, axis, 0)
+        grown = m.copy()
+        n = m.shape[0]
+        for o in range(1, reach + 2):
+            grown[o:] |= m[:n - o]
+            if o <= reach:
+                grown[:n - o] |= m[o:]
+        mark = np.moveaxis(grown, 0, axis)
+    return mark
+
+
 def bake_sdf(vertices, faces, resolution: int = 64, padding: float = 0.05):
     """(values (nx, ny, nz) float32 indexed [i, j, k], lo (3,) float64, h) of a closed mesh."""
     from scipy.spatial import cKDTree
@@ -190,8 +208,13 @@ def bake_sdf(vertices, faces, resolution: int = 64, padding: float = 0.05):
     nodes = lo + idx * h
     band = 2.0 * h
     k = min(4, len(points))
-    _, near = tree.query(nodes, k=k, distance_upper_bound=band + 0.5 * h, workers=-1)
-    near = near.reshape(len(nodes), k)
+    # only nodes with a sample within the query's bound (2.5 h: near_samples' reach 2) can find
+    # one; the others keep "none found" (len(points)), as the query would give them
+    near = np.full((len(nodes), k), len(points), dtype=np.int64)
+    cand = np.nonzero(near_samples(points, lo, h, shape, 2).reshape(-1))[0]
+    if len(cand):
+        _, found = tree.query(nodes[cand], k=k, distance_upper_bound=band + 0.5 * h, workers=-1)
+        near[cand] = found.reshape(len(cand), k)
     best = np.full(len(nodes), np.inf)
     closest = np.zeros_like(nodes)
     for j in range(k):

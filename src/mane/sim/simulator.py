@@ -797,11 +797,12 @@ from the origin than that allows is refused (its lengths would be silently wrong
 
 def _check_coordinates(groom) -> None:
     """Refuse a groom so far from the origin (or so large) that float32 cannot hold its segments."""
-    pts = np.asarray(groom.points, dtype=np.float64)
+    pts = np.asarray(groom.points)
     if not len(pts):
         return
-    reach = float(np.max(np.abs(pts)))
-    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    reach = float(np.max(np.abs(pts)))     # exact in the points' own dtype
+    d = pts[1:].astype(np.float64) - pts[:-1]  # the float64 diff, without a float64 copy of all points
+    seg = np.sqrt(np.einsum("ij,ij->i", d, d))
     inner = np.ones(len(seg), bool)
     inner[np.asarray(groom.offsets[1:-1]) - 1] = False      # skip the jumps between strands
     seg = seg[inner & (seg > 0)]

@@ -97,27 +97,13 @@ def _frame_from_direction(t: np.ndarray) -> np.ndarray:
     return np.stack([t, y, z], axis=2)
 
 
-def min_rotation_from_x(u: np.ndarray) -> np.ndarray:
-    """(S,3,3) the smallest rotation taking e_x to the unit vectors u (S,3)."""
-    c = u[:, 0]
-    v = np.stack([np.zeros_like(c), -u[:, 2], u[:, 1]], axis=1)  # e_x x u
-    K = np.zeros((len(u), 3, 3))
-    K[:, 0, 1], K[:, 0, 2] = -v[:, 2], v[:, 1]
-    K[:, 1, 0], K[:, 1, 2] = v[:, 2], -v[:, 0]
-    K[:, 2, 0], K[:, 2, 1] = -v[:, 1], v[:, 0]
-    opposite = c < -1.0 + 1e-6
-    denom = np.where(opposite, 1.0, 1.0 + c)
-    R = c[:, None, None] * np.eye(3) + K + v[:, :, None] * v[:, None, :] / denom[:, None, None]
-    R[opposite] = np.diag([-1.0, -1.0, 1.0])
-    return R
-
-
 def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
-    """(S,N,3): the rest strands cut at ``scale`` of their arc length (tips collapse on the cut)."""
+    """(S,N,3): the rest strands cut at ``scale`` of their arc length (tips collapse on the cut).
+    Uncut (every scale >= 1): ``rest`` itself, not a copy."""
+    if np.all(scale >= 1.0):
+        return rest
     seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
     arc = np.concatenate([np.zeros((len(rest), 1)), np.cumsum(seg, axis=1)], axis=1)
-    if np.all(scale >= 1.0):
-        return rest.copy()
     cut = arc[:, -1] * scale
     a = np.minimum(arc, cut[:, None])  # (S,N) wanted arc of each particle
     N = rest.shape[1]
@@ -130,45 +116,112 @@ def haircut(rest: np.ndarray, scale: np.ndarray) -> np.ndarray:
     return rest[S_idx, j] * (1 - w) + rest[S_idx, j + 1] * w
 
 
+def carried_refs(D: np.ndarray, seg: np.ndarray, R0: np.ndarray) -> np.ndarray:
+    """(3,M,S) float64: F_k^T d_k for segments D (3,M,S) (component, segment, strand) of lengths
+    seg (M,S), the bind frame carried root to tip: F_0 = R0 (S,3,3); F_{k+1} = F_k times the
+    smallest rotation taking e_x to the unit F_k^T d_k (diag(-1, -1, 1) when nearly opposite),
+    unchanged past an empty segment (|d_k| <= 1e-12). All strands at once for each k, a frame
+    held as (column, component, strand)."""
+    _, M, S = D.shape
+    F = np.ascontiguousarray(R0.transpose(2, 1, 0))       # F[j, i]: component i of column j
+    out = np.empty((3, M, S))
+    ok = seg > 1e-12
+    safe = np.where(ok, seg, 1.0)
+    R = np.empty((3, 3, S))
+    G, tmp = np.empty((3, 3, S)), np.empty((3, 3, S))
+    u, t = np.empty((3, S)), np.empty(S)
+    flip = np.diag([-1.0, -1.0, 1.0])[:, :, None]
+    for k in range(M):
+        ref = out[:, k]
+        np.multiply(F[:, 0], D[0, k], out=ref)
+        ref += F[:, 1] * D[1, k]
+        ref += F[:, 2] * D[2, k]                          # F^T d
+        if k == M - 1:
+            break
+        np.divide(ref, safe[k], out=u)
+        np.sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2], out=t)
+        okk = ok[k]
+        if okk.all():
+            u /= t
+        else:
+            u /= np.where(okk, t, 1.0)
+            u[:, ~okk] = ((1.0,), (0.0,), (0.0,))         # e_x: R = I, the frame stays
+        c, u1, u2 = u
+        opposite = c < -1.0 + 1e-6
+        flipped = opposite.any()
+        den = 1.0 + c
+        if flipped:
+            den[opposite] = 1.0
+        # the smallest rotation taking e_x to u: c I + [e_x x u]_x + (e_x x u)(e_x x u)^T / (1 + c)
+        np.multiply(u1, u2, out=t)
+        t /= den
+        R[0, 0], R[0, 1], R[0, 2] = c, -u1, -u2
+        R[1, 0], R[1, 2], R[2, 0], R[2, 1] = u1, -t, u2, -t
+        np.multiply(u2, u2, out=t)
+        t /= den
+        np.add(c, t, out=R[1, 1])
+        np.multiply(u1, u1, out=t)
+        t /= den
+        np.add(c, t, out=R[2, 2])
+        if flipped:
+            R[:, :, opposite] = flip
+        # column j of F R: sum_i F[i] R[i, j]
+        np.multiply(F[0][None], R[0][:, None], out=G)
+        G += np.multiply(F[1][None], R[1][:, None], out=tmp)
+        G += np.multiply(F[2][None], R[2][:, None], out=tmp)
+        F, G = G, F
+    return out
+
+
+REST_CHUNK = 4096
+"""strands per block of ``rest_data`` (its temporaries stay in cache; strands are independent)."""
+
+
 def rest_data(base: np.ndarray, scale: np.ndarray, inv_mass: np.ndarray) -> dict:
     """Every rest-derived buffer's contents (float32) for base strands (S,N,3) and length scales (S,)."""
     S, N, _ = base.shape
+    base = np.asarray(base, dtype=np.float64)
+    scale = np.broadcast_to(np.asarray(scale, dtype=np.float64), (S,))
+    out = {"rest_positions": np.empty((S, N, 4), np.float32), "rest_info": np.zeros((S, N, 4), np.float32),
+           "shape_refs": np.zeros((S, N, 4), np.float32), "root_frames": np.zeros((S, 3, 4), np.float32)}
+    out["rest_positions"][:, :, 3] = np.asarray(inv_mass, dtype=np.float32).reshape(S, N)
+    for lo in range(0, S, REST_CHUNK):
+        sl = slice(lo, min(S, lo + REST_CHUNK))
+        _rest_block(base[sl], scale[sl], *(arr[sl] for arr in out.values()))
+    return {name: arr.reshape(-1, 4) for name, arr in out.items()}
+
+
+def _rest_block(base, scale, pos, info, refs, frames) -> None:
+    """``rest_data`` for a block of strands, into its float32 outputs (pos's w already set).
+    Worked on component-major (3, S, N-1) segments; the frame carrying on (3, N-1, S)."""
     rest = haircut(base, scale)
-    base_seg = np.linalg.norm(np.diff(base, axis=1), axis=2)
-    seg = np.linalg.norm(np.diff(rest, axis=1), axis=2)
-    d_all = np.diff(rest, axis=1)
-    info = np.zeros((S, N, 4))
+    pos[:, :, :3] = rest
+    D = np.diff(rest.transpose(2, 0, 1), axis=2)             # (3, S, N-1)
+    seg = np.sqrt(D[0] * D[0] + D[1] * D[1] + D[2] * D[2])  # (S, N-1)
+    if rest is base:
+        base_seg = seg
+    else:
+        B = np.diff(base.transpose(2, 0, 1), axis=2)
+        base_seg = np.sqrt(B[0] * B[0] + B[1] * B[1] + B[2] * B[2])
     info[:, 1:, 0] = seg
     info[:, 1:, 1] = np.cumsum(seg, axis=1)
-    # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
-    e0, e1 = d_all[:, :-1], d_all[:, 1:]
-    sn = np.linalg.norm(np.cross(e0, e1), axis=2)
-    info[:, 2:, 2] = np.where((seg[:, :-1] > 1e-12) & (seg[:, 1:] > 1e-12),
-                              np.arctan2(sn, np.einsum("snk,snk->sn", e0, e1)), 0.0)
     info[:, 1:, 3] = base_seg
+    # rest bend angle between segments k-2 -> k-1 and k-1 -> k, radians (0 when one is empty)
+    a, b = D[:, :, :-1], D[:, :, 1:]
+    cx = a[1] * b[2] - a[2] * b[1]
+    cy = a[2] * b[0] - a[0] * b[2]
+    cz = a[0] * b[1] - a[1] * b[0]
+    sn = np.sqrt(cx * cx + cy * cy + cz * cz)
+    angle = np.arctan2(sn, a[0] * b[0] + a[1] * b[1] + a[2] * b[2])
+    angle[(seg[:, :-1] <= 1e-12) | (seg[:, 1:] <= 1e-12)] = 0.0
+    info[:, 2:, 2] = angle
     # local shape: bind frames propagated root to tip
-    d = np.diff(rest, axis=1)  # (S,N-1,3)
-    t0 = d[:, 0] / np.maximum(seg[:, :1], 1e-30)
+    t0 = D[:, :, 0].T / np.maximum(seg[:, :1], 1e-30)
     t0[seg[:, 0] <= 1e-12] = (0.0, -1.0, 0.0)
     R0 = _frame_from_direction(t0)
-    refs = np.zeros((S, N, 4))
-    F = R0.copy()
-    for k in range(N - 1):
-        refs[:, k + 1, :3] = np.einsum("sji,sj->si", F, d[:, k])  # F^T d
-        ok = seg[:, k] > 1e-12
-        if np.any(ok):
-            u = np.einsum("sji,sj->si", F[ok], d[ok, k] / seg[ok, k, None])
-            u /= np.linalg.norm(u, axis=1, keepdims=True)
-            F[ok] = F[ok] @ min_rotation_from_x(u)
-    frames = np.zeros((S, 3, 4))
+    DT = np.ascontiguousarray(D.transpose(0, 2, 1))
+    refs[:, 1:, :3] = carried_refs(DT, np.ascontiguousarray(seg.T), R0).transpose(2, 1, 0)
     frames[:, :, :3] = np.transpose(R0, (0, 2, 1))  # row c = column c of R0
-    pos = np.concatenate([rest, inv_mass.reshape(S, N, 1)], axis=2)
-    return {
-        "rest_positions": pos.astype(np.float32).reshape(-1, 4),
-        "rest_info": info.astype(np.float32).reshape(-1, 4),
-        "shape_refs": refs.astype(np.float32).reshape(-1, 4),
-        "root_frames": frames.astype(np.float32).reshape(-1, 4),
-    }
 
 
 def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
@@ -258,8 +311,7 @@ class SimState:
         state = cls(ctx, S, N, buffers, rest, np.ascontiguousarray(inv_mass, dtype=np.float32),
                     np.ones(S))
         buffers["velocities"].before_read = state.settle
-        state.upload_rest()
-        state.reset()
+        state.reset(state.upload_rest())
         return state
 
     # ---- a deferred friction gather
@@ -281,23 +333,30 @@ class SimState:
         if friction is not None:
             run(friction)
 
-    def upload_rest(self) -> None:
-        for name, arr in rest_data(self.base_rest, self.length_scale, self.inv_mass).items():
-            self.buffers[name].write(np.ascontiguousarray(arr).tobytes())
+    def upload_rest(self) -> np.ndarray:
+        """Write every rest-derived buffer; returns the rest positions written ((P, 4) float32)."""
+        data = rest_data(self.base_rest, self.length_scale, self.inv_mass)
+        for name, arr in data.items():
+            self.buffers[name].write(arr)   # C-contiguous float32: written as it is, no bytes copy
+        return data["rest_positions"]
 
-    def reset(self) -> None:
-        """Every particle at its rest position under the current head transform, at rest."""
+    def reset(self, rest: np.ndarray | None = None) -> None:
+        """Every particle at its rest position under the current head transform, at rest.
+        ``rest``: the rest_positions buffer's contents when the caller has them (else read back)."""
         self.take_pending()
-        rest = self.read("rest_positions")
-        pos = np.empty_like(rest)
-        pos[:, :3] = transform_points(self.head, rest[:, :3])
-        pos[:, 3] = rest[:, 3]
-        data = pos.astype(np.float32).tobytes()
-        self.buffers["positions"].write(data)
-        self.buffers["prev_positions"].write(data)
-        zero = np.zeros((self.num_particles, 4), np.float32).tobytes()
-        self.buffers["velocities"].write(zero)
-        self.buffers["corrections"].write(zero)
+        if rest is None:
+            rest = self.read("rest_positions")
+        if np.array_equal(self.head, np.eye(4)):
+            pos = rest            # exact: x @ I + 0 in float64 rounds back to x
+        else:
+            pos = np.empty_like(rest)
+            pos[:, :3] = transform_points(self.head, rest[:, :3])
+            pos[:, 3] = rest[:, 3]
+        pos = np.ascontiguousarray(pos, dtype=np.float32)
+        self.buffers["positions"].write(pos)
+        self.buffers["prev_positions"].write(pos)
+        self.buffers["velocities"].clear()
+        self.buffers["corrections"].clear()
         self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
         self.time, self.steps, self.accumulator, self.last_dt = 0.0, 0, 0.0, 0.0
         self.collider_worlds = None
