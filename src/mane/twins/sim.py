@@ -382,31 +382,14 @@ def pbd(x, w, seg_len, iterations, tether=False, arc=None, prev=None, colliders=
 
 
 def collide(x, prev, w, colliders, head, prev_worlds=None):
-    """Projection colliders with Coulomb friction on the displacement relative to them."""
+    """Projection colliders with Coulomb friction on the displacement relative to them: every
+    free particle through ``project_out`` (no SDFs)."""
     S, N, _ = x.shape
     p = x.copy()
-    for ci, c in enumerate(colliders):
-        world, kind, radii, h, mode, mu, _ = collider_params(c, head)
-        if mode != "projection":
-            continue
-        pw = world if prev_worlds is None else prev_worlds[ci]
-        R, t = world[:3, :3], world[:3, 3]
-        for s in range(S):
-            for k in range(N):
-                if w[s, k] == 0:
-                    continue
-                pl = R.T @ (p[s, k] - t)
-                depth, n, sl = local_depth(pl, kind, radii, h)
-                if depth <= 0:
-                    continue
-                nw = R @ n
-                q = p[s, k] + R @ (sl - pl)
-                if mu > 0:
-                    rel = apply(pw, sl) - prev[s, k]
-                    tang = rel - (rel @ nw) * nw
-                    lt = np.linalg.norm(tang)
-                    q -= tang if lt <= mu * depth else tang * (mu * depth / lt)
-                p[s, k] = q
+    for s in range(S):
+        for k in range(N):
+            if w[s, k] != 0:
+                p[s, k] = project_out(p[s, k], prev[s, k], colliders, head, (), prev_worlds)[0]
     return p
 
 
