@@ -101,8 +101,7 @@ def reference(settings, groom, head, camera, lights, ctx) -> dict:
     """The exact image (uint8, top row first) and its HDR, with the fragments it came from."""
     f = collect_fragments(settings, groom, head, camera, lights, ctx)
     hdr = blend_fragments(f["pixel"], f["depth"], f["rgba"], f["size"], f["node"], f["under"])
-    img = resolve_display(hdr, settings.background, settings.exposure, settings.tone_mapping)
-    return {"image": img, "hdr": hdr, "fragments": f}
+    return {"image": display(hdr, settings), "hdr": hdr, "fragments": f}
 
 
 def image_error(image, ref) -> dict:
@@ -147,8 +146,7 @@ def compute_reference(settings, groom, head, camera, lights, ctx) -> dict:
     in float64 over the scene, then resolve.frag in NumPy."""
     f = collect_compute_fragments(settings, groom, head, camera, lights, ctx)
     hdr = blend_fragments(f["pixel"], f["window_z"], f["rgba"], f["size"], f["segment"], f["under"])
-    img = resolve_display(hdr, settings.background, settings.exposure, settings.tone_mapping)
-    return {"image": img, "hdr": hdr, "fragments": f}
+    return {"image": display(hdr, settings), "hdr": hdr, "fragments": f}
 
 
 def per_pixel_sorted(f) -> list:
