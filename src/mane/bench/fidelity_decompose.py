@@ -49,9 +49,7 @@ def blur(img, sigma: float) -> np.ndarray:
     from scipy.ndimage import gaussian_filter
 
     a = np.asarray(img, np.float64)
-    if a.ndim == 2:
-        return gaussian_filter(a, sigma)
-    return np.stack([gaussian_filter(a[..., c], sigma) for c in range(a.shape[-1])], axis=-1)
+    return gaussian_filter(a, (sigma, sigma) + (0.0,) * (a.ndim - 2))   # not across channels
 
 
 def shifted(img, dx: float, dy: float) -> np.ndarray:
@@ -59,7 +57,7 @@ def shifted(img, dx: float, dy: float) -> np.ndarray:
     from scipy.ndimage import shift
 
     a = np.asarray(img, np.float64)
-    return np.stack([shift(a[..., c], (dy, dx), order=3, mode="nearest") for c in range(a.shape[-1])], axis=-1)
+    return shift(a, (dy, dx, 0.0), order=3, mode="nearest")   # not across channels
 
 
 def best_shift(test, ref, mask, shifts=SHIFTS, sigma: float = SHIFT_BLUR) -> dict:
