@@ -408,20 +408,14 @@ class Loop:
 
     def __init__(self, ctx, S: int, N: int, spg: int, render_settings, grid: int, sdf: int):
         """``render_settings`` None: the simulator alone (the sim's cold start)."""
-        from dataclasses import replace
-
         from ..render import Renderer
-        from ..sim import MeshCollider, Simulator, SimSettings, head_motion
+        from ..sim import Simulator, head_motion
         from . import sim_bench
 
         self.ctx = ctx
-        settings = SimSettings(length_method="dftl", local_shape_stiffness=0.05, bending_stiffness=0.1,
-                               shape_iterations=2, global_shape_stiffness=0.01, friction=0.1,
-                               grid_resolution=grid, grid_method="atomic")
-        settings = replace(settings)
         head = sim_bench.head_mesh()
-        colliders = sim_bench.body_capsules() + [MeshCollider(head, resolution=sdf, padding=0.02, margin=0.002,
-                                                              friction=0.2)]
+        colliders = sim_bench.full_solver_colliders(sdf, head)
+        settings = sim_bench.full_solver_settings(grid)
         self.sim = self.renderer = None
         t = time.perf_counter()
         self.sim = Simulator(sim_bench.scalp_groom(S, N), colliders, settings, ctx, points_per_strand=N)

@@ -155,6 +155,25 @@ def body_capsules():
     return [Capsule(a=a, b=b, radius=r, friction=0.2) for a, b, r in spec]
 
 
+def full_solver_colliders(sdf_resolution: int, head=None):
+    """The full solver's colliders: the 8 body capsules and the head mesh's SDF (``head``:
+    the mesh, default head_mesh())."""
+    from ..sim import MeshCollider
+
+    head = head_mesh() if head is None else head
+    return body_capsules() + [MeshCollider(head, resolution=int(sdf_resolution), padding=0.02, margin=0.002,
+                                           friction=0.2)]
+
+
+def full_solver_settings(grid_resolution: int, method: str = "atomic"):
+    """The full solver's SimSettings: DFTL, local shape and bending, grid friction."""
+    from ..sim import SimSettings
+
+    return SimSettings(length_method="dftl", local_shape_stiffness=0.05, bending_stiffness=0.1,
+                       shape_iterations=2, global_shape_stiffness=0.01, friction=0.1,
+                       grid_resolution=int(grid_resolution), grid_method=method)
+
+
 def head_sphere():
     from ..sim import Sphere
 
@@ -321,16 +340,10 @@ class Bench(BenchRows):
         return sum(got) / len(got) if got else None
 
     def _full_settings(self, method: str):
-        from ..sim import SimSettings
-
-        return SimSettings(length_method="dftl", local_shape_stiffness=0.05, bending_stiffness=0.1,
-                           shape_iterations=2, global_shape_stiffness=0.01, friction=0.1,
-                           grid_resolution=self.cfg["full_grid_res"], grid_method=method)
+        return full_solver_settings(self.cfg["full_grid_res"], method)
 
     def full_solver(self) -> None:
         """The issue's target configuration, then grid friction atomic vs raster on its particles."""
-        from ..sim import MeshCollider
-
         from dataclasses import replace
 
         for S, N in self.cfg["full_solver"]:
@@ -345,9 +358,7 @@ class Bench(BenchRows):
                 settings = replace(self._full_settings(method), fused_strand_solve=fused)
                 with self._guard("full_solver", name, **fields):
                     if sim is None:
-                        colliders = body_capsules() + [MeshCollider(head_mesh(), resolution=self.cfg["sdf_res"],
-                                                                    padding=0.02, margin=0.002, friction=0.2)]
-                        sim = self._simulator(S, N, colliders, settings)
+                        sim = self._simulator(S, N, full_solver_colliders(self.cfg["sdf_res"]), settings)
                     else:
                         sim.settings = settings
                     self._row("full_solver", name, **fields, **self._time_sim(sim))
@@ -633,11 +644,9 @@ class Bench(BenchRows):
     """Run only when named (``mane bench sim --section scale``): issue 14's rows (scale_rows)."""
 
     def scale(self) -> None:
-        from ..sim import MeshCollider
         from .scale_rows import sim_rows
 
-        sim_rows(self, lambda: body_capsules() + [MeshCollider(head_mesh(), resolution=self.cfg["sdf_res"],
-                                                               padding=0.02, margin=0.002, friction=0.2)])
+        sim_rows(self, lambda: full_solver_colliders(self.cfg["sdf_res"]))
 
     def run_all(self, sections=None) -> None:
         """Every section, or those named (``full_solver`` includes ``grid_friction``)."""
