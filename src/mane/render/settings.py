@@ -21,6 +21,7 @@ PIPELINES = ("compute", "tessellation")
 RASTERIZERS = ("auto", "hardware", "compute")
 INTERPOLATION_MODES = ("single", "multi", "hybrid")
 SHADOWS = ("none", "shadow_map", "deep_opacity", "adsm", "opacity_maps", "density")
+SHADOW_LOOKUPS = ("fragment", "vertex")
 DENSITY_SOURCES = ("auto", "strands", "simulator")
 TONE_MAPS = ("aces", "reinhard", "none")
 AA_MODES = ("none", "msaa2", "msaa4", "msaa8", "ssaa2", "msaa4+ssaa2")
@@ -193,6 +194,12 @@ class RenderSettings:
         help="""The head's (skin's) PCF kernel, as ``pcf`` is the hair's. 1 (bilinear between the 4
         nearest texels) makes the head pass about 30% cheaper on an H200 but shows the shadow
         map's texels as steps along the jaw and neck (docs/performance.md, docs/quality.md).""")
+    hair_shadow_lookup: str = setting("fragment", choices=SHADOW_LOOKUPS,
+        help="""Where the hardware rasteriser's hair looks up its shadows: "fragment" (every pixel of every
+        strand) or "vertex" (at the strands' points, interpolated along each segment: a shadow's
+        edge across a strand is as sharp as its segments, not the map's texels). Cheaper where
+        fragments cost (a CPU rasteriser: the software preset); the compute rasteriser always looks
+        up per sample, the head always per fragment.""")
     shadow_bias: float = setting(3.0, lo=0.0, hi=100.0, unit="texels", slider=(0.0, 10.0),
         help="Depth bias, in shadow-map texels (world size of a texel).")
     shadow_normal_offset: float = setting(1.5, lo=0.0, hi=100.0, unit="texels", slider=(0.0, 10.0),

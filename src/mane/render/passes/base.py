@@ -37,10 +37,12 @@ TONE_IDS = {"aces": 0, "reinhard": 1, "none": 2}
 PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
 
 
-def shadow_defines(settings) -> dict:
-    """lighting.glsl's defines: SHADOWS (light 0's method) and XSHADOWS (whether lights 1.. cast:
-    0 compiles their look-ups out)."""
-    return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1)}
+def shadow_defines(settings, pcf: int | None = None) -> dict:
+    """lighting.glsl's defines: SHADOWS (light 0's method), XSHADOWS (whether lights 1.. cast:
+    0 compiles their look-ups out) and PCF, the look-ups' PCF kernel (default the settings'
+    ``pcf``, the hair's; the head passes ``head_pcf``)."""
+    return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1),
+            "PCF": int(settings.pcf if pcf is None else pcf)}
 
 
 class Target(NamedTuple):
@@ -129,6 +131,8 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "CAPTURE": int(capture),
         "MULTI": MULTI_IDS[s.interpolation_mode],
         "LOD": int(bool(s.lod)),
+        # the shading pass's lights' visibility from the strand points (hair_pull.vert, hair.geom)
+        "VERTEX_SHADOWS": int(s.hair_shadow_lookup == "vertex" and pass_id == PASS_SHADE and geometry_file is None),
     }
     defines.update(shading.defines())
     defines.update(extra_defines or {})
@@ -217,14 +221,11 @@ def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) 
     set_uniform(prog, "u_segments", int(s.segments))
 
 
-def bind_lighting(renderer, prog, frame: Frame, *, pcf: int | None = None) -> None:
-    """Lights, ambient and light 0's shadow maps (texture units 1..3); ``pcf``: the PCF kernel
-    of the shadow look-ups (default the settings' ``pcf``, the hair's)."""
-    s = renderer.settings
+def bind_lighting(renderer, prog, frame: Frame) -> None:
+    """Lights, ambient and light 0's shadow maps (texture units 1..3); the PCF kernel is the
+    program's define (shadow_defines)."""
     for name, value in _lighting_uniforms(renderer, frame).items():
         set_uniform(prog, name, value)
-    if frame.light_view is not None:
-        set_uniform(prog, "u_pcf", int(s.pcf if pcf is None else pcf))
     t = frame.targets
     if "shadow_map" in t:
         t["shadow_map"].use(TEX_SHADOW_MAP)
@@ -237,7 +238,7 @@ def bind_lighting(renderer, prog, frame: Frame, *, pcf: int | None = None) -> No
 
 
 def _lighting_uniforms(renderer, frame: Frame) -> dict:
-    """bind_lighting's uniforms but the PCF kernel, made once a frame (the frame's lights,
+    """bind_lighting's uniforms, made once a frame (the frame's lights,
     views and the settings do not change while it is drawn)."""
     memo = frame.memo.get("lighting")
     if memo is not None:
@@ -379,6 +380,7 @@ def light_depth_target(ctx, n: int):
                   reduce="Use a smaller shadow_map_size")
     texture = ctx.texture((n, n), 1, dtype="f4")
     texture.filter = (ctx.NEAREST, ctx.NEAREST)
+    texture.repeat_x = texture.repeat_y = False   # gathers past the edge read the edge (shadow_pcf.glsl)
     depth = ctx.depth_renderbuffer((n, n))
     return texture, depth, ctx.framebuffer([texture], depth)
 

@@ -4,6 +4,7 @@
 // strip contains the curve and turns its face to the viewer as much as such a strip can. Widths below u_min_pixel_width pixels are
 // widened to it, and the fragment's alpha carries the true coverage (true width / drawn width).
 // GEOMETRY_LINES: a GL line strip instead (the baseline).
+// VERTEX_SHADOWS: the lights' visibility at both ends of the segment, interpolated along it.
 layout(lines) in;
 #if GEOMETRY_LINES
 layout(line_strip, max_vertices = 2) out;
@@ -26,6 +27,10 @@ uniform int u_ortho;          // 1: orthographic (directional shadow views)
 uniform float u_pixel_size;   // world size of a pixel at unit depth (perspective) or anywhere (ortho)
 uniform float u_min_pixel_width;
 
+#if VERTEX_SHADOWS
+#include "lighting.glsl"
+out vec4 g_vis;
+#endif
 out vec3 g_pos;
 out vec3 g_tangent;
 out float g_s;
@@ -45,6 +50,9 @@ void main() {
     if (e_lod_alpha[0] <= 0.0 && e_lod_alpha[1] <= 0.0) return;   // LOD: dropped strand
     vec3 corner[4];
     float alpha[2];
+#if VERTEX_SHADOWS
+    vec4 vis[2] = vec4[2](light_visibilities(e_pos[0]), light_visibilities(e_pos[1]));
+#endif
     for (int i = 0; i < 2; ++i) {
         vec3 P = e_pos[i];
         vec3 T = normalize(e_tangent[i]);
@@ -79,6 +87,9 @@ void main() {
         g_rand = e_rand[i];
         g_alpha = alpha[i];
         g_strand = int(e_id[0]);
+#if VERTEX_SHADOWS
+        g_vis = vis[i];
+#endif
 #if GEOMETRY_LINES
         g_pos = e_pos[i];
         g_depth = dot(g_pos - u_eye, u_view_dir);

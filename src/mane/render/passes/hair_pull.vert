@@ -4,6 +4,12 @@
 // Ribbons: a triangle strip of 2 vertices per point, either side of the curve along
 // cross(T, V), exactly hair.geom's corners (widened to u_min_pixel_width pixels, the
 // coverage in g_alpha); GEOMETRY_LINES: a line strip through the points.
+// VERTEX_SHADOWS: the lights' visibility at the strand point (both ribbon vertices of a point
+// alike), interpolated along the segment (hair_radiance.glsl).
+#if VERTEX_SHADOWS
+#include "lighting.glsl"
+out vec4 g_vis;
+#endif
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform int u_points_per_strand;
 
@@ -34,6 +40,9 @@ void main() {
     vec4 tr = expanded[2 * i + 1];
     vec3 P = pw.xyz;
     vec3 T = normalize(tr.xyz);
+#if VERTEX_SHADOWS
+    g_vis = light_visibilities(P);
+#endif
     float a = 1.0;
     float depth = max(dot(P - u_eye, u_view_dir), 1e-4);
     float pixel = u_ortho != 0 ? u_pixel_size : u_pixel_size * depth;

@@ -2,7 +2,16 @@
 // shadowing, plus multiple scattering and ambient (the shading model's include comes first).
 // Shared by the hair fragment shader (hair_main.glsl) and the compute rasteriser's shading
 // pass (hair_shade.comp).
+// VERTEX_SHADOWS (settings.hair_shadow_lookup "vertex", the hardware rasteriser's shading pass): the
+// lights' visibility comes interpolated from the strand's points (g_vis: hair_pull.vert,
+// hair.geom) instead of being looked up at P.
 #include "lighting.glsl"
+#ifndef VERTEX_SHADOWS
+#define VERTEX_SHADOWS 0
+#endif
+#if VERTEX_SHADOWS
+in vec4 g_vis;
+#endif
 
 uniform HairMaterial u_material;
 
@@ -12,13 +21,17 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
     HairMaterial m = u_material;
     m.strand_rand = rand;
     vec3 color = u_ambient * m.color;
+#if VERTEX_SHADOWS
+    vec4 vis = g_vis;
+#else
+    vec4 vis = light_visibilities(P);
+#endif
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, P, falloff);
-        float vis = light_visibility(i, P);
         vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis + hair_multiple_scattering(T, V, L, m, vis));
+        color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis[i]));
     }
     // darker toward the root: a touch of the occlusion a clump gives itself
     return color * mix(0.55, 1.0, smoothstep(0.0, 0.25, s));

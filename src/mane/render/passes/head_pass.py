@@ -17,12 +17,12 @@ class HeadPass(Pass):
         r, ctx = self.renderer, self.ctx
         s = r.settings
         prog = program(ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
-                       defines={"PASS": 0, **shadow_defines(s)})
+                       defines={"PASS": 0, **shadow_defines(s, pcf=s.head_pcf)})   # the skin's own filter
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
         set_view(prog, frame.view)
-        bind_lighting(r, prog, frame, pcf=s.head_pcf)   # the skin's own shadow filter
+        bind_lighting(r, prog, frame)
         set_uniform(prog, "u_skin", tuple(s.skin_color))
         hair = r.hair_color()
         set_uniform(prog, "u_scalp_color", tuple(0.8 * c + 0.2 * k for c, k in zip(hair, s.skin_color)))

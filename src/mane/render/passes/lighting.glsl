@@ -19,7 +19,15 @@ uniform float u_normal_offset;               // surface receivers: normal offset
 uniform float u_slope_bias;                  // surface receivers: depth bias per unit tan(N, L) (texels)
 float g_receiver_bias = 0.0;                 // m: more depth bias for the receiver being shaded
 uniform float u_shadow_density;
-uniform int u_pcf;
+// PCF: the look-ups' PCF kernel (settings pcf, head_pcf; shadow_defines), a compile-time
+// constant: its loops unroll (on llvmpipe a loop to a uniform bound cost the head pass more than
+// twice its shading)
+#ifndef PCF
+#if SHADOWS != 0
+#error "PCF (the PCF kernel) is not defined: passes/base.py shadow_defines"
+#endif
+#define PCF 1
+#endif
 
 #include "shadow_pcf.glsl"
 
@@ -41,11 +49,8 @@ vec3 light_uvz(vec3 P) {
 
 float shadow_map_visibility(vec3 P) {
     vec3 q = light_uvz(P);
-    ivec2 size = textureSize(u_shadow_map, 0);
-    float lit;
-    PCF_BILINEAR(lit, q.xy * vec2(size) - 0.5, size, t,
-                 (q.z - u_shadow_bias - g_receiver_bias <= texelFetch(u_shadow_map, t, 0).r) ? 1.0 : 0.0)
-    return lit;
+    return pcf_compare(u_shadow_map, q.xy * vec2(textureSize(u_shadow_map, 0)) - 0.5,
+                       q.z - u_shadow_bias - g_receiver_bias);
 }
 
 // Opacity in front of depth z, from one deep-opacity texel: piecewise linear through
@@ -111,9 +116,8 @@ float xlight_visibility(int i, vec3 P) {
     vec3 q = light_space(u_xlight_view_proj[i], u_xlight_eye[i], u_xlight_dir[i], P);
     ivec2 size = textureSize(u_xshadow_map[i], 0);
     vec2 x = q.xy * vec2(size) - 0.5;
-    float lit, tr = 1.0;
-    PCF_BILINEAR(lit, x, size, t,
-                 (q.z - u_xshadow_bias[i] - g_receiver_bias <= texelFetch(u_xshadow_map[i], t, 0).r) ? 1.0 : 0.0)
+    float tr = 1.0;
+    float lit = pcf_compare(u_xshadow_map[i], x, q.z - u_xshadow_bias[i] - g_receiver_bias);
 #if SHADOWS == 2
     PCF_BILINEAR(tr, x, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
 #endif
@@ -152,4 +156,37 @@ float surface_light_visibility(int i, vec3 P, vec3 N, vec3 L) {
     float v = light_visibility(i, P + N * (u_normal_offset * texel * s));
     g_receiver_bias = 0.0;
     return v;
+}
+
+// Every light's visibility (1 past u_num_lights and for lights that cast no shadow), computed
+// before the shading's loop over the lights: inside it (the light's index not a constant) a CPU
+// rasteriser ran light 0's look-up for every light (llvmpipe, docs/quality.md). At a point in
+// the hair, and at a point on a surface with unit normal N (surface_light_visibility). The
+// hair looks up per fragment or, with VERTEX_SHADOWS (settings.hair_shadow_lookup
+// "vertex"), at its points, the fragments interpolating.
+#if SHADOWS != 0 && XSHADOWS
+#define SHADOW_CASTERS MAX_SHADOW_LIGHTS
+#else
+#define SHADOW_CASTERS 1
+#endif
+vec4 light_visibilities(vec3 P) {
+    vec4 vis = vec4(1.0);
+#if SHADOWS != 0
+    for (int i = 0; i < SHADOW_CASTERS; ++i)
+        if (i < u_num_lights) vis[i] = light_visibility(i, P);
+#endif
+    return vis;
+}
+
+vec4 surface_light_visibilities(vec3 P, vec3 N) {
+    vec4 vis = vec4(1.0);
+#if SHADOWS != 0
+    for (int i = 0; i < SHADOW_CASTERS; ++i) {
+        if (i < u_num_lights) {
+            float falloff;
+            vis[i] = surface_light_visibility(i, P, N, light_dir_at(i, P, falloff));
+        }
+    }
+#endif
+    return vis;
 }
