@@ -208,7 +208,7 @@ def _run_headless(args) -> int:
     if software and q.name == SOFTWARE.name:
         drawn = (q.points - 1) * math.ceil(q.segments / (q.points - 1))   # whole guide segments
         print(f"  scaled down: {q.guides} guides x {q.strands_per_guide} strands, {drawn} segments, "
-              f"{q.size[0]}x{q.size[1]}, no MSAA, {q.shading} shading, {q.shadows} {q.shadow_map_size}, "
+              f"{q.size[0]}x{q.size[1]}, no MSAA, {q.shading} shading, {q.shadows} {q.shadow_map_size}, {q.geometry}, "
               f"{1 / q.sim_dt:.0f} Hz simulation (a GPU runs {GPU.guides} x {GPU.strands_per_guide} at "
               f"{GPU.size[0]}x{GPU.size[1]}, {GPU.msaa}x MSAA, {GPU.shading}, {GPU.shadows})")
 

@@ -35,6 +35,8 @@ class Quality:
     """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
     multiple_scattering: str = "auto"
     """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
+    geometry: str = "ribbons"
+    """RenderSettings.geometry ("lines": GL lines, on llvmpipe half the cost of ribbons' triangles)."""
     hair_shadow_lookup: str = "fragment"
     """RenderSettings.hair_shadow_lookup ("vertex": at the strands' points, for a CPU rasteriser)."""
 
@@ -45,7 +47,8 @@ class Quality:
 
         base = dict(**DEFAULT_SCENE_RENDER, size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
-                    shadow_map_size=self.shadow_map_size, pcf=self.pcf, hair_shadow_lookup=self.hair_shadow_lookup,
+                    shadow_map_size=self.shadow_map_size, pcf=self.pcf, geometry=self.geometry,
+                    hair_shadow_lookup=self.hair_shadow_lookup,
                     shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
                                      "multiple_scattering": self.multiple_scattering})
         base.update(changes)
@@ -63,7 +66,8 @@ SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
                    sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
                    multiple_scattering="none",   # Kajiya-Kay's diffuse term stands for it
-                   hair_shadow_lookup="vertex")  # the hair's shadows at its points (docs/quality.md)
+                   hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
+                   geometry="lines")             # sub-pixel strands: the same picture, half the hair pass
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
 # guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
