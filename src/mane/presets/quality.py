@@ -69,9 +69,10 @@ SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6,
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
                    geometry="lines")             # sub-pixel strands: the same picture, half the hair pass
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
-# Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting): 2 strands per
-# guide saves ~10% of the frame, a 1-texel shadow filter ~8%, no shadows more than half (the
-# shadow look-ups of the head and the hair cost more than their shading).
+# Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting), CPU time a
+# frame (simulation + rendering, 2026-12-02, docs/quality.md): 2 strands per guide saves ~3%,
+# a 1-texel shadow filter ~2% (the look-ups are gathers now, 4 texels a fetch), no shadows ~20%
+# (the shadow map's pass, the skin's look-ups).
 SOFTWARE_LADDER = (
     ("2 strands per guide", dict(strands_per_guide=2)),
     ("1-texel shadow filter", dict(pcf=1, head_pcf=1)),   # bilinear: 1 gather of 4 texels instead of 4, hair and skin
