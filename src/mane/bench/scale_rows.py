@@ -165,6 +165,7 @@ def cold_start(spec: dict, *, timeout: float = 120.0, driver_cache: bool = True)
     src = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     t = time.perf_counter()
+    spec = dict(spec, spawned_at=time.time())
     try:
         done = subprocess.run([sys.executable, "-m", "mane.bench.scale_bench", json.dumps(spec)], env=env,
                               capture_output=True, text=True, timeout=timeout)
