@@ -110,6 +110,17 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert cold["process"] == "a fresh child process"
     assert len(cold["frames_ms"]) == cold["steps"]
     assert 0 < cold["to_first_frame_s"] <= cold["to_steady_s"]
+    # where the cold start's seconds went: the sequential phases in the child lie within its wall,
+    # the first frame's phase is the first frame's wall, every program's compile is counted
+    ph = cold["phases"]
+    outer = ("python_start", "context", "imports", "head_mesh", "colliders", "groom", "simulator", "renderer",
+             "set_strands", "set_head", "first_frame")
+    assert set(outer) <= set(ph), sorted(ph)
+    assert sum(ph[k]["s"] for k in outer) <= cold["child_wall_s"]
+    assert ph["first_frame"]["s"] == pytest.approx(cold["frames_ms"][0] / 1e3, rel=0.05, abs=5e-3)
+    assert ph["sdf_bake"]["n"] == 1 and ph["compile"]["n"] >= 10
+    assert ph["compile"]["s"] <= sum(ph[k]["s"] for k in outer)
+    assert "compile" in cold["phase_note"]
     crowd = [r for r in render_scale[0]["results"] if r["bench"] == "scale_crowd"]
     assert {r["lod"] for r in crowd} == {True, False}
     assert all("instancing" in r for r in crowd)
