@@ -3,9 +3,11 @@ steady frame go.
 
     with phases.recording() as rec:          # the cold-start bench's child
         ...build a Simulator and a Renderer, draw frames...
-    rec.as_dict()   # {"sdf_bake": {"s": 0.41, "n": 1}, "compile": {"s": 0.9, "n": 37}, ...}
+    rec.as_dict()   # {"sdf_bake": {"s": 0.41, "n": 1}, "compile": {"s": 0.9, "n": 37, "items": [...]}, ...}
 
     with phases.phase("sdf_bake"):           # in the code that does the work
+        ...
+    with phases.phase("compile", "hair_raster.comp"):   # ``items``: (what, seconds) each time
         ...
 
 A phase adds its seconds and one count to every recording open at the time; with none open it
@@ -26,18 +28,25 @@ class Recording:
     def __init__(self) -> None:
         self.seconds: dict[str, float] = {}
         self.counts: dict[str, int] = {}
+        self.items: dict[str, list] = {}
 
-    def add(self, name: str, seconds: float) -> None:
+    def add(self, name: str, seconds: float, item: str | None = None) -> None:
         self.seconds[name] = self.seconds.get(name, 0.0) + float(seconds)
         self.counts[name] = self.counts.get(name, 0) + 1
+        if item is not None:
+            self.items.setdefault(name, []).append([item, round(float(seconds), 6)])
 
     def as_dict(self) -> dict:
-        return {k: {"s": round(v, 6), "n": self.counts[k]} for k, v in self.seconds.items()}
+        out = {k: {"s": round(v, 6), "n": self.counts[k]} for k, v in self.seconds.items()}
+        for k, v in self.items.items():
+            out[k]["items"] = list(v)
+        return out
 
 
 @contextmanager
-def phase(name: str):
-    """Time the block as phase ``name`` in every open recording (nothing when none is open)."""
+def phase(name: str, item: str | None = None):
+    """Time the block as phase ``name`` in every open recording (nothing when none is open);
+    ``item`` names this occurrence (kept with its seconds)."""
     if not _open:
         yield
         return
@@ -47,7 +56,7 @@ def phase(name: str):
     finally:
         dt = time.perf_counter() - t
         for rec in _open:
-            rec.add(name, dt)
+            rec.add(name, dt, item)
 
 
 @contextmanager

@@ -264,8 +264,9 @@ def clear_cache(ctx=None) -> None:
 
 
 def _compile(ctx, kind: str, sources: dict[str, Source], build):
+    what = "+".join(Path(s.files[0]).name if s.files else stage for stage, s in sources.items())
     try:
-        with phase("compile"):
+        with phase("compile", what):
             return build()
     except Exception as exc:  # moderngl.Error carries the driver's log
         log = str(exc)
