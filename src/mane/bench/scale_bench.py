@@ -37,7 +37,9 @@ GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
 ``scale_cold_start``
     In a fresh child process (programs are cached per context): seconds from creating the
     Simulator and the Renderer to the end of the first frame and of the first steady frame
-    (``scale_rows.steady``), and the first ``cold_steps`` frames' mean.
+    (``scale_rows.steady``), and the first ``cold_steps`` frames' mean; ``phases``: where the
+    child's seconds went (``PHASE_NOTE``; ``mane.phases``), each program's compile in
+    ``phases.compile.items``.
 
 Configurations too big for the GPU are refused before anything is built (``check_allocation`` on
 the expanded strands' bytes: a skipped row naming them), those too slow for the mode's budget
