@@ -338,7 +338,7 @@ class ShadingSettings:
             from .table_family import interpolated
 
             return interpolated("dual", key[1:], key[0], lambda s: build_dual_lut(_dual_tables((tuple(s),) + key[1:])))
-        return _dual_lut(key)
+        return _dual_lut(key).copy()     # a fresh array, as it always was
 
     def bind(self, program, ctx, *, prefix: str = "u_material", unit_m: int = LUT_UNIT_M,
              unit_n: int = LUT_UNIT_N, unit_dual: int = LUT_UNIT_DUAL) -> None:
