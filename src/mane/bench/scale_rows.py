@@ -15,7 +15,8 @@ rows (``mane bench sim --section scale``) are here, timed by the sim bench's ``B
     (``check_fits``) before the groom is made.
 ``scale_sim_cold_start``
     The simulator alone in a fresh child process: seconds from creating it to the first steady
-    step, and the first ``cold_steps`` steps' mean.
+    step, and the first ``cold_steps`` steps' mean; ``phases`` as the render's cold start
+    (``scale_bench.PHASE_NOTE``; ``phase_text`` puts the rows' phases side by side).
 
 Every row has ``issue_key`` and ``issue_ms`` / ``target_ms`` / ``measured_ms`` (``_s`` for the
 cold starts: seconds), ``measured_as`` (the row's field the measurement is) and ``met`` (None
