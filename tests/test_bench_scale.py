@@ -263,3 +263,17 @@ def test_big_configurations_are_refused_cleanly(gl, monkeypatch):
     scale_rows.sim_rows(sb, lambda: pytest.fail("colliders built for a state that does not fit"))
     sims = [r for r in sb.rows if r["bench"] == "scale_sim"]
     assert sims and all(r["status"] == "skipped" and "out of GPU memory" in r["reason"] for r in sims)
+
+
+def test_phase_text_lines_the_cold_rows_up():
+    rows = [dict(name="first", phases={"context": {"s": 0.1234, "n": 1}, "compile": {"s": 0.5, "n": 17}},
+                 to_steady_s=1.25),
+            dict(name="second", phases={"context": {"s": 0.2, "n": 1}}, to_steady_s=None),
+            dict(name="a row without phases")]
+    lines = scale_rows.phase_text(rows).splitlines()
+    assert "first" in lines[1] and "second" in lines[1] and "without" not in lines[1]
+    cells = {ln.split()[0]: ln.split()[1:] for ln in lines[3:]}
+    assert cells["context"] == ["0.123", "0.200"]
+    assert cells["compile"] == ["0.500", "(17)", "-"]
+    assert cells["to_steady_s"][-2:] == ["1.250", "-"]
+    assert scale_rows.phase_text([dict(name="x")]) == ""
