@@ -21,7 +21,7 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 # read its ``__version__`` (a literal, set before the root imports anything).
 LAYERS: tuple[tuple[str, ...], ...] = (
     ("errors",),
-    ("groom", "mesh", "progress", "setting"),
+    ("groom", "mesh", "progress", "setting", "phases", "disk_cache"),
     ("io", "grooming"),
     ("gpu",),
     ("sim", "render"),

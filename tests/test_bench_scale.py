@@ -110,6 +110,17 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert cold["process"] == "a fresh child process"
     assert len(cold["frames_ms"]) == cold["steps"]
     assert 0 < cold["to_first_frame_s"] <= cold["to_steady_s"]
+    # where the cold start's seconds went: the sequential phases in the child lie within its wall,
+    # the first frame's phase is the first frame's wall, every program's compile is counted
+    ph = cold["phases"]
+    outer = ("python_start", "context", "imports", "head_mesh", "colliders", "groom", "simulator", "renderer",
+             "set_strands", "set_head", "first_frame")
+    assert set(outer) <= set(ph), sorted(ph)
+    assert sum(ph[k]["s"] for k in outer) <= cold["child_wall_s"]
+    assert ph["first_frame"]["s"] == pytest.approx(cold["frames_ms"][0] / 1e3, rel=0.05, abs=5e-3)
+    assert ph["sdf_bake"]["n"] == 1 and ph["compile"]["n"] >= 10
+    assert ph["compile"]["s"] <= sum(ph[k]["s"] for k in outer)
+    assert "compile" in cold["phase_note"]
     crowd = [r for r in render_scale[0]["results"] if r["bench"] == "scale_crowd"]
     assert {r["lod"] for r in crowd} == {True, False}
     assert all("instancing" in r for r in crowd)
@@ -252,3 +263,17 @@ def test_big_configurations_are_refused_cleanly(gl, monkeypatch):
     scale_rows.sim_rows(sb, lambda: pytest.fail("colliders built for a state that does not fit"))
     sims = [r for r in sb.rows if r["bench"] == "scale_sim"]
     assert sims and all(r["status"] == "skipped" and "out of GPU memory" in r["reason"] for r in sims)
+
+
+def test_phase_text_lines_the_cold_rows_up():
+    rows = [dict(name="first", phases={"context": {"s": 0.1234, "n": 1}, "compile": {"s": 0.5, "n": 17}},
+                 to_steady_s=1.25),
+            dict(name="second", phases={"context": {"s": 0.2, "n": 1}}, to_steady_s=None),
+            dict(name="a row without phases")]
+    lines = scale_rows.phase_text(rows).splitlines()
+    assert "first" in lines[1] and "second" in lines[1] and "without" not in lines[1]
+    cells = {ln.split()[0]: ln.split()[1:] for ln in lines[3:]}
+    assert cells["context"] == ["0.123", "0.200"]
+    assert cells["compile"] == ["0.500", "(17)", "-"]
+    assert cells["to_steady_s"][-2:] == ["1.250", "-"]
+    assert scale_rows.phase_text([dict(name="x")]) == ""

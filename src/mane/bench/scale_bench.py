@@ -37,7 +37,9 @@ GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
 ``scale_cold_start``
     In a fresh child process (programs are cached per context): seconds from creating the
     Simulator and the Renderer to the end of the first frame and of the first steady frame
-    (``scale_rows.steady``), and the first ``cold_steps`` frames' mean.
+    (``scale_rows.steady``), and the first ``cold_steps`` frames' mean; ``phases``: where the
+    child's seconds went (``PHASE_NOTE``; ``mane.phases``), each program's compile in
+    ``phases.compile.items``.
 
 Configurations too big for the GPU are refused before anything is built (``check_allocation`` on
 the expanded strands' bytes: a skipped row naming them), those too slow for the mode's budget
@@ -49,9 +51,11 @@ import json
 import math
 import sys
 import time
+from contextlib import nullcontext
 
 import numpy as np
 
+from ..phases import phase, recording
 from .common import Skip, stats
 from .scale_rows import SCALE_CONFIG, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
 from .scale_rows import short_count as _k
@@ -408,25 +412,34 @@ class Loop:
 
     def __init__(self, ctx, S: int, N: int, spg: int, render_settings, grid: int, sdf: int):
         """``render_settings`` None: the simulator alone (the sim's cold start)."""
-        from ..render import Renderer
-        from ..sim import Simulator, head_motion
-        from . import sim_bench
+        with phase("imports"):
+            from ..render import Renderer
+            from ..sim import Simulator, head_motion
+            from . import sim_bench
 
         self.ctx = ctx
-        head = sim_bench.head_mesh()
-        colliders = sim_bench.full_solver_colliders(sdf, head)
-        settings = sim_bench.full_solver_settings(grid)
+        with phase("head_mesh"):
+            head = sim_bench.head_mesh()
+        with phase("colliders"):
+            colliders = sim_bench.full_solver_colliders(sdf, head)
+            settings = sim_bench.full_solver_settings(grid)
+        with phase("groom"):
+            groom = sim_bench.scalp_groom(S, N)
         self.sim = self.renderer = None
         t = time.perf_counter()
-        self.sim = Simulator(sim_bench.scalp_groom(S, N), colliders, settings, ctx, points_per_strand=N)
+        with phase("simulator"):
+            self.sim = Simulator(groom, colliders, settings, ctx, points_per_strand=N)
         self.sim_build_s = time.perf_counter() - t
         self.render_build_s = None
         if render_settings is not None:
             t = time.perf_counter()
-            self.renderer = Renderer(render_settings, ctx=ctx, profile=False)
-            self.renderer.set_strands(self.sim)
-            self.renderer.set_head(head)
-            self.camera = self.renderer.default_camera(points=None)
+            with phase("renderer"):
+                self.renderer = Renderer(render_settings, ctx=ctx, profile=False)
+            with phase("set_strands"):
+                self.renderer.set_strands(self.sim)
+            with phase("set_head"):
+                self.renderer.set_head(head)
+                self.camera = self.renderer.default_camera(points=None)
             self.render_build_s = time.perf_counter() - t
         self.motion = head_motion.preset("nod", pivot=sim_bench.NECK_PIVOT)
 
@@ -452,13 +465,37 @@ class Loop:
 
 
 # --------------------------------------------------------------------------- cold start
+PHASE_NOTE = ("phases: wall seconds and counts in the child, in order: python_start (the process "
+              "spawned to the run's start: the interpreter and this module's imports), imports, context, "
+              "head_mesh, colliders, groom, simulator, renderer, set_strands, set_head, first_frame, "
+              "to_steady (the frames after the first up to the first steady one); nested in those: compile "
+              "(each program's compile + link, n programs), sdf_bake (disk cache or bake), shading_tables "
+              "(disk cache or NumPy)")
+
+
 def _cold_run(spec: dict) -> dict:
     """In this process: a context (timed apart), then Simulator (+ Renderer) built and ``steps``
-    frames, each with a finish. Seconds from the construction's start."""
+    frames, each with a finish. Seconds from the construction's start; ``phases``: where they went
+    (``PHASE_NOTE``)."""
+    started = time.time()
+    with recording() as rec:
+        out = _cold_frames(spec)
+    phases = rec.as_dict()
+    if spec.get("spawned_at") is not None:
+        phases = {"python_start": {"s": round(started - float(spec["spawned_at"]), 6), "n": 1}, **phases}
+    ends = out["frame_ends_s"]
+    first = out["first_steady_frame"]
+    if first is not None and first > 0:
+        phases["to_steady"] = {"s": round(ends[first] - ends[0], 6), "n": first}
+    return dict(out, phases=phases, phase_note=PHASE_NOTE)
+
+
+def _cold_frames(spec: dict) -> dict:
     from ..gpu import get_context
 
     t = time.perf_counter()
-    ctx = get_context()
+    with phase("context"):
+        ctx = get_context()
     context_s = time.perf_counter() - t
     S, N, steps = int(spec["S"]), int(spec["N"]), int(spec["steps"])
     from ..render.settings import RenderSettings
@@ -471,19 +508,21 @@ def _cold_run(spec: dict) -> dict:
     built_s = time.perf_counter() - t0
     try:
         ends, walls = [], []
-        for _ in range(steps):
+        for i in range(steps):
             t = time.perf_counter()
-            loop.step()
-            if render:
-                loop.render()
-            ctx.finish()
+            with phase("first_frame") if i == 0 else nullcontext():
+                loop.step()
+                if render:
+                    loop.render()
+                ctx.finish()
             now = time.perf_counter()
             walls.append((now - t) * 1e3)
             ends.append(now - t0)
     finally:
         loop.release()
     return dict(context_s=context_s, build_s=built_s, sim_build_s=loop.sim_build_s,
-                render_build_s=loop.render_build_s, **steady(ends, walls))
+                render_build_s=loop.render_build_s, frame_ends_s=[round(e, 6) for e in ends],
+                **steady(ends, walls))
 
 
 def _main(argv) -> int:

@@ -15,7 +15,8 @@ rows (``mane bench sim --section scale``) are here, timed by the sim bench's ``B
     (``check_fits``) before the groom is made.
 ``scale_sim_cold_start``
     The simulator alone in a fresh child process: seconds from creating it to the first steady
-    step, and the first ``cold_steps`` steps' mean.
+    step, and the first ``cold_steps`` steps' mean; ``phases`` as the render's cold start
+    (``scale_bench.PHASE_NOTE``; ``phase_text`` puts the rows' phases side by side).
 
 Every row has ``issue_key`` and ``issue_ms`` / ``target_ms`` / ``measured_ms`` (``_s`` for the
 cold starts: seconds), ``measured_as`` (the row's field the measurement is) and ``met`` (None
@@ -165,6 +166,7 @@ def cold_start(spec: dict, *, timeout: float = 120.0, driver_cache: bool = True)
     src = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     t = time.perf_counter()
+    spec = dict(spec, spawned_at=time.time())
     try:
         done = subprocess.run([sys.executable, "-m", "mane.bench.scale_bench", json.dumps(spec)], env=env,
                               capture_output=True, text=True, timeout=timeout)
@@ -247,16 +249,40 @@ def summary(rows: list[dict]) -> list[dict]:
     return out
 
 
+def phase_text(rows: list[dict]) -> str:
+    """The cold-start rows' phases side by side (seconds, and the count where not 1): one line a
+    phase, one column a row (``scale_bench.PHASE_NOTE`` says what each phase is)."""
+    from .common import table
+
+    cold = [r for r in rows if r.get("phases")]
+    if not cold:
+        return ""
+    names = list(dict.fromkeys(k for r in cold for k in r["phases"]))
+    lines = []
+    for k in names:
+        line = {"phase": k}
+        for i, r in enumerate(cold):
+            p = r["phases"].get(k)
+            line[i] = "-" if p is None else f"{p['s']:.3f}" + (f" ({p['n']})" if p["n"] != 1 else "")
+        lines.append(line)
+    lines.append({"phase": "to_steady_s (from the build)",
+                  **{i: "-" if r.get("to_steady_s") is None else f"{r['to_steady_s']:.3f}" for i, r in enumerate(cold)}})
+    return table(lines, [("phase", "phase", "{}")] + [(r["name"], i, "{}") for i, r in enumerate(cold)],
+                 title="Cold start phases, s (n: count where not 1; compile, sdf_bake, shading_tables nest in the others)")
+
+
 def format_text(rows: list[dict]) -> str:
     from .common import table
 
     lines = summary(rows)
     if not lines:
         return ""
+    phases = phase_text(rows)
     return table(lines, [("config", "name", "{}"), ("status", "status", "{}"), ("unit", "unit", "{}"),
                          ("measured", "measured", "{:.3f}"), ("issue", "issue", "{:.1f}"),
                          ("target", "target", "{:.1f}"),
                          ("met", lambda r: "-" if r["met"] is None else ("yes" if r["met"] else "no"), "{}"),
                          ("coverage", "coverage", "{:.1%}"), ("CPU issue ms", "cpu_submit_ms", "{:.3f}"),
                          ("sim GPU ms", "sim_gpu_ms", "{:.3f}"), ("render GPU ms", "render_gpu_ms", "{:.3f}")],
-                 title="Issue 14 scale rows: measured beside the issue's figure and the target")
+                 title="Issue 14 scale rows: measured beside the issue's figure and the target") + (
+                     "\n" + phases if phases else "")

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from ..errors import ShaderCompileError, UsageError
+from ..phases import phase
 
 SHARED_SHADER_DIR = Path(__file__).with_name("shaders")
 DEFAULT_VERSION = "#version 430 core"
@@ -263,8 +264,10 @@ def clear_cache(ctx=None) -> None:
 
 
 def _compile(ctx, kind: str, sources: dict[str, Source], build):
+    what = "+".join(Path(s.files[0]).name if s.files else stage for stage, s in sources.items())
     try:
-        return build()
+        with phase("compile", what):
+            return build()
     except Exception as exc:  # moderngl.Error carries the driver's log
         log = str(exc)
         for src in sources.values():

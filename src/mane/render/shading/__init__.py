@@ -49,6 +49,7 @@ from pathlib import Path
 import numpy as np
 
 from ...gpu.uniforms import write_uniform
+from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from .melanin import (  # noqa: F401
     PRESETS,
@@ -279,10 +280,13 @@ class ShadingSettings:
         """(m_lut, n_lut) float32 arrays for this material (see luts.build_marschner_luts)."""
         from .luts import build_marschner_luts
 
-        return build_marschner_luts(
-            self.resolved_sigma_a(), eta=self.eta, beta_r=self.roughness, alpha_r=self.shift,
-            glint=self.glint, caustic_width=self.caustic_width, caustic_fade=self.caustic_fade,
-            caustic_limit=self.caustic_limit, size=self.lut_size)   # the energy clamp: in the shader
+        sigma_a = np.asarray(self.resolved_sigma_a(), np.float64)
+        args = dict(eta=float(self.eta), beta_r=float(self.roughness), alpha_r=float(self.shift),
+                    glint=float(self.glint), caustic_width=float(self.caustic_width),
+                    caustic_fade=float(self.caustic_fade), caustic_limit=float(self.caustic_limit),
+                    size=int(self.lut_size))                       # the energy clamp: in the shader
+        return _stored("marschner_luts", (tuple(float(x) for x in sigma_a), sorted(args.items())),
+                       lambda: build_marschner_luts(sigma_a, **args))
 
     def chiang_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.beta_n),
@@ -294,7 +298,7 @@ class ShadingSettings:
         if self.tables == "interpolated":
             from .table_family import interpolated
 
-            return interpolated("chiang", key[1:], key[0], lambda s: _chiang_table((tuple(s),) + key[1:]))
+            return interpolated("chiang", key[1:], key[0], lambda s: _build_chiang_table((tuple(s),) + key[1:]))
         return _chiang_table(key)
 
     @property
@@ -334,7 +338,7 @@ class ShadingSettings:
             from .table_family import interpolated
 
             return interpolated("dual", key[1:], key[0], lambda s: build_dual_lut(_dual_tables((tuple(s),) + key[1:])))
-        return build_dual_lut(self.dual_tables())
+        return _dual_lut(key).copy()     # a fresh array, as it always was
 
     def bind(self, program, ctx, *, prefix: str = "u_material", unit_m: int = LUT_UNIT_M,
              unit_n: int = LUT_UNIT_N, unit_dual: int = LUT_UNIT_DUAL) -> None:
@@ -362,8 +366,37 @@ class ShadingSettings:
                 write_uniform(program["hair_dual_lut"], unit_dual)
 
 
+def _stored(kind: str, key, build) -> tuple:
+    """``build()``'s arrays from the disk cache (``mane.disk_cache``, ``~/.cache/mane/KIND``),
+    keyed by ``key`` (every input of the build) and the tables' code (``table_family.CODE``):
+    a material's tables cost 0.5-1 s of NumPy, which every start of a viewer or a render paid."""
+    from ... import disk_cache
+    from .table_family import CODE
+
+    with phase("shading_tables"):
+        out = disk_cache.arrays(kind, disk_cache.digest(kind, key, CODE), lambda: _as_tuple(build()))
+    return out if len(out) > 1 else out[0]
+
+
+def _as_tuple(x) -> tuple:
+    return tuple(x) if isinstance(x, tuple) else (x,)
+
+
 @functools.lru_cache(maxsize=32)
 def _chiang_table(key: tuple) -> np.ndarray:
+    """The exact table of ``chiang_key()`` (in memory, then on disk)."""
+    return _stored("chiang", key, lambda: _build_chiang_table(key))
+
+
+@functools.lru_cache(maxsize=32)
+def _dual_lut(key: tuple) -> np.ndarray:
+    """The exact ``hair_dual_lut`` data of ``dual_key()`` (in memory, then on disk)."""
+    from .dual_scattering import build_dual_lut
+
+    return _stored("dual_lut", key, lambda: build_dual_lut(_dual_tables(key)))
+
+
+def _build_chiang_table(key: tuple) -> np.ndarray:
     from .chiang import azimuthal_table
 
     sigma_a, eta, beta_n, size = key

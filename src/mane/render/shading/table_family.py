@@ -36,20 +36,22 @@ _MEMORY_ENTRIES = 4 * GRID_SIZE
 
 
 def cache_dir() -> Path | None:
-    """Where the grid's tables are kept, beside the default head's cache (grooming/head.py:
-    $XDG_CACHE_HOME or ~/.cache, then mane/); None with MANE_NO_CACHE=1 (memory only)."""
-    if os.environ.get("MANE_NO_CACHE"):
-        return None
-    return Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "mane" / "tables"
+    """Where the grid's tables are kept: ``mane.disk_cache.root()`` / tables ($XDG_CACHE_HOME or
+    ~/.cache, then mane/); None with MANE_NO_CACHE=1 (memory only)."""
+    from ... import disk_cache
+
+    base = disk_cache.root()
+    return None if base is None else base / "tables"
 
 
 def _code_hash() -> str:
-    """The tables' builders as they are now (chiang.py, dual_scattering.py): a change to either
-    makes new files instead of reading stale ones."""
-    h = hashlib.sha1()
-    for name in ("chiang.py", "dual_scattering.py"):
-        h.update((Path(__file__).parent / name).read_bytes())
-    return h.hexdigest()
+    """The tables' builders as they are now (chiang.py, dual_scattering.py and the Marschner
+    lobes of luts.py that the dual tables use): a change to any makes new files instead of
+    reading stale ones."""
+    from ... import disk_cache
+
+    here = Path(__file__).parent
+    return disk_cache.file_hash(*(here / name for name in ("chiang.py", "dual_scattering.py", "luts.py")))
 
 
 CODE = _code_hash()
