@@ -1,0 +1,174 @@
+"""Coverage-driven strand LOD (mane.render.coverage_lod, settings.lod_depth) and instances.
+
+Goldens from the maths: a flat box of strands facing the camera has D = N l w / (box area)
+whatever the camera (the pixel size cancels) while the strands are wider than the narrowest
+drawn width m, and N l m px d / area when they are narrower. The expansion with the LOD acting
+is the full expansion's first k strands of every guide, widened by strands_per_guide / k.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mane.render import Renderer, RenderSettings
+from mane.render.camera import Camera
+from mane.render.coverage_lod import depth_complexity, kept_per_guide, lod_plan, mean_strand_length
+from mane.render.passes.base import View
+
+
+def _view(fov=30.0, size=(400, 300), eye=(0.0, 0.0, 2.0)):
+    cam = Camera(eye=eye, target=(0.0, 0.0, 0.0), fov_y=fov, near=0.1, far=10.0)
+    w, h = size
+    vp = cam.projection(w / h) @ cam.view()
+    pixel = 2.0 * math.tan(math.radians(fov) / 2.0) / h
+    return View(vp, np.asarray(cam.eye, float), cam.forward, False, pixel, 1.0)
+
+
+def _flat_box(a, b):
+    return np.array([[x, y, 0.0] for x in (-a, a) for y in (-b, b) for _ in (0, 1)])
+
+
+@pytest.mark.parametrize("fov,eye_z", [(30.0, 2.0), (50.0, 1.3)])
+def test_depth_complexity_of_a_flat_box_is_n_l_w_over_its_area(fov, eye_z):
+    view = _view(fov, eye=(0.0, 0.0, eye_z))
+    N, l, w, a, b = 5000, 0.3, 0.004, 0.1, 0.15
+    # wide strands (w_px > m): the pixel size cancels
+    D, visible = depth_complexity(view, (400, 300), _flat_box(a, b), N, l, w, 0.5)
+    assert visible
+    assert D == pytest.approx(N * l * w / (4 * a * b), rel=1e-9)
+    # thin strands drawn m = 1 px wide: N l_px m / A_px, l_px = l / (px d), A_px = 4ab / (px d)^2
+    px_d = view.pixel_size * eye_z
+    assert w / px_d < 3.0
+    D1, _ = depth_complexity(view, (400, 300), _flat_box(a, b), N, l, 1e-6, 3.0)
+    assert D1 == pytest.approx(N * (l / px_d) * 3.0 / (4 * a * b / px_d ** 2), rel=1e-9)
+
+
+def test_boxes_behind_the_eye_are_not_thinned_and_boxes_outside_are_culled():
+    view = _view()
+    behind = _flat_box(0.1, 0.1) + np.array([0.0, 0.0, 3.0])
+    D, visible = depth_complexity(view, (400, 300), behind, 10 ** 6, 0.3, 0.001, 1.0)
+    assert math.isinf(D) and visible
+    plan = lod_plan(view, (400, 300), [(np.array([5.0, -0.1, -0.1]), np.array([5.2, 0.1, 0.1])),
+                                       (np.array([-0.1, -0.1, -0.1]), np.array([0.1, 0.1, 0.1]))],
+                    strands_per_guide=16, guides=1000, mean_length=0.3, mean_width=0.001, min_width_px=1.0,
+                    lod_depth=64.0)
+    assert plan.kept[0] == 0 and plan.kept[1] >= 1
+    assert plan.width_scale[0] == 1.0
+
+
+@pytest.mark.parametrize("spg,D,target,want", [(16, 128.0, 64.0, 8), (16, 64.0, 64.0, 16), (16, 10.0, 64.0, 16),
+                                                (320, 326.0, 64.0, 63), (16, 1e9, 64.0, 1), (16, 1e3, 0.0, 16)])
+def test_kept_per_guide(spg, D, target, want):
+    assert kept_per_guide(spg, D, target) == want
+
+
+def test_mean_strand_length():
+    p = np.zeros((2, 3, 3))
+    p[0, :, 0] = [0.0, 1.0, 3.0]     # length 3
+    p[1, :, 1] = [0.0, 0.5, 1.5]     # length 1.5
+    assert mean_strand_length(p) == pytest.approx(2.25)
+
+
+# ---------------------------------------------------------------- the default scenes are untouched
+def test_default_scenes_keep_every_strand(gl):
+    """The 50k-strand 1080p target frame (both rasterisers) and the fidelity bench's scenes: p = 1."""
+    from mane.bench import fidelity as F
+    from mane.bench.render_bench import TARGET_GUIDES, TARGET_POINTS, TARGET_SIZE, TARGET_SPG
+    from mane.grooming.scene import default_groom, default_head
+
+    head = default_head(4)
+    groom = default_groom(head, TARGET_GUIDES, TARGET_POINTS)
+    scenes = [(groom, head, RenderSettings(size=TARGET_SIZE, strands_per_guide=TARGET_SPG, rasterizer=rz))
+              for rz in ("hardware", "compute")]
+    scene = F.SCENES["curly_head"]
+    g, h = F.load_scene(scene, 300)
+    scenes += [(g, h, F.base_settings(scene, (320, 320), rasterizer=rz)) for rz in ("hardware", "compute")]
+    for g, h, s in scenes:
+        assert s.lod_depth == RenderSettings().lod_depth > 0
+        r = Renderer(s, ctx=gl, profile=False)
+        try:
+            r.set_strands(g)
+            r.set_head(h)
+            plan = r.lod_plan(r.camera_view(r.default_camera()))
+            assert plan.kept == (s.strands_per_guide,), (s.size, plan)
+            assert plan.depth[0] < 0.5 * s.lod_depth   # with margin
+        finally:
+            r.release()
+
+
+# ---------------------------------------------------------------- the expansion
+def _groom(guides=24, points=6, seed=3):
+    from mane.groom import Groom
+
+    rng = np.random.default_rng(seed)
+    roots = rng.uniform(-0.05, 0.05, (guides, 3))
+    t = np.linspace(0.0, 1.0, points)[:, None]
+    pts = roots[:, None, :] + t[None] * np.array([0.0, -0.25, 0.02]) + 0.01 * np.sin(7 * t)[None]
+    return Groom.from_strands(list(pts.astype(np.float32)))
+
+
+def _expanded(gl, groom, camera, instances=None, **kw):
+    r = Renderer(RenderSettings(**{"size": (64, 48), "msaa": 1, "pipeline": "compute", "shadows": "none",
+                                   "strands_per_guide": 8, **kw}), ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        if instances is not None:
+            r.set_instances(instances)
+        r.render(camera)
+        return r.get_pass("expand").read(), r.lod_plan(), r.stats()
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
+def test_lod_expands_the_first_k_strands_of_each_guide_widened(gl):
+    g = _groom()
+    cam = Camera(eye=(0.0, -0.1, 0.6), target=(0.0, -0.1, 0.0), fov_y=40.0)
+    full, plan0, _ = _expanded(gl, g, cam, lod_depth=0.0)
+    assert plan0.kept == (8,)
+    lod, plan, stats = _expanded(gl, g, cam, lod_depth=0.05)   # far below the scene's D
+    k = plan.kept[0]
+    assert 1 <= k < 8 and math.isfinite(plan.depth[0]) and plan.depth[0] > 0.05
+    G, P = g.num_strands, full.shape[1]
+    assert lod.shape == (G * k, P, 8)
+    want = full.reshape(G, 8, P, 8)[:, :k].reshape(G * k, P, 8).copy()
+    want[..., 3] *= 8.0 / k
+    np.testing.assert_allclose(lod, want, rtol=1e-6, atol=1e-7)
+    assert stats["strands_expanded"] == G * k and stats["strands_full"] == G * 8
+    assert stats["lod_keep_fraction"] == pytest.approx(k / 8)
+
+
+@pytest.mark.gpu
+def test_instances_are_the_groom_moved(gl):
+    g = _groom()
+    cam = Camera(eye=(0.15, -0.1, 1.2), target=(0.15, -0.1, 0.0), fov_y=40.0)
+    one, _, _ = _expanded(gl, g, cam, lod_depth=0.0)
+    m = np.tile(np.eye(4), (3, 1, 1))
+    m[1, :3, 3] = (0.15, 0.0, 0.0)
+    c, s = math.cos(0.3), math.sin(0.3)
+    m[2, :3, :3] = [[c, 0, s], [0, 1, 0], [-s, 0, c]]
+    m[2, :3, 3] = (0.3, 0.0, -0.1)
+    many, plan, stats = _expanded(gl, g, cam, instances=m, lod_depth=0.0)
+    n = len(one)
+    assert many.shape == (3 * n,) + one.shape[1:] and plan.kept == (8, 8, 8)
+    for i in range(3):
+        part = many[i * n:(i + 1) * n]
+        np.testing.assert_allclose(part[..., :3], one[..., :3] @ m[i, :3, :3].T + m[i, :3, 3], atol=2e-6)
+        np.testing.assert_allclose(part[..., 4:7], one[..., 4:7] @ m[i, :3, :3].T, atol=2e-6)
+        np.testing.assert_array_equal(part[..., 3], one[..., 3])
+    assert stats["instances"] == 3
+
+
+def test_bad_instances_are_refused(gl):
+    from mane.errors import UsageError
+
+    r = Renderer(RenderSettings(size=(32, 32)), ctx=gl, profile=False)
+    try:
+        with pytest.raises(UsageError, match="4x4"):
+            r.set_instances(np.zeros((2, 3, 3)))
+        with pytest.raises(UsageError, match="4x4"):
+            r.set_instances([])
+    finally:
+        r.release()
