@@ -14,8 +14,9 @@ import pytest
 
 from mane.render import Renderer, RenderSettings
 from mane.render.camera import Camera
-from mane.render.coverage_lod import depth_complexity, kept_per_guide, lod_plan, mean_strand_length
-from mane.render.passes.base import View
+from mane.render.coverage_lod import (SEGMENT_PX, LodPlan, depth_complexity, kept_per_guide, lod_plan,
+                                      mean_strand_length)
+from mane.render.passes.base import View, subdivisions
 
 
 def _view(fov=30.0, size=(400, 300), eye=(0.0, 0.0, 2.0)):
@@ -64,6 +65,21 @@ def test_kept_per_guide(spg, D, target, want):
     assert kept_per_guide(spg, D, target) == want
 
 
+@pytest.mark.parametrize("length_px,full,guide_segments,want", [
+    (30.0, 2, 16, 1),          # 15 segments wanted over 16 guide segments: the guide's own
+    (100.0, 2, 16, 2),         # 50 wanted: capped at the settings' 2 a guide segment
+    (40.0, 8, 5, 4),           # 20 wanted over 5 guide segments: 4 a segment
+    (float("inf"), 4, 5, 4),   # behind the eye: no estimate
+])
+def test_segment_lod_subdivisions(length_px, full, guide_segments, want):
+    plan = LodPlan((100.0,), (2,), 4, (length_px,))   # thinned: 2 of 4 strands kept
+    assert SEGMENT_PX == 2.0
+    assert plan.subdivisions(full, guide_segments) == want
+    # a culled instance does not count; one that keeps every strand keeps every segment too
+    assert LodPlan((100.0, 0.0), (2, 0), 4, (length_px, 1e9)).subdivisions(full, guide_segments) == want
+    assert LodPlan((100.0, 1.0), (2, 4), 4, (length_px, 1.0)).subdivisions(full, guide_segments) == full
+
+
 def test_mean_strand_length():
     p = np.zeros((2, 3, 3))
     p[0, :, 0] = [0.0, 1.0, 3.0]     # length 3
@@ -94,6 +110,9 @@ def test_default_scenes_keep_every_strand(gl):
             plan = r.lod_plan(r.camera_view(r.default_camera()))
             assert plan.kept == (s.strands_per_guide,), (s.size, plan)
             assert plan.depth[0] < 0.5 * s.lod_depth   # with margin
+            N = r.strands.points_per_strand
+            full = subdivisions(s, N)
+            assert plan.subdivisions(full, N - 1) == full   # no segment LOD either
         finally:
             r.release()
 
@@ -126,9 +145,10 @@ def _expanded(gl, groom, camera, instances=None, **kw):
 def test_lod_expands_the_first_k_strands_of_each_guide_widened(gl):
     g = _groom()
     cam = Camera(eye=(0.0, -0.1, 0.6), target=(0.0, -0.1, 0.0), fov_y=40.0)
-    full, plan0, _ = _expanded(gl, g, cam, lod_depth=0.0)
+    # segments=5: one subdivision a guide segment, which the segment LOD cannot lower
+    full, plan0, _ = _expanded(gl, g, cam, lod_depth=0.0, segments=5)
     assert plan0.kept == (8,)
-    lod, plan, stats = _expanded(gl, g, cam, lod_depth=0.05)   # far below the scene's D
+    lod, plan, stats = _expanded(gl, g, cam, lod_depth=0.05, segments=5)   # far below the scene's D
     k = plan.kept[0]
     assert 1 <= k < 8 and math.isfinite(plan.depth[0]) and plan.depth[0] > 0.05
     G, P = g.num_strands, full.shape[1]
@@ -138,6 +158,64 @@ def test_lod_expands_the_first_k_strands_of_each_guide_widened(gl):
     np.testing.assert_allclose(lod, want, rtol=1e-6, atol=1e-7)
     assert stats["strands_expanded"] == G * k and stats["strands_full"] == G * 8
     assert stats["lod_keep_fraction"] == pytest.approx(k / 8)
+
+
+@pytest.mark.gpu
+def test_segment_lod_keeps_the_guide_knots(gl):
+    """Fewer subdivisions where strands look short: the points at the guide's knots are the
+    full expansion's (the same curve, sampled less often)."""
+    g = _groom()
+    N = g.uniform_count
+    cam = Camera(eye=(0.0, -0.1, 3.0), target=(0.0, -0.1, 0.0), fov_y=40.0)
+    full, _, _ = _expanded(gl, g, cam, lod_depth=0.0, segments=40)
+    lod, plan, _ = _expanded(gl, g, cam, lod_depth=1e-6, segments=40)   # thinned to 1 a guide: segments reduced
+    assert plan.kept == (1,)
+    full = full[:, :, :].reshape(g.num_strands, 8, full.shape[1], 8)[:, 0].copy()   # strand 0 of each guide
+    full[..., 3] *= 8.0
+    sub_full = (full.shape[1] - 1) // (N - 1)
+    sub = plan.subdivisions(sub_full, N - 1)
+    assert sub_full == 8 and 1 <= sub < sub_full
+    # the estimate: a strand's projected length over SEGMENT_PX, spread over the guide segments
+    assert sub == math.ceil(plan.length_px[0] / SEGMENT_PX / (N - 1))
+    assert lod.shape == (g.num_strands, (N - 1) * sub + 1, 8)
+    np.testing.assert_allclose(lod[:, ::sub], full[:, ::sub_full], rtol=1e-5, atol=1e-6)
+
+
+def test_segment_levels_per_instance():
+    plan = LodPlan((100.0, 10.0, 100.0), (2, 4, 0), 4, (40.0, 500.0, 40.0))
+    assert plan.levels(8, 5) == (4, 8, 8)   # thinned and short: 4; keeps every strand or culled: all 8
+
+
+@pytest.mark.gpu
+def test_a_far_thinned_instance_uses_fewer_segments(gl):
+    g = _groom()
+    N = g.uniform_count
+    cam = Camera(eye=(0.0, -0.1, 0.5), target=(0.0, -0.1, 0.0), fov_y=40.0)
+    m = np.tile(np.eye(4), (2, 1, 1))
+    m[1, :3, 3] = (0.0, 0.0, -6.0)     # far behind the first
+    full, plan0, _ = _expanded(gl, g, cam, instances=m, lod_depth=0.0, segments=10)
+    _, probe, _ = _expanded(gl, g, cam, instances=m, lod_depth=1e6, segments=10)
+    lo, hi = probe.depth
+    assert lo < hi
+    lod, plan, _ = _expanded(gl, g, cam, instances=m, lod_depth=math.sqrt(lo * hi), segments=10)
+    assert plan.kept[0] == 8 and plan.kept[1] < 8
+    sub = (full.shape[1] - 1) // (N - 1)
+    level = plan.levels(sub, N - 1)
+    assert level[0] == sub and 1 <= level[1] < sub
+    n = g.num_strands * 8
+    np.testing.assert_allclose(lod[:n], full[:n], rtol=1e-6, atol=1e-7)   # the near head as it was
+    far = lod[n:].reshape(g.num_strands, plan.kept[1], -1, 8)[..., :3]
+    ref = full[n:].reshape(g.num_strands, 8, -1, 8)[:, :plan.kept[1], :, :3]
+    L = level[1]
+    for seg in range(N - 1):
+        for k in range(sub):
+            if k >= L:     # past the level: the segment's end, the next knot
+                want = ref[:, :, (seg + 1) * sub]
+            elif (k * sub) % L == 0:   # u = k / L is a point of the full expansion
+                want = ref[:, :, seg * sub + k * sub // L]
+            else:
+                continue
+            np.testing.assert_allclose(far[:, :, seg * sub + k], want, rtol=1e-5, atol=1e-5)
 
 
 @pytest.mark.gpu

@@ -19,15 +19,27 @@ first k of its ``strands_per_guide`` strands (k = round(p * strands_per_guide), 
 the width scale is strands_per_guide / k exactly) is a uniform random subset spread over the
 whole groom. A box wholly outside the view is culled (k = 0).
 
+Segments too, where every visible instance is thinned: a strand whose projected length (at
+the instance it looks longest in) would give segments shorter than SEGMENT_PX pixels is
+expanded with fewer subdivisions of its guide segments (at least one: the guide's own points),
+for every instance alike (the expanded strands share one point count); within that count a
+thinned instance that looks smaller still uses fewer (``LodPlan.levels``).
+
     plan = lod_plan(view, size, boxes, strands_per_guide=16, guides=3125, mean_length=0.3,
                     mean_width=0.0004, min_width_px=0.5, lod_depth=64.0)
     plan.kept          # (instances,) strands kept per guide
 """
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
+
+
+SEGMENT_PX = 2.0
+"""The shortest mean rendered segment (pixels) the segment LOD aims at: fewer subdivisions
+when a strand's projected length over its segments falls below this."""
 
 
 @dataclass(frozen=True)
@@ -37,6 +49,33 @@ class LodPlan:
     depth: tuple          # D per instance (inf: not estimated, the box reaches behind the eye)
     kept: tuple           # strands kept per guide per instance (0: culled)
     strands_per_guide: int
+    length_px: tuple = ()  # a strand's mean projected length per instance (inf: not estimated)
+
+    def subdivisions(self, full: int, guide_segments: int) -> int:
+        """Subdivisions of a guide segment (at most ``full``) so that the longest-looking
+        visible instance's segments are about SEGMENT_PX long; ``full`` without an estimate
+        or while a visible instance keeps all its strands (the segment LOD acts only where
+        the strands are thinned)."""
+        visible = [(x, k) for x, k in zip(self.length_px, self.kept) if k > 0]
+        if not visible or any(k >= self.strands_per_guide or not np.isfinite(x) for x, k in visible):
+            return int(full)
+        lengths = [x for x, _ in visible]
+        return self._level(max(lengths), full, guide_segments)
+
+    @staticmethod
+    def _level(length_px: float, full: int, guide_segments: int) -> int:
+        wanted = length_px / SEGMENT_PX
+        return int(min(full, max(1, math.ceil(wanted / max(1, int(guide_segments))))))
+
+    def levels(self, sub: int, guide_segments: int) -> tuple:
+        """Per instance, the subdivisions (at most ``sub``, the buffer's) its strands use: fewer
+        for a thinned instance whose strands look short (its other points sit at the guide
+        segment's end: zero-length segments the rasterisers skip), ``sub`` for the rest."""
+        out = []
+        for x, k in zip(self.length_px or (float("inf"),) * len(self.kept), self.kept):
+            thinned = 0 < k < self.strands_per_guide and np.isfinite(x)
+            out.append(self._level(x, sub, guide_segments) if thinned else int(sub))
+        return tuple(out)
 
     @property
     def width_scale(self) -> tuple:
@@ -54,26 +93,31 @@ def box_corners(lo, hi) -> np.ndarray:
 
 
 def depth_complexity(view, size, corners, strands: int, mean_length: float, mean_width: float,
-                     min_width_px: float) -> tuple[float, bool]:
+                     min_width_px: float, with_length: bool = False):
     """(D, visible) of strands filling the box with ``corners`` (8, 3) world points, seen by
     ``view`` (mane.render.passes.base.View) on a ``size`` (w, h) raster. D is inf when a corner
     is behind the eye (p = 1: no estimate); visible False when the box is wholly outside the
-    view volume's sides."""
+    view volume's sides. ``with_length``: (D, visible, l_px) with the projected mean length."""
+    d, visible, l_px = _estimate(view, size, corners, strands, mean_length, mean_width, min_width_px)
+    return (d, visible, l_px) if with_length else (d, visible)
+
+
+def _estimate(view, size, corners, strands, mean_length, mean_width, min_width_px):
     w, h = float(size[0]), float(size[1])
     c = np.c_[np.asarray(corners, float), np.ones(len(corners))] @ np.asarray(view.view_proj, float).T
     center = np.asarray(corners, float).mean(axis=0)
     depth = float(np.dot(center - np.asarray(view.eye, float), np.asarray(view.forward, float)))
     if np.any(c[:, 3] <= 1e-6) or depth <= 1e-6:
-        return float("inf"), True
+        return float("inf"), True, float("inf")
     ndc = c[:, :2] / c[:, 3:4]
     if np.all(ndc[:, 0] < -1) or np.all(ndc[:, 0] > 1) or np.all(ndc[:, 1] < -1) or np.all(ndc[:, 1] > 1):
-        return 0.0, False
+        return 0.0, False, 0.0
     px = (ndc * 0.5 + 0.5) * np.array([w, h])
     area = float(np.prod(px.max(axis=0) - px.min(axis=0)))
     pixel = float(view.pixel_size) * (1.0 if view.ortho else depth)   # world size of a pixel there
     l_px = float(mean_length) / pixel
     w_px = max(float(mean_width) / pixel, float(min_width_px))
-    return float(strands) * l_px * w_px / max(area, 1e-12), True
+    return float(strands) * l_px * w_px / max(area, 1e-12), True, l_px
 
 
 def kept_per_guide(strands_per_guide: int, depth: float, lod_depth: float) -> int:
@@ -89,13 +133,15 @@ def lod_plan(view, size, boxes, *, strands_per_guide: int, guides: int, mean_len
              min_width_px: float, lod_depth: float) -> LodPlan:
     """The plan for instances with world boxes ``boxes`` ([(lo, hi), ...]), each ``guides`` x
     ``strands_per_guide`` strands."""
-    depths, kept = [], []
+    depths, kept, lengths = [], [], []
     n = int(strands_per_guide) * int(guides)
     for lo, hi in boxes:
-        d, visible = depth_complexity(view, size, box_corners(lo, hi), n, mean_length, mean_width, min_width_px)
+        d, visible, l_px = depth_complexity(view, size, box_corners(lo, hi), n, mean_length, mean_width,
+                                            min_width_px, with_length=True)
         depths.append(d)
+        lengths.append(l_px)
         kept.append(kept_per_guide(strands_per_guide, d, lod_depth) if visible else 0)
-    return LodPlan(tuple(depths), tuple(kept), int(strands_per_guide))
+    return LodPlan(tuple(depths), tuple(kept), int(strands_per_guide), tuple(lengths))
 
 
 def mean_strand_length(points: np.ndarray) -> float:

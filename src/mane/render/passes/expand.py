@@ -47,7 +47,9 @@ class ExpandPass(Pass):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
         plan = r.lod_plan()
-        return (id(r.strands), id(r.settings), r.geometry_version, eye, plan.kept)
+        N = r.strands.points_per_strand
+        sub = plan.subdivisions(subdivisions(r.settings, N), N - 1)
+        return (id(r.strands), id(r.settings), r.geometry_version, eye, plan.kept, sub, plan.levels(sub, N - 1))
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
@@ -57,12 +59,12 @@ class ExpandPass(Pass):
         r, ctx = self.renderer, self.ctx
         s, st = r.settings, r.strands
         N = st.points_per_strand
-        sub = subdivisions(s, N)
+        plan = r.lod_plan()
+        sub = plan.subdivisions(subdivisions(s, N), N - 1)   # the segment LOD: fewer where strands look short
         multi = s.interpolation_mode != "single"
         defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
                    "LOD": int(bool(s.lod))}
         cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
-        plan = r.lod_plan()
         if multi:
             table = r.strand_table()
             table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
@@ -87,12 +89,15 @@ class ExpandPass(Pass):
             if self.buffer is not None:
                 self.buffer.release()
             self.buffer = ctx.buffer(reserve=nbytes)
+        _set(cs, "u_subdivisions", sub)
         st.bind()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
         first = 0
-        for model, n, k, scale in zip(r.instance_transforms(), per_instance, kept, plan.width_scale):
+        levels = plan.levels(sub, N - 1) if not multi else (sub,) * len(kept)
+        for model, n, k, scale, level in zip(r.instance_transforms(), per_instance, kept, plan.width_scale, levels):
             if n == 0:
                 continue
+            _set(cs, "u_level", int(level))
             _set(cs, "u_num_strands", n)
             _set(cs, "u_kept_per_guide", max(1, k))
             _set(cs, "u_width_scale", float(scale) if not multi else 1.0)

@@ -23,6 +23,8 @@ uniform int u_kept_per_guide;  // single: strands of each guide expanded (<= u_s
 uniform float u_width_scale;   // u_strands_per_guide / u_kept_per_guide: the dropped strands' width
 uniform int u_first_strand;    // this dispatch's first strand in the buffer
 uniform mat4 u_model;          // the instance's local -> world (rigid)
+uniform int u_level;           // segments of a guide segment this instance uses (<= u_subdivisions):
+                               // its points past them sit at the segment's end (zero length)
 
 void main() {
     int points = (u_n - 1) * u_subdivisions + 1;
@@ -33,7 +35,7 @@ void main() {
     int j = idx - r * points;
     int seg = min(j / u_subdivisions, u_n - 2);
     int k = j - seg * u_subdivisions;
-    float u = float(k) / float(u_subdivisions);
+    float u = u_level < u_subdivisions ? min(float(k) / float(u_level), 1.0) : float(k) / float(u_subdivisions);
 #if MULTI
     vec3 root = guide_point(strand_table[min(r, u_num_render - 1)].guides.x, 0);
 #else
