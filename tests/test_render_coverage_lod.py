@@ -66,14 +66,14 @@ def test_kept_per_guide(spg, D, target, want):
 
 
 @pytest.mark.parametrize("length_px,full,guide_segments,want", [
-    (30.0, 2, 16, 1),          # 15 segments wanted over 16 guide segments: the guide's own
-    (100.0, 2, 16, 2),         # 50 wanted: capped at the settings' 2 a guide segment
-    (40.0, 8, 5, 4),           # 20 wanted over 5 guide segments: 4 a segment
+    (30.0, 2, 16, 1),          # 7.5 segments wanted over 16 guide segments: the guide's own
+    (100.0, 2, 16, 2),         # 25 wanted over 16: 2, the settings' 2 a guide segment
+    (40.0, 8, 5, 2),           # 10 wanted over 5 guide segments: 2 a segment
     (float("inf"), 4, 5, 4),   # behind the eye: no estimate
 ])
 def test_segment_lod_subdivisions(length_px, full, guide_segments, want):
     plan = LodPlan((100.0,), (2,), 4, (length_px,))   # thinned: 2 of 4 strands kept
-    assert SEGMENT_PX == 2.0
+    assert SEGMENT_PX == 4.0
     assert plan.subdivisions(full, guide_segments) == want
     # a culled instance does not count; one that keeps every strand keeps every segment too
     assert LodPlan((100.0, 0.0), (2, 0), 4, (length_px, 1e9)).subdivisions(full, guide_segments) == want
@@ -183,7 +183,7 @@ def test_segment_lod_keeps_the_guide_knots(gl):
 
 def test_segment_levels_per_instance():
     plan = LodPlan((100.0, 10.0, 100.0), (2, 4, 0), 4, (40.0, 500.0, 40.0))
-    assert plan.levels(8, 5) == (4, 8, 8)   # thinned and short: 4; keeps every strand or culled: all 8
+    assert plan.levels(8, 5) == (2, 8, 8)   # thinned and short: 2; keeps every strand or culled: all 8
 
 
 @pytest.mark.gpu

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 
 
-SEGMENT_PX = 2.0
+SEGMENT_PX = 4.0
 """The shortest mean rendered segment (pixels) the segment LOD aims at: fewer subdivisions
 when a strand's projected length over its segments falls below this."""
 
