@@ -75,8 +75,8 @@ class RenderSettings:
         complexity D is estimated from its box, strand count, mean length and width as the
         camera sees them; past lod_depth only the first round(strands_per_guide * lod_depth / D)
         strands of each guide are expanded and drawn (in every pass, the shadow maps too), each
-        widened by what was dropped, so that coverage and opacity stay the same in expectation.
-        The default (64) leaves the default scenes untouched (50k strands at 1920x1080: D = 16)
+        widened by what was dropped, so that coverage and opacity stay the same in expectation,
+        and where strands are thinned and look short, with fewer segments. The default (64) leaves the default scenes untouched (50k strands at 1920x1080: D = 16)
         and thins 1M strands there (D = 326) to a fifth. 0: off. Single-strand interpolation
         with pipeline="compute" only.""")
     # --- strand multiplication
