@@ -250,3 +250,23 @@ def test_bad_instances_are_refused(gl):
             r.set_instances([])
     finally:
         r.release()
+
+
+@pytest.mark.gpu
+def test_the_lod_expands_only_what_a_small_frame_needs(gl, monkeypatch):
+    """10 guides x 4096 strands x 257 points at 32x32: 337 MB expanded in full, beyond a 64 MiB
+    budget (tests/test_robustness.py refuses it with the LOD off); with it the frame keeps a few
+    strands a guide and few segments, and renders."""
+    monkeypatch.setenv("MANE_GPU_MEMORY", "64M")
+    g = _groom(guides=10)
+    r = Renderer(RenderSettings(size=(32, 32), strands_per_guide=4096, segments=256, shadows="none"), ctx=gl,
+                 profile=False)
+    try:
+        r.set_strands(g)
+        img = r.render_image()
+        st = r.stats()
+        assert st["strands_expanded"] < 0.05 * st["strands_full"]
+        assert r.get_pass("expand").points < 257
+        assert img.std() > 0   # something drawn
+    finally:
+        r.release()
