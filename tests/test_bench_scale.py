@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from mane.bench import scale_bench, scale_rows
+from mane.render import RenderSettings
 
 
 def _cli(argv):
@@ -69,8 +70,15 @@ def test_render_scale_rows(render_scale):
         _check_issue_row(r)
     keys = [r["issue_key"] for r in rows]
     cfg = scale_rows.SCALE_CONFIG["quick"]
-    assert keys == ([k for k, _, _ in cfg["closeup"]] + [k for k, _ in cfg["strands"]]
+    def with_no_lod(ks):   # the rows measured again with the coverage LOD off
+        return [x for k in ks for x in ([k, f"{k}_no_lod"] if k in cfg["no_lod"] else [k])]
+
+    assert keys == (with_no_lod([k for k, _, _ in cfg["closeup"]]) + with_no_lod([k for k, _ in cfg["strands"]])
                     + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start"])
+    for r in rows:
+        if r["status"] == "ok" and r["bench"] in ("scale_strands", "scale_closeup"):
+            assert r["settings"]["lod_depth"] == (0.0 if r["issue_key"].endswith("_no_lod") else
+                                                  RenderSettings().lod_depth)
     from mane.bench import render_bench
 
     text = render_bench.format_text(result)
@@ -216,18 +224,17 @@ def test_hair_coverage_against_the_geometry(gl):
     assert cov["coverage_head"] == pytest.approx(0.5, abs=2 * size / frame)
 
 
-def test_crowd_copies_groom_and_head():
-    from mane.groom import Groom
+def test_crowd_instances_are_a_grid_of_transforms_and_one_merged_head():
     from mane.mesh import Mesh
 
-    g = Groom.from_strands([np.array([[0.0, 0.0, 0.0], [0.0, -1.0, 0.0]])] * 3)
     m = Mesh(np.zeros((3, 3), np.float32) + [[0, 0, 0], [1, 0, 0], [0, 1, 0]], np.array([[0, 1, 2]], np.int32))
-    cg, cm = scale_bench.crowd(g, m, 4, 2.0)
-    assert cg.num_strands == 12 and len(cm.vertices) == 12 and len(cm.faces) == 4
-    roots = cg.roots
-    assert sorted({(round(float(x), 6), round(float(zz), 6)) for x, _, zz in roots}) == \
+    transforms, cm = scale_bench.crowd_instances(None, m, 4, 2.0)
+    assert transforms.shape == (4, 4, 4) and len(cm.vertices) == 12 and len(cm.faces) == 4
+    np.testing.assert_array_equal(transforms[:, :3, :3], np.tile(np.eye(3), (4, 1, 1)))
+    assert sorted((float(t[0, 3]), float(t[2, 3])) for t in transforms) == \
         [(-1.0, -2.0), (-1.0, 0.0), (1.0, -2.0), (1.0, 0.0)]      # a 2 x 2 grid, 2 m apart
     assert cm.faces.max() == 11
+    np.testing.assert_allclose(cm.vertices[3:6], m.vertices + [1.0, 0.0, 0.0])   # head 1 at (1, 0, 0)
 
 
 def test_unknown_section_is_refused(gl):

@@ -125,11 +125,13 @@ def test_render_targets_refused_before_anything_is_allocated(gl, monkeypatch):
 @pytest.mark.gpu
 def test_expanded_strand_buffer_is_checked(gl, monkeypatch):
     """10 guides x 4096 strands x 257 points x 32 bytes = 337 MB: beyond a 64 MiB budget (and
-    llvmpipe's 128 MiB storage blocks); it used to be allocated (or fail silently: a blank PNG)."""
+    llvmpipe's 128 MiB storage blocks); it used to be allocated (or fail silently: a blank PNG).
+    The coverage LOD off (lod_depth 0): at 32x32 it would keep only a few strands."""
     from mane.render import Renderer, RenderSettings
 
     monkeypatch.setenv("MANE_GPU_MEMORY", "64M")
-    r = Renderer(RenderSettings(size=(32, 32), strands_per_guide=4096, segments=256, shadows="none"), ctx=gl)
+    r = Renderer(RenderSettings(size=(32, 32), strands_per_guide=4096, segments=256, shadows="none",
+                                lod_depth=0.0), ctx=gl)
     try:
         r.set_strands(tiny_groom(10, 6))
         with pytest.raises(GPUMemoryError, match="expanded strands.*strands_per_guide"):
@@ -143,7 +145,8 @@ def test_render_cli_refuses_what_does_not_fit(groom_file, tmp_path, capsys, monk
     monkeypatch.setenv("MANE_GPU_MEMORY", "64M")
     out = tmp_path / "big.png"
     line = cli_error(capsys, ["render", str(groom_file), "--out", str(out), "--size", "32x32",
-                              "--strands-per-guide", "4096", "--segments", "256", "--shadows", "none"])
+                              "--strands-per-guide", "4096", "--segments", "256", "--shadows", "none",
+                              "--set", "lod_depth=0"])   # the coverage LOD would keep a few strands at 32x32
     assert "needs" in line and "--strands-per-guide" in line
     assert not out.exists() and leftovers(tmp_path) == []
 

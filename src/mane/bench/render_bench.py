@@ -370,9 +370,10 @@ class Bench(BenchRows):
     # ------------------------------------------------------------------ one configuration
     def measure(self, bench: str, name: str, *, guides: int, points: int, settings: dict,
                 required=(), lights=None, camera=None, budget_scale: float = 1.0, raster_stats: bool = False,
-                **fields) -> None:
+                picture=None, **fields) -> None:
         """Render one configuration and add its row (or a skipped / error row). ``raster_stats``:
-        where the compute rasteriser draws, one more frame (not timed) counts its samples."""
+        where the compute rasteriser draws, one more frame (not timed) counts its samples;
+        ``picture``: a PNG path the last frame is written to (the row's ``picture``)."""
         fields = dict(guides=int(guides), guide_points=int(points),
                       strands_per_guide=settings.get("strands_per_guide"),
                       segments_requested=settings.get("segments"), **fields)
@@ -380,7 +381,7 @@ class Bench(BenchRows):
             self._before_config()
             s, dropped = make_settings(settings, required)
             groom = self.work.groom(guides, points)
-            timing = self._time(s, groom, lights, camera, budget_scale, raster_stats)
+            timing = self._time(s, groom, lights, camera, budget_scale, raster_stats, picture)
             row = self._row(bench, name, **fields, **timing)
             row["settings"] = settings_dict(s)
             if self._release_error:
@@ -388,7 +389,8 @@ class Bench(BenchRows):
             if dropped:
                 row["settings_not_in_renderer"] = dropped
 
-    def _time(self, s, groom, lights, camera, budget_scale: float = 1.0, raster_stats: bool = False) -> dict:
+    def _time(self, s, groom, lights, camera, budget_scale: float = 1.0, raster_stats: bool = False,
+              picture=None) -> dict:
         from ..render import Renderer
 
         ctx, cfg = self.ctx, self.cfg
@@ -450,6 +452,11 @@ class Bench(BenchRows):
             info = {k: v for k, v in r.stats().items() if k != "passes"}
             # sample_visits, sample_writes, raster_atomics (HairComputePass.count_samples): one more frame
             counts = r.get_pass("hair_compute").count_samples(cam, lights) if raster_stats and r.compute_raster else {}
+            if picture is not None:
+                from PIL import Image
+
+                Image.fromarray(r.render_image(cam, lights)).save(picture)
+                counts = dict(counts, picture=str(picture))
             frame_stats = stats(frame_gpu)
             gpu_mean = (gapless.get("gpu_ms") or {}).get("mean") or frame_stats["mean"]
             eye, target = np.asarray(cam.eye, float), np.asarray(cam.target, float)

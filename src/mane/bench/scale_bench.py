@@ -22,12 +22,18 @@ GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
     Rendered strands {100k, 250k, 500k, 1M, 2M} at the default framing, 1920x1080, default
     ``RenderSettings``: one groom of ``guides`` guides, ``strands_per_guide`` = strands / guides.
 ``scale_crowd``
-    ``crowd_heads`` copies of one groom (``crowd_strands`` rendered strands each) and head on a grid
-    ``crowd_spacing`` m apart, framed whole, with the distance LOD (``RenderSettings.lod``) and
-    without. The public API draws one groom a frame (``Renderer.render`` clears its target), so
-    the copies are one concatenated groom (``Groom.concatenate``) and one merged head mesh: memory
-    grows with the heads (the expanded strands are sized for every strand at full detail, LOD or
-    not); instancing one groom at many transforms is not in the renderer.
+    ``crowd_heads`` instances of one groom (``crowd_strands`` rendered strands each;
+    ``Renderer.set_instances``: one groom's guides, a transform per head) and one merged head
+    mesh, on a grid ``crowd_spacing`` m apart, framed whole, with the coverage LOD
+    (``RenderSettings.lod_depth``, each head thinned by how the camera sees it: the expanded
+    strands hold only what is kept) and without (every strand of every head expanded: refused
+    where that buffer cannot be made). ``RenderScale(bench, picture_dir=DIR)`` writes the LOD
+    row's last frame to ``DIR/crowd.png``.
+
+Every row runs with the renderer's defaults, the coverage LOD on (``lod_depth``); the rows
+named in the mode's ``no_lod`` are measured again with it off (``lod_depth`` 0, key
+``..._no_lod``). Each row's ``renderer_stats`` holds the LOD's figures (``lod_keep_fraction``,
+``strands_expanded``, ``lod_depth_complexity``).
 ``scale_sim_render``
     The simulate + render loop: ``loop_guides`` x ``loop_points`` simulated with the sim bench's
     full solver (DFTL, shape and bending, 8 capsules, mesh SDF, grid friction) and drawn as
@@ -123,17 +129,19 @@ def merged_mesh(meshes):
     return Mesh(np.concatenate(verts), np.concatenate(faces).astype(np.int32))
 
 
-def crowd(groom, head, heads: int, spacing: float):
-    """``heads`` copies of groom and head on a square grid in the XZ plane, ``spacing`` m apart."""
+def crowd_offsets(heads: int, spacing: float) -> list:
+    """``heads`` positions on a square grid in the XZ plane, ``spacing`` m apart."""
     side = int(math.ceil(math.sqrt(heads)))
-    offsets = [np.array([(i % side - (side - 1) / 2) * spacing, 0.0, -(i // side) * spacing])
-               for i in range(heads)]
-    from ..groom import Groom
+    return [np.array([(i % side - (side - 1) / 2) * spacing, 0.0, -(i // side) * spacing]) for i in range(heads)]
 
-    g = Groom.concatenate([groom.translated(o) for o in offsets])
+
+def crowd_instances(groom, head, heads: int, spacing: float):
+    """(the heads' transforms (heads, 4, 4), one merged head mesh) of a crowd of ``groom``'s
+    instances (``Renderer.set_instances``)."""
+    offsets = crowd_offsets(heads, spacing)
     m = merged_mesh([head.transformed(_translation(o)) for o in offsets])
     m.metadata = dict(getattr(head, "metadata", {}) or {})
-    return g, m
+    return np.stack([_translation(o) for o in offsets]), m
 
 
 def _translation(t) -> np.ndarray:
@@ -146,8 +154,9 @@ def _translation(t) -> np.ndarray:
 class RenderScale:
     """The render rows, timed by a ``render_bench.Bench`` (its ``measure``)."""
 
-    def __init__(self, bench):
+    def __init__(self, bench, picture_dir=None):
         self.bench = bench
+        self.picture_dir = picture_dir   # the crowd's picture goes there (crowd.png)
         self.ctx = bench.ctx
         self.cfg = SCALE_CONFIG[bench.mode]
         self._found: dict = {}   # want_coverage -> the close-up camera found for it
@@ -159,13 +168,14 @@ class RenderScale:
         """RenderSettings changes: the defaults at this section's size."""
         return {"size": tuple(self.cfg["size"]), **self.cfg["render"], **changes}
 
-    def _measure(self, bench: str, key: str, name: str, groom, head, source: str, settings, camera, **fields):
+    def _measure(self, bench: str, key: str, name: str, groom, head, source: str, settings, camera, picture=None,
+                 **fields):
         b = self.bench
         work, b.work = b.work, _Fixed(groom, head, source)
         n_before = len(b.rows)
         try:
             b.measure(bench, name, guides=groom.num_strands, points=groom.uniform_count or 0,
-                      settings=settings, camera=camera, **fields)
+                      settings=settings, camera=camera, picture=picture, **fields)
         finally:
             b.work = work
         row = b.rows[-1] if len(b.rows) > n_before else None
@@ -210,10 +220,19 @@ class RenderScale:
                 self._skip("scale_closeup", key, name, exc, **fields)
                 continue
             camera = (lambda c: lambda r: r.default_camera(azimuth=c[0], distance_scale=c[1], points=None))(scale)
-            row = self._measure("scale_closeup", key, name, groom, head, "default_groom", s, camera,
-                                azimuth=scale[0], distance_scale=scale[1], **fields)
-            if row is not None:   # the coverage at the timed frame's size, groom and camera
-                row.update(cov, coverage_met=bool(cov["coverage"] >= want))
+            for k, nm, st in self._lod_variants(key, name, s):
+                row = self._measure("scale_closeup", k, nm, groom, head, "default_groom", st, camera,
+                                    azimuth=scale[0], distance_scale=scale[1], **fields)
+                if row is not None:   # the coverage at the timed frame's size, groom and camera
+                    row.update(cov, coverage_met=bool(cov["coverage"] >= want))
+
+    def _lod_variants(self, key: str, name: str, settings: dict) -> list:
+        """(key, name, settings) of a row: as it is (the coverage LOD on, the default), and with
+        the LOD off where the mode's ``no_lod`` names the row."""
+        out = [(key, name, settings)]
+        if key in self.cfg.get("no_lod", ()):
+            out.append((f"{key}_no_lod", f"{name}, LOD off", dict(settings, lod_depth=0.0)))
+        return out
 
     def _probe_renderer(self, s, groom, head):
         from ..render import Renderer
@@ -261,8 +280,9 @@ class RenderScale:
             except Exception as exc:
                 self._skip("scale_strands", key, name, exc, **fields)
                 continue
-            self._measure("scale_strands", key, name, groom, self.bench.work.head, "default_groom",
-                          self._settings(strands_per_guide=spg), None, **fields)
+            for k, nm, st in self._lod_variants(key, name, self._settings(strands_per_guide=spg)):
+                self._measure("scale_strands", k, nm, groom, self.bench.work.head, "default_groom", st, None,
+                              **fields)
 
     def crowd(self) -> None:
         cfg = self.cfg
@@ -270,22 +290,34 @@ class RenderScale:
         guides = int(cfg["guides"])
         spg = max(1, per // guides)
         fields = dict(heads=heads, strands_per_head=per, spacing_m=cfg["crowd_spacing"],
-                      instancing="none: one concatenated groom and merged head (the renderer draws one groom "
-                                 "a frame; Renderer.render clears its target)")
+                      instancing="one groom's guides drawn at a transform per head (Renderer.set_instances); "
+                                 "the heads one merged mesh")
         built = None
         for key, lod in (("crowd_lod", True), ("crowd_no_lod", False)):
             name = f"crowd {heads} heads x {_k(per)} strands, LOD {'on' if lod else 'off'}"
             try:
                 self.bench._before_config()
-                guard_bytes(self.ctx, expanded_bytes(heads * guides * spg, cfg["points"]),
+                # without the LOD every strand of every head is expanded; with it at least one
+                # head's (a head near the camera keeps all its strands)
+                guard_bytes(self.ctx, expanded_bytes((1 if lod else heads) * guides * spg, cfg["points"]),
                             f"{name}: the expanded strands")
                 if built is None:
-                    built = crowd(self._groom(guides), self.bench.work.head, heads, float(cfg["crowd_spacing"]))
+                    groom = self._groom(guides)
+                    built = (groom,) + crowd_instances(groom, self.bench.work.head, heads, float(cfg["crowd_spacing"]))
             except Exception as exc:
                 self._skip("scale_crowd", key, name, exc, lod=lod, **fields)
                 continue
-            self._measure("scale_crowd", key, name, built[0], built[1], f"default_groom x {heads}",
-                          self._settings(strands_per_guide=spg, lod=lod), None, lod=lod, **fields)
+            groom, transforms, head = built
+            picture = None
+            if lod and self.picture_dir is not None:
+                import os
+
+                os.makedirs(self.picture_dir, exist_ok=True)
+                picture = os.path.join(str(self.picture_dir), "crowd.png")
+            camera = (lambda m: lambda r: (r.set_instances(m), r.default_camera(points=None))[1])(transforms)
+            self._measure("scale_crowd", key, name, groom, head, f"default_groom x {heads} (instances)",
+                          self._settings(strands_per_guide=spg, **({} if lod else {"lod_depth": 0.0})), camera,
+                          lod=lod, picture=picture, **fields)
 
     # ---- simulate + render
     def sim_render(self) -> None:

@@ -45,6 +45,11 @@ ISSUE = {
     "strands_2m": (37.6, 16.7),
     "crowd_lod": (None, 16.7),
     "crowd_no_lod": (None, None),
+    # the same frames with the coverage LOD off (RenderSettings.lod_depth = 0): what it saves
+    "closeup_100k_50_no_lod": (10.0, None),
+    "closeup_1m_50_no_lod": (51.9, None),
+    "strands_1m_no_lod": (20.8, None),
+    "strands_2m_no_lod": (37.6, None),
     "sim_render": (21.3, 12.0),
     "cold_start": (2.8, 1.0),          # seconds
     "sim_1m": (15.8, 8.0),
@@ -64,6 +69,7 @@ SCALE_CONFIG = {
     # quick: tiny stand-ins with cheap settings (no shadows, one sample) and a coverage any
     # groom reaches: the JSON's structure on llvmpipe in CI, no timing claim
     "quick": dict(size=(160, 90), guides=64, points=17, render=dict(shadows="none", msaa=1),
+                  no_lod=("closeup_100k_50", "strands_1m"),
                   closeup=[("closeup_100k_50", 1024, 0.02)], cameras=((90.0, 0.5), (90.0, 0.3)),
                   strands=[("strands_100k", 256), ("strands_1m", 1024)],
                   crowd_heads=4, crowd_strands=256, crowd_spacing=0.6,
@@ -72,6 +78,8 @@ SCALE_CONFIG = {
                   cold_driver_cache=(True,), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
                   sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
     "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
+                    # rows measured a second time with the coverage LOD off (key + "_no_lod")
+                    no_lod=("closeup_100k_50", "closeup_1m_50", "strands_1m", "strands_2m"),
                     closeup=[("closeup_100k_50", 100_000, 0.5), ("closeup_100k_70", 100_000, 0.7),
                              ("closeup_1m_50", 1_000_000, 0.5)],
                     # (azimuth deg, distance scale) tried in order, the first whose hair coverage is

@@ -76,6 +76,16 @@ DEFAULT_HEAD_FRAME_FLOOR = -0.30
 """Lowest height (m) the default camera frames on the default bust (mid-chest)."""
 
 
+def _same_box(a, b) -> bool:
+    """Two (lo, hi) boxes equal (the strands keep their box object until refreshed; with
+    instances the box is made anew each call)."""
+    if a is b:
+        return True
+    if a is None or b is None:
+        return False
+    return bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
+
+
 class Renderer(GpuOwner):
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
@@ -128,6 +138,9 @@ class Renderer(GpuOwner):
         self._strand_table = None
         self.collider_sdf = None      # p (M, 3) -> (M,) signed distance; None: from settings / head
         self.lod_eye = None           # the camera's eye of the frame being drawn (LOD distances)
+        self.lod_view = None          # the camera's View of the frame being drawn (coverage LOD)
+        self.instances = None         # (I, 4, 4) rigid model transforms the groom is drawn at (set_instances)
+        self._lod_memo = None
         self.file_appearance: dict = {}   # what the groom's own colours / widths set (set_strands)
         self._scene_look: dict = {}       # the settings' values those replaced, restored for the next groom
         self.on_pass = None           # called with each pass's name after it ran (progress bars)
@@ -147,6 +160,75 @@ class Renderer(GpuOwner):
         """How far (m) a rendered strand may leave its guide (clump, strays, curl)."""
         s = self.settings
         return float(s.clump_radius) * (1.0 + float(s.stray_amount)) + float(s.curl_radius)
+
+    def set_instances(self, transforms) -> None:
+        """Draw the groom at every rigid local -> world 4x4 of ``transforms`` (a crowd: one
+        groom's guides, many heads), or once where it is (None). Each instance gets its own
+        coverage LOD (settings.lod_depth) by how the camera sees it; the expanded strands hold
+        only what is kept. Needs pipeline="compute" and no shadows="density"."""
+        if transforms is None:
+            self.instances = None
+        else:
+            m = np.asarray(transforms, dtype=np.float64)
+            if m.ndim != 3 or m.shape[1:] != (4, 4) or len(m) == 0 or not np.all(np.isfinite(m)):
+                raise UsageError("instances must be a non-empty list of finite 4x4 matrices")
+            self.instances = m
+        self._scene_box = None
+        self._light_views.clear()
+        self._geometry_version += 1
+
+    def instance_transforms(self) -> np.ndarray:
+        """(I, 4, 4): the instances' transforms (one identity without instances)."""
+        return self.instances if self.instances is not None else np.eye(4)[None]
+
+    def instance_boxes(self, pad: float = 0.0) -> list:
+        """Each instance's world box around the hair (padded by ``pad``): its local box's
+        corners transformed."""
+        from .coverage_lod import box_corners
+
+        lo, hi = self.strands.bbox()
+        if self.instances is None:
+            return [(lo - pad, hi + pad)]
+        c = np.c_[box_corners(lo - pad, hi + pad), np.ones(8)]
+        w = np.einsum("ijk,nk->inj", self.instances, c)[..., :3]
+        return list(zip(w.min(axis=1), w.max(axis=1)))
+
+    def hair_bbox(self) -> tuple[np.ndarray, np.ndarray]:
+        """The hair's world box (every instance), unpadded."""
+        if self.instances is None:
+            return self.strands.bbox()
+        boxes = self.instance_boxes()
+        return (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
+
+    def min_drawn_width_px(self) -> float:
+        """The narrowest a strand is drawn (pixels of the render size): the compute rasteriser's
+        one sample, the raster units' min_pixel_width."""
+        s = self.settings
+        if self.compute_raster:
+            return 1.0 / self.raster_grid if float(s.min_pixel_width) > 0 else 0.0
+        return float(s.min_pixel_width) * int(s.supersample)
+
+    def lod_plan(self, view=None):
+        """The coverage LOD's plan (mane.render.coverage_lod) at ``view`` (default: this frame's
+        camera): strands kept per guide for each instance. Everything is kept without a view,
+        with lod_depth 0 or with multi / hybrid interpolation."""
+        from .coverage_lod import LodPlan, lod_plan, mean_width
+
+        s, st = self.settings, self.strands
+        view = view if view is not None else self.lod_view
+        spg = int(s.strands_per_guide)
+        instances = len(self.instance_transforms())
+        if view is None or not float(s.lod_depth) > 0 or s.interpolation_mode != "single" or st is None:
+            return LodPlan((float("nan"),) * instances, (spg,) * instances, spg)
+        key = (id(view), id(s), self._geometry_version, st.bbox()[0].tobytes(), self.compute_raster)
+        memo = self._lod_memo
+        if memo is not None and memo[0] == key and memo[2] is view:
+            return memo[1]
+        plan = lod_plan(view, s.render_size, self.instance_boxes(self.strand_pad()), strands_per_guide=spg,
+                        guides=st.num_guides, mean_length=st.mean_length(), mean_width=mean_width(s),
+                        min_width_px=self.min_drawn_width_px(), lod_depth=float(s.lod_depth))
+        self._lod_memo = (key, plan, view)
+        return plan
 
     def set_guide_weights(self, guide_weights, weights=None, offsets=None) -> None:
         """Rendered strands for multi / hybrid interpolation: grooming's GuideWeights (R strands,
@@ -330,13 +412,14 @@ class Renderer(GpuOwner):
 
     def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
         """The hair's box (padded by strand_pad) and the head's, around the world's axes."""
-        st_box = self.strands.bbox() if self.strands is not None else None
+        st_box = self.hair_bbox() if self.strands is not None else None
         pad = self.strand_pad() if st_box is not None else 0.0
         draw_head = self.head is not None and bool(self.settings.draw_head)
         key = (pad, draw_head)
         memo = self._scene_box
         # the strands keep their box until it is refreshed (a new tuple); the head until set_head
-        if memo is None or memo[0] is not st_box or memo[1] is not self.head or memo[2] != key:
+        if (memo is None or not _same_box(memo[0], st_box) or memo[1] is not self.head
+                or memo[2] != key):
             los, his = [], []
             if st_box is not None:
                 los.append(st_box[0] - pad)
@@ -362,7 +445,7 @@ class Renderer(GpuOwner):
         the default bust no lower than mid-chest: a head-and-shoulders frame)."""
         if self.strands is None:
             return self.scene_bbox()
-        lo, hi = self.strands.bbox()
+        lo, hi = self.hair_bbox()
         pad = self.strand_pad()
         lo, hi = lo - pad, hi + pad
         if self.head is not None and self.settings.draw_head:
@@ -383,6 +466,8 @@ class Renderer(GpuOwner):
         if self.strands is None:
             return None
         p = self.strands.read_positions()[..., :3].reshape(-1, 3).astype(np.float64)
+        if self.instances is not None:   # every instance's points
+            p = np.einsum("ijk,nk->inj", self.instances, np.c_[p, np.ones(len(p))])[..., :3].reshape(-1, 3)
         if len(p) > max_points:
             p = p[np.linspace(0, len(p) - 1, max_points).astype(np.int64)]
         lo, hi = self.framing_bbox()
@@ -545,10 +630,10 @@ class Renderer(GpuOwner):
     def _hair_depth_range(self, lv: View) -> tuple[float, float]:
         if self.strands is None:
             return (0.0, 1.0)
-        box = self.strands.bbox()
+        box = self.hair_bbox()
         pad = self.strand_pad()
         memo = lv.__dict__.get("_hair_depth_range")   # kept on the (kept) light view
-        if memo is not None and memo[0] is box and memo[1] == pad:
+        if memo is not None and _same_box(memo[0], box) and memo[1] == pad:
             return memo[2]
         lo, hi = box
         lo, hi = lo - pad, hi + pad
@@ -574,6 +659,14 @@ class Renderer(GpuOwner):
         self._hdr_resolved = False
         frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
         self.lod_eye = frame.view.eye
+        self.lod_view = frame.view
+        if self.instances is not None:
+            from .passes.expand import pulls
+
+            if not pulls(self) or self.settings.shadows == "density":
+                raise UsageError("instances (set_instances) are drawn from the expanded strands: they need "
+                                 "pipeline='compute', a compute or no OIT method, and a shadow method other "
+                                 "than 'density'")
         if lights and self.settings.shadows != "none":
             frame.light_view = self.light_view(lights[0])
             frame.hair_depth_range = self._hair_depth_range(frame.light_view)
@@ -655,6 +748,7 @@ class Renderer(GpuOwner):
             "timing": self.profiler.source,
             "rendered_strands": self.rendered_strands,
             "rendered_segments": self.rendered_segments,
+            **self.lod_stats(),
             "guides": 0 if self.strands is None else self.strands.num_guides,
             "points_per_guide": 0 if self.strands is None else self.strands.points_per_strand,
             "msaa": self.samples,
@@ -668,6 +762,19 @@ class Renderer(GpuOwner):
             "instances_per_guide_segment": math.ceil(int(self.settings.strands_per_guide) / MAX_ISOLINES),
             **self.oit_stats(),
         }
+
+    def lod_stats(self) -> dict:
+        """The coverage LOD of the last frame: instances, their estimated depth complexity,
+        strands expanded (what every pass drew) and their share of the groom's."""
+        if self.strands is None:
+            return {}
+        plan = self.lod_plan()
+        full = len(plan.kept) * self.rendered_strands
+        drawn = self.get_pass("expand").strands if self.get_pass("expand").buffer is not None else None
+        d = [x for x in plan.depth if np.isfinite(x)]
+        return {"lod_depth": float(self.settings.lod_depth), "instances": len(plan.kept),
+                "lod_depth_complexity": (max(d) if d else None), "lod_keep_fraction": plan.keep_fraction(),
+                "strands_expanded": drawn, "strands_full": full}
 
     def _single_sample(self) -> None:
         for key in ("hdr_depth", "hdr", "hdr_resolved"):

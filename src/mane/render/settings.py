@@ -70,6 +70,16 @@ class RenderSettings:
         help="Fraction of ``segments`` kept at lod_end (Chen's segment LOD).")
     lod_min_segments: int = setting(4, lo=1, hi=4096, slider=(1, 64),
         help="Fewest segments per strand the LOD goes down to.")
+    lod_depth: float = setting(64.0, lo=0.0, hi=1000000.0, slider=(0.0, 256.0),
+        help="""Coverage LOD (mane.render.coverage_lod): the mean number of strands allowed to overlap
+        a pixel of the groom before strands are thinned. Each frame the groom's mean depth
+        complexity D is estimated from its box, strand count, mean length and width as the
+        camera sees them; past lod_depth only the first round(strands_per_guide * lod_depth / D)
+        strands of each guide are expanded and drawn (in every pass, the shadow maps too), each
+        widened by what was dropped, so that coverage and opacity stay the same in expectation,
+        and where strands are thinned and look short, with fewer segments. The default (64) leaves the default scenes untouched (50k strands at 1920x1080: D = 16)
+        and thins 1M strands there (D = 326) to a fifth. 0: off. Single-strand interpolation
+        with pipeline="compute" only.""")
     # --- strand multiplication
     strands_per_guide: int = setting(16, lo=1, hi=4096, slider=(1, 128),
         help="""Rendered strands per guide (the guide itself is strand 0). Beyond 64 (the tessellation

@@ -116,6 +116,20 @@ class StrandBuffers:
             raise UsageError(f"guide triangles must be ({self.num_guides}, 3) indices of guides")
         self.guide_triangles = t
 
+    def mean_length(self) -> float:
+        """The guides' mean polyline length (m): from the groom uploaded, else read back once (a
+        simulator's guides keep their rest length: constraints hold it)."""
+        if getattr(self, "_mean_length", None) is None:
+            from .coverage_lod import mean_strand_length
+
+            src = self.source
+            groom = getattr(src, "groom", src)
+            if groom is not None and hasattr(groom, "as_padded") and getattr(groom, "uniform_count", None):
+                self._mean_length = mean_strand_length(groom.as_padded())
+            else:
+                self._mean_length = mean_strand_length(self.read_positions())
+        return self._mean_length
+
     def bind(self) -> None:
         self.positions.bind_to_storage_buffer(B_POSITIONS)
         self.frames.bind_to_storage_buffer(B_FRAMES)

@@ -46,7 +46,10 @@ class ExpandPass(Pass):
     def key(self):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
-        return (id(r.strands), id(r.settings), r.geometry_version, eye)
+        plan = r.lod_plan()
+        N = r.strands.points_per_strand
+        sub = plan.subdivisions(subdivisions(r.settings, N), N - 1)
+        return (id(r.strands), id(r.settings), r.geometry_version, eye, plan.kept, sub, plan.levels(sub, N - 1))
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
@@ -56,7 +59,8 @@ class ExpandPass(Pass):
         r, ctx = self.renderer, self.ctx
         s, st = r.settings, r.strands
         N = st.points_per_strand
-        sub = subdivisions(s, N)
+        plan = r.lod_plan()
+        sub = plan.subdivisions(subdivisions(s, N), N - 1)   # the segment LOD: fewer where strands look short
         multi = s.interpolation_mode != "single"
         defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
                    "LOD": int(bool(s.lod))}
@@ -64,28 +68,43 @@ class ExpandPass(Pass):
         if multi:
             table = r.strand_table()
             table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
-            strands = int(table.count)
+            per_instance = [int(table.count)] * len(plan.kept)
             set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
-            _set(cs, "u_num_render", strands)
+            _set(cs, "u_num_render", int(table.count))
             key = self.key()   # the table may just have been built
+            kept = [int(s.strands_per_guide)] * len(plan.kept)
         else:
-            strands = st.num_guides * int(s.strands_per_guide)
             set_strand_uniforms(r, cs, lod_eye=r.lod_eye)
+            kept = list(plan.kept)   # coverage LOD: the first k strands of every guide
+            per_instance = [st.num_guides * k for k in kept]
+        strands = sum(per_instance)
         points = (N - 1) * sub + 1
         nbytes = max(strands * points * 32, 32)
-        if self.buffer is None or self.buffer.size != nbytes:
+        if self.buffer is None or self.buffer.size < nbytes:   # grown, never shrunk: the LOD moves with the camera
             from ...gpu.buffers import check_allocation
 
             check_allocation(ctx, nbytes, f"the expanded strands ({strands:,} rendered strands x {points} points, "
                              f"32 bytes each)", reduce="Render fewer strands (guides, strands_per_guide / "
-                             "--strands-per-guide) or fewer segments (--segments)")
+                             "--strands-per-guide), fewer segments (--segments) or a smaller lod_depth")
             if self.buffer is not None:
                 self.buffer.release()
             self.buffer = ctx.buffer(reserve=nbytes)
-        _set(cs, "u_num_strands", strands)
+        _set(cs, "u_subdivisions", sub)
         st.bind()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        run_1d(cs, strands * points)
+        first = 0
+        levels = plan.levels(sub, N - 1) if not multi else (sub,) * len(kept)
+        for model, n, k, scale, level in zip(r.instance_transforms(), per_instance, kept, plan.width_scale, levels):
+            if n == 0:
+                continue
+            _set(cs, "u_level", int(level))
+            _set(cs, "u_num_strands", n)
+            _set(cs, "u_kept_per_guide", max(1, k))
+            _set(cs, "u_width_scale", float(scale) if not multi else 1.0)
+            _set(cs, "u_first_strand", first)
+            _set(cs, "u_model", np.asarray(model, dtype=np.float64))
+            run_1d(cs, n * points)
+            first += n
         ctx.memory_barrier()
         self.points, self.strands, self._key = points, strands, key
 
@@ -105,7 +124,8 @@ class ExpandPass(Pass):
         run_1d(cs, self.segments)
 
     def read(self) -> np.ndarray:
-        """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random."""
+        """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random; instance by
+        instance, in each the first kept strands (coverage LOD) of every guide, guide by guide."""
         self.ensure()
         data = np.frombuffer(self.buffer.read(size=self.strands * self.points * 32), np.float32)
         return data.reshape(self.strands, self.points, 8).copy()

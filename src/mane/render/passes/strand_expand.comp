@@ -9,13 +9,22 @@
 // segments, a shorter last one, the rest of the points at the segment's end: zero-length
 // segments the rasterisers skip), so the curve changes continuously with the distance; a
 // strand fading out (its LOD alpha) has its width scaled by that alpha, 0: not drawn.
+// Coverage LOD (mane.render.coverage_lod): only the first u_kept_per_guide strands of each
+// guide are expanded, widened by u_width_scale. Instances: one dispatch per instance, its
+// strands from u_first_strand on, moved by its rigid transform u_model.
 layout(local_size_x = 128) in;
 #include "strand_common.glsl"
 #include "strand_eval.glsl"
 
 // 2 vec4 per point: (position, width), (unit tangent, strand random)
 layout(std430, binding = B_EXPANDED) writeonly buffer Expanded { vec4 expanded[]; };
-uniform int u_num_strands;     // rendered strands
+uniform int u_num_strands;     // rendered strands of this dispatch
+uniform int u_kept_per_guide;  // single: strands of each guide expanded (<= u_strands_per_guide)
+uniform float u_width_scale;   // u_strands_per_guide / u_kept_per_guide: the dropped strands' width
+uniform int u_first_strand;    // this dispatch's first strand in the buffer
+uniform mat4 u_model;          // the instance's local -> world (rigid)
+uniform int u_level;           // segments of a guide segment this instance uses (<= u_subdivisions):
+                               // its points past them sit at the segment's end (zero length)
 
 void main() {
     int points = (u_n - 1) * u_subdivisions + 1;
@@ -26,13 +35,13 @@ void main() {
     int j = idx - r * points;
     int seg = min(j / u_subdivisions, u_n - 2);
     int k = j - seg * u_subdivisions;
-    float u = float(k) / float(u_subdivisions);
+    float u = u_level < u_subdivisions ? min(float(k) / float(u_level), 1.0) : float(k) / float(u_subdivisions);
 #if MULTI
     vec3 root = guide_point(strand_table[min(r, u_num_render - 1)].guides.x, 0);
 #else
-    int guide = r / u_strands_per_guide;
-    int strand = r - guide * u_strands_per_guide;
-    vec3 root = guide_point(guide, 0);
+    int guide = r / u_kept_per_guide;
+    int strand = r - guide * u_kept_per_guide;
+    vec3 root = (u_model * vec4(guide_point(guide, 0), 1.0)).xyz;
 #endif
     float lod_count = float(u_strands_per_guide), lod_tp = 0.0;
 #if LOD
@@ -51,6 +60,7 @@ void main() {
                                  guide_point(guide, seg + 1), guide_point(guide, seg + 2),
                                  guide_normal(guide, seg), guide_normal(guide, seg + 1));
 #endif
-    expanded[2 * idx] = vec4(v.pos, v.width * v.lod_alpha);
-    expanded[2 * idx + 1] = vec4(v.tangent, v.rand);
+    int o = u_first_strand * points + idx;
+    expanded[2 * o] = vec4((u_model * vec4(v.pos, 1.0)).xyz, v.width * v.lod_alpha * u_width_scale);
+    expanded[2 * o + 1] = vec4(mat3(u_model) * v.tangent, v.rand);   // rigid: still unit
 }
