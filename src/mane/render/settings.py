@@ -189,6 +189,13 @@ class RenderSettings:
         help="""PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
         interpolation between the 4 nearest texels), for every shadow method's look-up. The
         default's 9 taps are as many as the earlier 3 x 3 box of nearest texels.""")
+    ms_shadow_footprint: int = setting(0, lo=0, hi=9, unit="texels",
+        help="""Deep opacity maps only: the multiple-scattering term (dual scattering's fibre count and
+        forward-scattered light) sees light 0's transmittance averaged over this many texels
+        square (a box like pcf's), the direct light the pcf box's; 0: both see the pcf box's. With
+        a fibre-resolving map (shadow_map_size 1024-2048, strand_opacity 1, pcf 1) the direct light
+        gets strand-resolved shadows while the scattered light stays smooth (docs/quality.md,
+        "Fibre-resolved direct shadows").""")
     head_pcf: int = setting(2, lo=1, hi=9, unit="texels",
         help="""The head's (skin's) PCF kernel, as ``pcf`` is the hair's. 1 (bilinear between the 4
         nearest texels) makes the head pass about 30% cheaper on an H200 but shows the shadow

@@ -268,6 +268,7 @@ def _lighting_uniforms(renderer, frame: Frame) -> dict:
                     "u_shadow_bias": float(s.shadow_bias) * texel, "u_shadow_texel": float(texel),
                     "u_normal_offset": float(s.shadow_normal_offset), "u_slope_bias": float(s.shadow_slope_bias),
                     "u_shadow_density": float(s.shadow_density),
+                    "u_ms_footprint": int(s.ms_shadow_footprint),
                     "u_dom_layers": tuple(float(f) * ext for f in s.dom_layers)})
     frame.memo["lighting"] = out
     return out

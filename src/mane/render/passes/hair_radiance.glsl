@@ -16,9 +16,9 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, P, falloff);
-        float vis = light_visibility(i, P);
+        vec2 vis = light_visibility_ms(i, P);
         vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis + hair_multiple_scattering(T, V, L, m, vis));
+        color += radiance * (hair_bsdf(T, V, L, m) * vis.x + hair_multiple_scattering(T, V, L, m, vis.y));
     }
     // darker toward the root: a touch of the occlusion a clump gives itself
     return color * mix(0.55, 1.0, smoothstep(0.0, 0.25, s));

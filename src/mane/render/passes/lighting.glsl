@@ -20,6 +20,7 @@ uniform float u_slope_bias;                  // surface receivers: depth bias pe
 float g_receiver_bias = 0.0;                 // m: more depth bias for the receiver being shaded
 uniform float u_shadow_density;
 uniform int u_pcf;
+uniform int u_ms_footprint;                  // texels of u_dom (settings.ms_shadow_footprint); 0: off
 
 #include "shadow_pcf.glsl"
 
@@ -131,6 +132,29 @@ float light_visibility(int i, vec3 P) {
     if (i < u_num_shadow_lights) return xlight_visibility(i, P);
 #endif
     return 1.0;
+}
+
+// (direct, multiple scattering) transmittance of light i at P. With deep opacity maps and
+// u_ms_footprint > 0 (settings.ms_shadow_footprint), light 0's multiple-scattering term sees the
+// deep opacity map's transmittance averaged over a u_ms_footprint x u_ms_footprint texel box
+// (PCF_BOX), the direct light the u_pcf box's: a fibre-resolving map (strand_opacity 1, pcf 1)
+// gives the direct light its strand-resolved shadows while the dual-scattering term (its fibre
+// count n = -log t, the forward-scattered T_f) stays the light's mean over a wider footprint
+// (Zinke et al. 2008: directFraction per fibre, the global term smooth). Otherwise both are
+// light_visibility. Costs (u_ms_footprint + 1)^2 more texel fetches and dom_opacity calls.
+vec2 light_visibility_ms(int i, vec3 P) {
+#if SHADOWS == 2
+    if (i == 0 && u_ms_footprint > 0) {
+        vec3 q = light_uvz(P);
+        ivec2 size = textureSize(u_dom, 0);
+        float ms;
+        PCF_BOX(ms, q.xy * vec2(size) - 0.5, size, t, u_ms_footprint,
+                exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+        return vec2(dom_transmittance(P), ms) * shadow_map_visibility(P);
+    }
+#endif
+    float v = light_visibility(i, P);
+    return vec2(v, v);
 }
 
 // The same for a point on a surface with unit normal N (the head), L toward light i: a surface
