@@ -185,8 +185,8 @@ class RenderSettings:
         "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head).""")
     shadow_map_size: int = setting(1024, lo=16, hi=8192, unit="texels", slider=(64, 4096),
         help="""Shadow / opacity map resolution (texels per side); 128..2048 is the intended range. The
-        default 1024 resolves clumps and most single fibres of a head of hair (0.2-0.6 mm
-        strands, ~0.35 mm texels): with pcf 1, strand_opacity 0.7 and ms_shadow_footprint 2 the
+        default 1024 resolves clumps and the thicker single fibres of a head of hair (Sintel:
+        0.2-0.6 mm strands, 0.47 mm texels): with pcf 1, strand_opacity 0.7 and ms_shadow_footprint 2 the
         per-pixel error against the path tracer drops 0.451 -> 0.415 (Sintel brown; docs/quality.md,
         "Fibre-resolved direct shadows").""")
     pcf: int = setting(1, lo=1, hi=9, unit="texels",
@@ -198,7 +198,7 @@ class RenderSettings:
         help="""Deep opacity maps only: the multiple-scattering term (dual scattering's fibre count and
         forward-scattered light) sees light 0's transmittance averaged over this many texels
         square (a box like pcf's), the direct light the pcf box's; 0: both see the pcf box's. With
-        a fibre-resolving map (shadow_map_size 1024-2048, strand_opacity 1, pcf 1) the direct light
+        a fibre-resolving map (shadow_map_size 1024-2048, strand_opacity 0.7-1, pcf 1) the direct light
         gets strand-resolved shadows while the scattered light stays smooth (docs/quality.md,
         "Fibre-resolved direct shadows").""")
     head_pcf: int = setting(2, lo=1, hi=9, unit="texels",

@@ -137,7 +137,7 @@ float light_visibility(int i, vec3 P) {
 // (direct, multiple scattering) transmittance of light i at P. With deep opacity maps and
 // u_ms_footprint > 0 (settings.ms_shadow_footprint), light 0's multiple-scattering term sees the
 // deep opacity map's transmittance averaged over a u_ms_footprint x u_ms_footprint texel box
-// (PCF_BOX), the direct light the u_pcf box's: a fibre-resolving map (strand_opacity 1, pcf 1)
+// (PCF_BOX), the direct light the u_pcf box's: a fibre-resolving map (1024^2, strand_opacity 0.7, pcf 1)
 // gives the direct light its strand-resolved shadows while the dual-scattering term (its fibre
 // count n = -log t, the forward-scattered T_f) stays the light's mean over a wider footprint
 // (Zinke et al. 2008: directFraction per fibre, the global term smooth). Otherwise both are
