@@ -224,3 +224,26 @@ def test_cli_bench_fidelity_decompose_rejects_an_unknown_scene(gl, capsys):
 
     assert main(["bench", "fidelity", "--quick", "--decompose", "--scenes", "nowhere"]) == 2
     assert "unknown fidelity scene" in capsys.readouterr().err
+
+
+def test_decompose_reference_noise_from_its_passes_by_hand():
+    """pass_halves: the mean of the first half of a reference's cached passes against the
+    second half's (relative MAE, the second half as reference), half of it the whole
+    reference's noise; None with a pass missing or a single pass."""
+    from types import SimpleNamespace
+
+    from mane.bench import fidelity_decompose as fd
+    from mane.reference.passes import pass_seed
+
+    a, b = np.full((2, 2, 3), 1.0), np.full((2, 2, 3), 1.2)
+    store = {f"64-{pass_seed(0, k)}": img for k, img in enumerate((a, a, b, b))}
+    reference = SimpleNamespace(cache_key=lambda spp, seed, **kw: f"{spp}-{seed}")
+    cache = SimpleNamespace(load=lambda folder, key: store.get(key))
+    mask = np.ones((2, 2), bool)
+    h = fd.pass_halves(reference, cache, None, {"spp": 256}, 0, mask)
+    assert h["passes"] == 4
+    assert h["halves_relative_mae"] == pytest.approx(0.2 / 1.2)        # |1.0 - 1.2| over luminance 1.2
+    assert h["reference_noise_estimate"] == pytest.approx(0.1 / 1.2)
+    assert fd.pass_halves(reference, cache, None, {"spp": 64}, 0, mask) is None      # one pass
+    del store[f"64-{pass_seed(0, 3)}"]
+    assert fd.pass_halves(reference, cache, None, {"spp": 256}, 0, mask) is None     # a pass not cached

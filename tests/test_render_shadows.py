@@ -368,3 +368,33 @@ def test_head_pcf_filters_the_skin_and_pcf_the_hair(gl):
     changed = np.abs(wide - base) > 2.0
     assert changed.sum() > 20, changed.sum()    # the penumbra's pixels,
     assert changed.mean() < 0.2                 # not the whole picture
+
+
+def test_ms_shadow_footprint_feeds_the_multiple_scattering_only(gl, scene):
+    """``ms_shadow_footprint`` N gives the multiple-scattering term light 0's deep-opacity
+    transmittance over an N x N texel box (PCF_BOX), the direct light keeps the pcf box: N equal to
+    pcf is the image of N = 0 (the same box, the same look-up), with multiple scattering off N
+    changes nothing, and with dual scattering on a box other than pcf's changes the hair's light."""
+    from mane.bench.fidelity import realtime_linear
+
+    def image(ms="dual", **kw):
+        r = make(gl, scene["groom"], shadows="deep_opacity", ambient=0.0, tone_mapping="none",
+                 shading_options={"multiple_scattering": ms}, **kw)
+        try:
+            return realtime_linear(r, None, [LIGHT])[..., :3].astype(np.float64)
+        finally:
+            r.release()
+
+    off = image(pcf=3, ms_shadow_footprint=0)
+    assert off.max() > 0.01                                              # lit hair in the picture
+    np.testing.assert_allclose(image(pcf=3, ms_shadow_footprint=3), off, rtol=0, atol=1e-6)
+    direct = image(ms="none", pcf=1, ms_shadow_footprint=0)
+    np.testing.assert_allclose(image(ms="none", pcf=1, ms_shadow_footprint=6), direct, rtol=0, atol=1e-6)
+    bilinear, wide = image(pcf=1, ms_shadow_footprint=0), image(pcf=1, ms_shadow_footprint=6)
+    changed = np.abs(wide - bilinear).max(axis=2) > 1e-3 * off.max()
+    hair = off.max(axis=2) > 0
+    assert changed.sum() > 0.3 * hair.sum(), (changed.sum(), hair.sum())    # llvmpipe: 238 of 303
+    # and only through the scattered light: the difference is no larger than the MS term itself
+    assert np.all(np.abs(wide - bilinear) <= np.abs(bilinear - direct) + np.abs(wide - direct) + 1e-6)
+    with pytest.raises(UsageError):
+        RenderSettings(ms_shadow_footprint=-1)

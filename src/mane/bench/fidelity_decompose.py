@@ -3,10 +3,12 @@ per-pixel error against the path tracer is made of.
 
     result = run(ctx, "default", spp=256, scenes=["sintel_brown"], progress=print)
 
-For each fixed scene (``fidelity.SCENES``, the bench's own settings and reference): the default
-frame against the reference, then the same frame with one thing changed on mane's side
-(``VARIANTS``: more coverage samples, sharper or fibre-resolving shadows, no shadows, the
-renderer's per-strand tangent tilt back on), each with the relative MAE per pixel and over 4 x 4
+For each fixed scene (``fidelity.SCENES``, the bench's own settings and reference; the mean of
+the seed's and the next seed's reference when both are cached): the default frame against the
+reference, then the same frame with one thing changed on mane's side
+(``VARIANTS``: more coverage samples, the shadow settings before 2026-12-02, one
+transmittance for the direct and the multiple-scattered light, fibre-resolving shadows, no
+shadows, the renderer's per-strand tangent tilt back on), each with the relative MAE per pixel and over 4 x 4
 blocks, the luminance and falloff ratios and the hair coverage (mane's HDR alpha over the
 reference's coverage, summed over the hair pixels). Probes on the default frame
 (``probes``): both images blurred by a Gaussian of sigma 0.5, 1 and 2 pixels (the spatial scale
@@ -14,7 +16,10 @@ the error lives at); mane's image shifted by up to half a pixel (cubic, both sid
 0.7 px first so that the shift's own smoothing does not count; a camera or pixel-centre
 mismatch shows as a best offset away from 0); and, when a second reference of seed 1 is in the
 cache, the two references against each other (the reference's own noise; one reference is
-about 1/sqrt(2) of that from the converged image). Results in docs/quality.md, "Where the
+about 1/sqrt(2) of that from the converged image); else, when the reference's 64-spp passes
+are in the cache (``mane.reference.passes``), their two halves against each other (128 spp
+each: the 256-spp reference's noise is about half of that; on Sintel brown 0.160 against the
+two seeds' 0.165). Results in docs/quality.md, "Where the
 per-pixel error lives".
 """
 from __future__ import annotations
@@ -29,14 +34,18 @@ VARIANTS = {
     "strand_spread 5 (the renderer's tilt)": {"strand_spread": 5.0},
     "msaa 8 (3 x 3 grid)": {"msaa": 8},
     "msaa 16 (4 x 4 grid)": {"msaa": 16},
-    "supersample 2": {"supersample": 2},
-    "msaa 16 + supersample 2": {"msaa": 16, "supersample": 2},
-    "pcf 1": {"pcf": 1},
-    "opacity map 1024, pcf 1, strand_opacity 0.5": {"shadow_map_size": 1024, "pcf": 1, "strand_opacity": 0.5},
-    "opacity map 2048, pcf 1, strand_opacity 1, msaa 16": {"shadow_map_size": 2048, "pcf": 1, "strand_opacity": 1.0,
-                                                            "msaa": 16},
-    "hard shadow map 2048, pcf 1, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "pcf": 1,
-                                             "shadow_bias": 1.0, "msaa": 16},
+    "ms_shadow_footprint 0 (one transmittance for both terms)": {"ms_shadow_footprint": 0},
+    "ms_shadow_footprint 4": {"ms_shadow_footprint": 4},
+    "strand_opacity 1": {"strand_opacity": 1.0},
+    "until 2026-12-02: opacity map 512, pcf 2, strand_opacity 0.35, one transmittance":
+        {"shadow_map_size": 512, "pcf": 2, "strand_opacity": 0.35, "ms_shadow_footprint": 0},
+    "opacity map 512, pcf 1, strand_opacity 0.5, one transmittance":
+        {"shadow_map_size": 512, "strand_opacity": 0.5, "ms_shadow_footprint": 0},
+    "opacity map 2048, strand_opacity 1, ms_shadow_footprint 8, msaa 16":
+        {"shadow_map_size": 2048, "strand_opacity": 1.0, "ms_shadow_footprint": 8, "msaa": 16},
+    "opacity map 2048, strand_opacity 1, one transmittance, msaa 16":
+        {"shadow_map_size": 2048, "strand_opacity": 1.0, "ms_shadow_footprint": 0, "msaa": 16},
+    "hard shadow map 2048, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "shadow_bias": 1.0, "msaa": 16},
     "no shadows": {"shadows": "none"},
 }
 BLUR_SIGMAS = (0.5, 1.0, 2.0)
@@ -68,6 +77,28 @@ def best_shift(test, ref, mask, shifts=SHIFTS, sigma: float = SHIFT_BLUR) -> dic
     best = min(scores, key=scores.get)
     return {"best": [float(best[0]), float(best[1])], "best_relative_mae": scores[best],
             "unshifted_relative_mae": scores[(0.0, 0.0)], "blur_sigma": sigma}
+
+
+def pass_halves(reference, cache, folder, common: dict, seed: int, mask) -> dict | None:
+    """The reference's noise from its own cached passes (``mane.reference.passes``, first
+    attempts): the mean of the first half of its passes against the second half's, relative
+    MAE per pixel; the whole reference's noise from the converged image is about half of that
+    (each half sqrt(2) times the whole's, the difference sqrt(2) times a half's). None when the
+    reference is one pass or a pass is not in the cache."""
+    from ..reference.passes import DEFAULT_PASS_SPP, pass_seed, split
+
+    counts = split(common["spp"], DEFAULT_PASS_SPP)
+    if len(counts) < 2 or len(counts) % 2:
+        return None
+    images = []
+    for k, n in enumerate(counts):
+        img = cache.load(folder, reference.cache_key(**{**common, "spp": n}, seed=pass_seed(seed, k)))
+        if img is None:
+            return None
+        images.append(img[..., :3].astype(np.float64))
+    h = len(images) // 2
+    r = fm.relative_mae(np.mean(images[:h], axis=0), np.mean(images[h:], axis=0), mask)
+    return {"passes": len(images), "halves_relative_mae": r, "reference_noise_estimate": 0.5 * r}
 
 
 def numbers(img, alpha, ref, cov, mask) -> dict:
@@ -106,6 +137,11 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
                       material=material)
         say(f"{name}: reference at {spp} spp")
         ref = reference.render(**common, seed=seed, cache_dir=cache_dir, progress=lambda m: say(f"{name}: {m}"))
+        folder = _cache.default_dir() if cache_dir is None else cache_dir
+        other = _cache.load(folder, reference.cache_key(**common, seed=seed + 1))
+        first = ref
+        if other is not None:       # the best reference there is: both seeds' mean
+            ref = 0.5 * (first + other[..., :3])
         cov = reference.hair_coverage(strands=strands, head=head, camera=camera, settings=base,
                                       spp=min(max(spp, 4), 16), seed=seed, cache_dir=cache_dir)
         mask = cov >= 0.5
@@ -128,13 +164,15 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
             img = frames["default"][..., :3]
             p["blur"] = {str(s): fm.relative_mae(blur(img, s), blur(ref, s), mask) for s in BLUR_SIGMAS}
             p["shift"] = best_shift(img, ref, mask)
-        other = _cache.load(_cache.default_dir() if cache_dir is None else cache_dir,
-                            reference.cache_key(**common, seed=seed + 1))
+        p["reference_seeds"] = [seed, seed + 1] if other is not None else [seed]
         if other is not None:
-            p["reference_noise"] = {"relative_mae": fm.relative_mae(other, ref, mask),
-                                    "relative_mae_box4": fm.relative_mae_box(other, ref, mask, 4),
-                                    "blur": {str(s): fm.relative_mae(blur(other, s), blur(ref, s), mask)
+            p["reference_noise"] = {"relative_mae": fm.relative_mae(other, first, mask),
+                                    "relative_mae_box4": fm.relative_mae_box(other, first, mask, 4),
+                                    "blur": {str(s): fm.relative_mae(blur(other, s), blur(first, s), mask)
                                              for s in BLUR_SIGMAS}}
+        halves = pass_halves(reference, _cache, folder, common, seed, mask)
+        if halves is not None:
+            p["reference_pass_halves"] = halves
         probes[name] = p
     meta = envelope(ctx, target="fidelity-decompose", mode=mode,
                     settings={"size": list(size), "spp": spp, "seed": seed, "variants": variants})
@@ -158,7 +196,12 @@ def format_text(result: dict) -> str:
                          f"(unshifted {s['unshifted_relative_mae']:.3f}, both blurred {s['blur_sigma']} px)")
         if "reference_noise" in p:
             n = p["reference_noise"]
-            lines.append(f"{name}: reference seed 1 vs seed 0: {n['relative_mae']:.3f} / {n['relative_mae_box4']:.3f}")
+            lines.append(f"{name}: reference seed 1 vs seed 0: {n['relative_mae']:.3f} / {n['relative_mae_box4']:.3f} "
+                         f"(the reference is their mean)")
+        if "reference_pass_halves" in p:
+            h = p["reference_pass_halves"]
+            lines.append(f"{name}: reference seed {p['reference_seeds'][0]}'s passes, half against half: "
+                         f"{h['halves_relative_mae']:.3f} (its noise ~{h['reference_noise_estimate']:.3f})")
     return "\n".join(lines)
 
 
@@ -182,4 +225,4 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers"]
+__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers", "pass_halves"]

@@ -39,10 +39,11 @@ PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
 
 def shadow_defines(settings, pcf: int | None = None) -> dict:
     """lighting.glsl's defines: SHADOWS (light 0's method), XSHADOWS (whether lights 1.. cast:
-    0 compiles their look-ups out) and PCF, the look-ups' PCF kernel (default the settings'
-    ``pcf``, the hair's; the head passes ``head_pcf``)."""
+    0 compiles their look-ups out), PCF, the look-ups' PCF kernel (default the settings'
+    ``pcf``, the hair's; the head passes ``head_pcf``) and MS_FOOTPRINT (the multiple
+    scattering's deep-opacity box, ``ms_shadow_footprint``)."""
     return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1),
-            "PCF": int(settings.pcf if pcf is None else pcf)}
+            "PCF": int(settings.pcf if pcf is None else pcf), "MS_FOOTPRINT": int(settings.ms_shadow_footprint)}
 
 
 class Target(NamedTuple):

@@ -26,12 +26,18 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
 #else
     vec4 vis = light_visibilities(P);
 #endif
+    // the multiple scattering's transmittance: the direct light's, except light 0's with deep
+    // opacity maps and MS_FOOTPRINT > 0 (light_visibility_ms: the map over a wider box)
+    vec4 vis_ms = vis;
+#if SHADOWS == 2 && MS_FOOTPRINT > 0 && !VERTEX_SHADOWS
+    vis_ms.x = light_visibility_ms(0, P).y;
+#endif
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, P, falloff);
         vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis[i]));
+        color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis_ms[i]));
     }
     // darker toward the root: a touch of the occlusion a clump gives itself
     return color * mix(0.55, 1.0, smoothstep(0.0, 0.25, s));

@@ -28,6 +28,11 @@ uniform float u_shadow_density;
 #endif
 #define PCF 1
 #endif
+// MS_FOOTPRINT: texels of u_dom the multiple scattering's look-up averages over
+// (settings.ms_shadow_footprint; shadow_defines), 0: off
+#ifndef MS_FOOTPRINT
+#define MS_FOOTPRINT 0
+#endif
 
 #include "shadow_pcf.glsl"
 
@@ -135,6 +140,29 @@ float light_visibility(int i, vec3 P) {
     if (i < u_num_shadow_lights) return xlight_visibility(i, P);
 #endif
     return 1.0;
+}
+
+// (direct, multiple scattering) transmittance of light i at P. With deep opacity maps and
+// MS_FOOTPRINT > 0 (settings.ms_shadow_footprint), light 0's multiple-scattering term sees the
+// deep opacity map's transmittance averaged over a MS_FOOTPRINT x MS_FOOTPRINT texel box
+// (PCF_BOX), the direct light the PCF box's: a fibre-resolving map (1024^2, strand_opacity 0.7, pcf 1)
+// gives the direct light its strand-resolved shadows while the dual-scattering term (its fibre
+// count n = -log t, the forward-scattered T_f) stays the light's mean over a wider footprint
+// (Zinke et al. 2008: directFraction per fibre, the global term smooth). Otherwise both are
+// light_visibility. Costs (MS_FOOTPRINT + 1)^2 more texel fetches and dom_opacity calls.
+vec2 light_visibility_ms(int i, vec3 P) {
+#if SHADOWS == 2
+    if (i == 0 && MS_FOOTPRINT > 0) {
+        vec3 q = light_uvz(P);
+        ivec2 size = textureSize(u_dom, 0);
+        float ms;
+        PCF_BOX(ms, q.xy * vec2(size) - 0.5, size, t, MS_FOOTPRINT,
+                exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+        return vec2(dom_transmittance(P), ms) * shadow_map_visibility(P);
+    }
+#endif
+    float v = light_visibility(i, P);
+    return vec2(v, v);
 }
 
 // The same for a point on a surface with unit normal N (the head), L toward light i: a surface
