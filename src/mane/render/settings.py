@@ -194,19 +194,20 @@ class RenderSettings:
         help="""How many lights, from light 0, cast shadows (1..4; Chen's scene: 3 lights, 2 casting).
         Each has its own maps: a shadow map, and with "deep_opacity" a deep opacity map; with
         "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head).""")
-    shadow_map_size: int = setting(512, lo=16, hi=8192, unit="texels", slider=(64, 4096),
-        help="""Shadow / opacity map resolution (texels per side); 128..2048 is the intended range.
-        1024 resolves clumps and the thicker single fibres of a head of hair (Sintel: 0.2-0.6 mm
-        strands, 0.47 mm texels): with pcf 1, strand_opacity 0.7 and ms_shadow_footprint 2 the
-        per-pixel error against the path tracer drops 0.451 -> 0.415 (Sintel brown), but the
-        50k-strand 1080p frame on an H200 takes 4.15 ms instead of 3.67 (docs/quality.md,
-        "Fibre-resolved direct shadows"), so it is not the default.""")
-    pcf: int = setting(2, lo=1, hi=9, unit="texels",
+    shadow_map_size: int = setting(1024, lo=16, hi=8192, unit="texels", slider=(64, 4096),
+        help="""Shadow / opacity map resolution (texels per side); 128..2048 is the intended range. The
+        default 1024 resolves clumps and the thicker single fibres of a head of hair (Sintel:
+        0.2-0.6 mm strands, 0.47 mm texels): with pcf 1, strand_opacity 0.7 and ms_shadow_footprint 2
+        the per-pixel error against the path tracer drops 0.451 -> 0.415 (Sintel brown) for 0.5 ms
+        of the 50k-strand 1080p frame on an H200 (3.38 -> 3.87 ms; docs/quality.md, "Fibre-resolved
+        direct shadows").""")
+    pcf: int = setting(1, lo=1, hi=9, unit="texels",
         help="""PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
         interpolation between the 4 nearest texels), for every shadow method's look-up of the
         hair's direct light (the skin's: head_pcf; the multiple scattering's with deep opacity
-        maps: ms_shadow_footprint). A compile-time constant: changing it recompiles.""")
-    ms_shadow_footprint: int = setting(0, lo=0, hi=9, unit="texels",
+        maps: ms_shadow_footprint). The default 1 keeps the fibre-fine map's strand shadows. A
+        compile-time constant: changing it recompiles.""")
+    ms_shadow_footprint: int = setting(2, lo=0, hi=9, unit="texels",
         help="""Deep opacity maps only: the multiple-scattering term (dual scattering's fibre count and
         forward-scattered light) sees light 0's transmittance averaged over this many texels
         square (a box like pcf's), the direct light the pcf box's; 0: both see the pcf box's. With
@@ -233,11 +234,11 @@ class RenderSettings:
         tan(angle between normal and light) (up to 10), against acne and banding at grazing light.""")
     dom_layers: tuple[float, float, float] = setting((0.05, 0.15, 1.0), lo=0.0, lo_open=True, hi=100.0,
         help="Deep opacity layer ends after z0, as fractions of the hair's depth extent seen from the light.")
-    strand_opacity: float = setting(0.35, lo=0.0, hi=100.0, slider=(0.0, 1.0),
+    strand_opacity: float = setting(0.7, lo=0.0, hi=100.0, slider=(0.0, 1.0),
         help="""Opacity one strand adds in the deep opacity map (per covered texel): a fibre crossed
-        passes exp(-shadow_density * strand_opacity) of the light (0.35 at the defaults). 0.7 (0.12:
-        nearly opaque) with a fibre-resolving map gives the direct light its strand shadows, the
-        light through the fibres then being the multiple-scattering term's.""")
+        passes exp(-shadow_density * strand_opacity) of the light (the default: 0.12, nearly
+        opaque: the direct light's strand shadows; the light through the fibres is the
+        multiple-scattering term's, ms_shadow_footprint).""")
     shadow_density: float = setting(3.0, lo=0.0, hi=1000.0, slider=(0.0, 10.0),
         help="""Scale of the opacity -> transmittance exponent: T = exp(-density * O). Every method uses
         it: one strand crossed passes exp(-shadow_density * strand_opacity) of the light.""")
