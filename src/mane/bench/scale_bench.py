@@ -294,7 +294,8 @@ class RenderScale:
                                  "the heads one merged mesh")
         built = None
         for key, lod in (("crowd_lod", True), ("crowd_no_lod", False)):
-            name = f"crowd {heads} heads x {_k(per)} strands, LOD {'on' if lod else 'off'}"
+            lod_depth = float(cfg["crowd_lod_depth"]) if lod else 0.0
+            name = f"crowd {heads} heads x {_k(per)} strands, LOD {f'on (lod_depth {lod_depth:g})' if lod else 'off'}"
             try:
                 self.bench._before_config()
                 # without the LOD every strand of every head is expanded; with it at least one
@@ -316,7 +317,7 @@ class RenderScale:
                 picture = os.path.join(str(self.picture_dir), "crowd.png")
             camera = (lambda m: lambda r: (r.set_instances(m), r.default_camera(points=None))[1])(transforms)
             self._measure("scale_crowd", key, name, groom, head, f"default_groom x {heads} (instances)",
-                          self._settings(strands_per_guide=spg, **({} if lod else {"lod_depth": 0.0})), camera,
+                          self._settings(strands_per_guide=spg, lod_depth=lod_depth), camera,
                           lod=lod, picture=picture, **fields)
 
     # ---- simulate + render
