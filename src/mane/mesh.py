@@ -74,6 +74,25 @@ class Mesh:
         length = np.linalg.norm(acc, axis=1, keepdims=True)
         return np.divide(acc, length, out=np.zeros_like(acc), where=length > 0).astype(np.float32)
 
+    def closed_outward(self) -> bool:
+        """Whether the mesh is closed and wound counter-clockwise seen from outside, so that its
+        back faces are never seen from outside (a renderer may cull them): every directed edge
+        a -> b occurs once and b -> a once (no boundary, no flipped or non-manifold face), and the
+        enclosed volume is positive."""
+        f = self.faces.astype(np.int64)
+        n = len(self.vertices)
+        a = np.concatenate([f[:, 0], f[:, 1], f[:, 2]])
+        b = np.concatenate([f[:, 1], f[:, 2], f[:, 0]])
+        edges = np.sort(a * n + b)
+        if len(edges) != len(np.unique(edges)):
+            return False
+        reverse = b * n + a
+        i = np.searchsorted(edges, reverse)
+        if not np.all((i < len(edges)) & (edges[np.minimum(i, len(edges) - 1)] == reverse)):
+            return False
+        t = self.vertices[self.faces].astype(np.float64)
+        return bool(np.einsum("ij,ij->i", t[:, 0], np.cross(t[:, 1], t[:, 2])).sum() > 0.0)
+
     def bbox(self) -> tuple[np.ndarray, np.ndarray]:
         return self.vertices.min(axis=0), self.vertices.max(axis=0)
 

@@ -102,6 +102,7 @@ class Renderer(GpuOwner):
         self.profiler = GpuProfiler(self.ctx, enabled=profile, source=profiler_source)
         self.strands: StrandBuffers | None = None
         self.head = None
+        self.head_closed = False   # set_head: a closed, outward-wound head (its back faces culled)
         self.head_transform = np.eye(4)
         self._initial_fbo = self.ctx.fbo
         self._head_gpu = None
@@ -367,8 +368,10 @@ class Renderer(GpuOwner):
             self._head_gpu = None
             self._vaos = {k: v for k, v in self._vaos.items() if k[0] != "head"}
         self.head = mesh
+        self.head_closed = False
         if mesh is None:
             return
+        self.head_closed = mesh.closed_outward()   # the head pass culls its back faces then
         scalp = mesh.vertex_attributes.get("scalp")
         if scalp is None:
             scalp = np.zeros(len(mesh.vertices), np.float32)

@@ -1,6 +1,8 @@
 """The head mesh: Lambert skin, the scalp tinted toward the hair, shadowed by hair and head."""
 from __future__ import annotations
 
+import numpy as np
+
 from ...gpu.glsl import program
 from .base import shader_path, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 
@@ -26,4 +28,16 @@ class HeadPass(Pass):
         set_uniform(prog, "u_skin", tuple(s.skin_color))
         hair = r.hair_color()
         set_uniform(prog, "u_scalp_color", tuple(0.8 * c + 0.2 * k for c, k in zip(hair, s.skin_color)))
-        r.draw_head(prog)
+        # a closed head wound outward shows only its front faces: culling the back ones halves
+        # the fragments on a CPU rasteriser (llvmpipe, the software preset: 41 -> 26 ms a frame),
+        # the same picture; not under a mirroring transform, nor for an open or flipped mesh
+        cull = r.head_closed and float(np.linalg.det(r.head_transform[:3, :3])) > 0.0
+        if cull:
+            ctx.cull_face = "back"
+            ctx.front_face = "ccw"
+            ctx.enable(ctx.CULL_FACE)
+        try:
+            r.draw_head(prog)
+        finally:
+            if cull:
+                ctx.disable(ctx.CULL_FACE)
