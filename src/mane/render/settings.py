@@ -199,7 +199,7 @@ class RenderSettings:
         default 1024 resolves clumps and the thicker single fibres of a head of hair (Sintel:
         0.2-0.6 mm strands, 0.47 mm texels): with pcf 1, strand_opacity 0.7 and ms_shadow_footprint 2
         the per-pixel error against the path tracer drops 0.451 -> 0.415 (Sintel brown) for 0.5 ms
-        of the 50k-strand 1080p frame on an H200 (3.38 -> 3.87 ms; docs/quality.md, "Fibre-resolved
+        of the 50k-strand 1080p frame on an H200 (3.09 -> 3.56 ms; docs/quality.md, "Fibre-resolved
         direct shadows").""")
     pcf: int = setting(1, lo=1, hi=9, unit="texels",
         help="""PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
