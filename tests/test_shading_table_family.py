@@ -64,7 +64,7 @@ def test_grid_values_are_exact_and_come_back_from_disk(fresh_cache):
     exact = sh.ShadingSettings(sigma_a=sigma, chiang_size=8).chiang_table()
     first = s.chiang_table()
     np.testing.assert_allclose(first, exact, rtol=1e-5, atol=1e-8)
-    files = sorted(p.name for p in (fresh_cache / "mane" / "tables").glob("chiang-*.npy"))
+    files = sorted(p.name for p in (fresh_cache / "mane" / "tables").glob("chiang-*.npz"))
     assert len(files) == 6   # each channel's grid value and its upper neighbour
     tf._memory.clear()
 

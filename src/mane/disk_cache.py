@@ -55,26 +55,28 @@ def path(kind: str, key: str) -> Path | None:
     return None if base is None else base / kind / f"{key}.npz"
 
 
-def arrays(kind: str, key: str, build) -> tuple[np.ndarray, ...]:
-    """``build()``'s tuple of arrays, read from ``ROOT/kind/key.npz`` when it is there, else
-    built and written."""
+def load(kind: str, key: str) -> tuple[np.ndarray, ...] | None:
+    """The arrays stored under ``ROOT/kind/key.npz``, or None (absent, cache off, or unreadable:
+    then with a warning)."""
     file = path(kind, key)
-    if file is not None and file.is_file():
-        try:
-            with np.load(file, allow_pickle=False) as z:
-                n = int(z["count"])
-                return tuple(z[f"a{i}"] for i in range(n))
-        except Exception as exc:  # noqa: BLE001  any damage at all: build again
-            warnings.warn(f"mane: ignoring the unreadable cache file {file} ({type(exc).__name__}: {exc}); "
-                          "building it again", RuntimeWarning, stacklevel=2)
-    out = tuple(np.asarray(a) for a in build())
-    if file is not None:
-        _save(file, out)
-    return out
+    if file is None or not file.is_file():
+        return None
+    try:
+        with np.load(file, allow_pickle=False) as z:
+            n = int(z["count"])
+            return tuple(z[f"a{i}"] for i in range(n))
+    except Exception as exc:  # noqa: BLE001  any damage at all: build again
+        warnings.warn(f"mane: ignoring the unreadable cache file {file} ({type(exc).__name__}: {exc}); "
+                      "building it again", RuntimeWarning, stacklevel=3)
+        return None
 
 
-def _save(file: Path, out: tuple) -> None:
-    """Best effort, atomic (a temporary file renamed over): readers never see half a file."""
+def store(kind: str, key: str, out: tuple) -> None:
+    """Keep ``out`` (a tuple of arrays) under ``ROOT/kind/key.npz``; best effort, atomic (a
+    temporary file renamed over: readers never see half a file)."""
+    file = path(kind, key)
+    if file is None:
+        return
     try:
         file.parent.mkdir(parents=True, exist_ok=True)
         tmp = file.with_name(f".{file.stem}.{os.getpid()}.tmp.npz")
@@ -82,3 +84,13 @@ def _save(file: Path, out: tuple) -> None:
         os.replace(tmp, file)
     except OSError:
         pass
+
+
+def arrays(kind: str, key: str, build) -> tuple[np.ndarray, ...]:
+    """``build()``'s tuple of arrays, read from ``ROOT/kind/key.npz`` when it is there, else
+    built and stored."""
+    out = load(kind, key)
+    if out is None:
+        out = tuple(np.asarray(a) for a in build())
+        store(kind, key, out)
+    return out

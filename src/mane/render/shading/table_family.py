@@ -13,16 +13,17 @@ terms: nearly linear in that form). Error against the
 exact table: tests/test_shading_table_family.py (within 2% where a texel is above 1e-3 of the
 table's peak, 0.5% of the peak anywhere; the dual table's signed backscatter shift within 0.1
 degree). The grid costs ~20 s of NumPy per model the first time on a machine (a few grid values
-per new material until the grid fills), then is read from ~/.cache/mane/tables (cache_dir).
+per new material until the grid fills), then is read from the disk cache (mane.disk_cache: ~/.cache/mane/tables).
 """
 from __future__ import annotations
 
 import hashlib
-import os
 from collections import OrderedDict
 from pathlib import Path
 
 import numpy as np
+
+from ... import disk_cache
 
 SIGMA_0 = 0.05
 SIGMA_MAX = 40.0     # per unit radius; eumelanin 8 + pheomelanin 1.5 gives 12.6 in blue
@@ -35,21 +36,10 @@ _memory: "OrderedDict[tuple, np.ndarray]" = OrderedDict()
 _MEMORY_ENTRIES = 4 * GRID_SIZE
 
 
-def cache_dir() -> Path | None:
-    """Where the grid's tables are kept: ``mane.disk_cache.root()`` / tables ($XDG_CACHE_HOME or
-    ~/.cache, then mane/); None with MANE_NO_CACHE=1 (memory only)."""
-    from ... import disk_cache
-
-    base = disk_cache.root()
-    return None if base is None else base / "tables"
-
-
 def _code_hash() -> str:
     """The tables' builders as they are now (chiang.py, dual_scattering.py and the Marschner
     lobes of luts.py that the dual tables use): a change to any makes new files instead of
     reading stale ones."""
-    from ... import disk_cache
-
     here = Path(__file__).parent
     return disk_cache.file_hash(*(here / name for name in ("chiang.py", "dual_scattering.py", "luts.py")))
 
@@ -57,12 +47,10 @@ def _code_hash() -> str:
 CODE = _code_hash()
 
 
-def _file(kind: str, rest: tuple, i: int) -> Path | None:
-    root = cache_dir()
-    if root is None:
-        return None
+def _key(kind: str, rest: tuple, i: int) -> str:
+    """Grid value i's file name in the disk cache (``mane.disk_cache``, folder ``tables``)."""
     h = hashlib.sha1(repr((kind, rest, GRID_SIZE, SIGMA_0, SIGMA_MAX, CODE)).encode()).hexdigest()[:16]
-    return root / f"{kind}-{h}-{i:03d}.npy"
+    return f"{kind}-{h}-{i:03d}"
 
 
 def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
@@ -74,11 +62,10 @@ def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
         if key in _memory:
             _memory.move_to_end(key)
             continue
-        path = _file(kind, rest, i)
-        try:
-            _memory[key] = np.load(path, allow_pickle=False)
-            continue
-        except (OSError, ValueError, TypeError):   # absent, damaged, or no disk cache (None)
+        stored = disk_cache.load("tables", _key(kind, rest, i))   # None: absent, damaged or cache off
+        if stored is not None:
+            _memory[key] = stored[0]
+        else:
             todo.append(i)
     for j in range(0, len(todo), 3):
         idx = todo[j:j + 3]
@@ -87,23 +74,9 @@ def _grid_tables(kind: str, rest: tuple, needed: list[int], build) -> None:
         for c, i in enumerate(idx):
             one = np.stack([table[..., c], table[..., 3]], axis=-1)   # its channel, the colourless column
             _memory[(kind, rest, i)] = one
-            _save(_file(kind, rest, i), one)
+            disk_cache.store("tables", _key(kind, rest, i), (one,))
     while len(_memory) > _MEMORY_ENTRIES:
         _memory.popitem(last=False)
-
-
-def _save(path: Path | None, a: np.ndarray) -> None:
-    """Best effort: a cache that cannot be written is rebuilt next time."""
-    if path is None:
-        return
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-        with open(tmp, "wb") as f:
-            np.save(f, a, allow_pickle=False)
-        os.replace(tmp, path)
-    except OSError:
-        pass
 
 
 def bracket(sigma: float) -> tuple[int, float]:
