@@ -23,14 +23,15 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
     vec3 color = u_ambient * m.color;
 #if VERTEX_SHADOWS
     vec4 vis = g_vis;
+    vec4 vis_ms = g_vis;
 #else
-    vec4 vis = light_visibilities(P);
-#endif
     // the multiple scattering's transmittance: the direct light's, except light 0's with deep
-    // opacity maps and MS_FOOTPRINT > 0 (light_visibility_ms: the map over a wider box)
+    // opacity maps and MS_FOOTPRINT > 0 (light0_visibility_ms: the map over a wider box)
+    vec2 v0 = light0_visibility_ms(P);
+    vec4 vis = light_visibilities_from(1, P);
     vec4 vis_ms = vis;
-#if SHADOWS == 2 && MS_FOOTPRINT > 0 && !VERTEX_SHADOWS
-    vis_ms.x = light_visibility_ms(0, P).y;
+    vis.x = v0.x;
+    vis_ms.x = v0.y;
 #endif
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= u_num_lights) break;

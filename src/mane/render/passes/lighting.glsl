@@ -142,27 +142,26 @@ float light_visibility(int i, vec3 P) {
     return 1.0;
 }
 
-// (direct, multiple scattering) transmittance of light i at P. With deep opacity maps and
-// MS_FOOTPRINT > 0 (settings.ms_shadow_footprint), light 0's multiple-scattering term sees the
-// deep opacity map's transmittance averaged over a MS_FOOTPRINT x MS_FOOTPRINT texel box
-// (PCF_BOX), the direct light the PCF box's: a fibre-resolving map (1024^2, strand_opacity 0.7, pcf 1)
-// gives the direct light its strand-resolved shadows while the dual-scattering term (its fibre
-// count n = -log t, the forward-scattered T_f) stays the light's mean over a wider footprint
-// (Zinke et al. 2008: directFraction per fibre, the global term smooth). Otherwise both are
-// light_visibility. Costs (MS_FOOTPRINT + 1)^2 more texel fetches and dom_opacity calls.
-vec2 light_visibility_ms(int i, vec3 P) {
-#if SHADOWS == 2
-    if (i == 0 && MS_FOOTPRINT > 0) {
-        vec3 q = light_uvz(P);
-        ivec2 size = textureSize(u_dom, 0);
-        float ms;
-        PCF_BOX(ms, q.xy * vec2(size) - 0.5, size, t, MS_FOOTPRINT,
-                exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
-        return vec2(dom_transmittance(P), ms) * shadow_map_visibility(P);
-    }
+// (direct, multiple scattering) transmittance of light 0 at P. With deep opacity maps and
+// MS_FOOTPRINT > 0 (settings.ms_shadow_footprint) the multiple-scattering term sees the deep
+// opacity map's transmittance averaged over a MS_FOOTPRINT x MS_FOOTPRINT texel box (PCF_BOX),
+// the direct light the PCF box's (the shadow map looked up once for both): a fibre-resolving map
+// (1024^2, strand_opacity 0.7, pcf 1) gives the direct light its strand-resolved shadows while
+// the dual-scattering term (its fibre count n = -log t, the forward-scattered T_f) stays the
+// light's mean over a wider footprint (Zinke et al. 2008: directFraction per fibre, the global
+// term smooth). Otherwise both are light0_visibility. Costs (MS_FOOTPRINT + 1)^2 more texel
+// fetches and dom_opacity calls.
+vec2 light0_visibility_ms(vec3 P) {
+#if SHADOWS == 2 && MS_FOOTPRINT > 0
+    vec3 q = light_uvz(P);
+    ivec2 size = textureSize(u_dom, 0);
+    float ms;
+    PCF_BOX(ms, q.xy * vec2(size) - 0.5, size, t, MS_FOOTPRINT,
+            exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
+    return vec2(dom_transmittance(P), ms) * shadow_map_visibility(P);
+#else
+    return vec2(light0_visibility(P));
 #endif
-    float v = light_visibility(i, P);
-    return vec2(v, v);
 }
 
 // The same for a point on a surface with unit normal N (the head), L toward light i: a surface
@@ -197,13 +196,18 @@ float surface_light_visibility(int i, vec3 P, vec3 N, vec3 L) {
 #else
 #define SHADOW_CASTERS 1
 #endif
-vec4 light_visibilities(vec3 P) {
+// Lights from `first` on (1 for the lights before it).
+vec4 light_visibilities_from(int first, vec3 P) {
     vec4 vis = vec4(1.0);
 #if SHADOWS != 0
-    for (int i = 0; i < SHADOW_CASTERS; ++i)
+    for (int i = first; i < SHADOW_CASTERS; ++i)
         if (i < u_num_lights) vis[i] = light_visibility(i, P);
 #endif
     return vis;
+}
+
+vec4 light_visibilities(vec3 P) {
+    return light_visibilities_from(0, P);
 }
 
 vec4 surface_light_visibilities(vec3 P, vec3 N) {

@@ -8,7 +8,7 @@
 //
 //   t  = directFraction = transmittance (deep opacity map, 1 at the lit surface; with
 //        settings.ms_shadow_footprint > 0 the map's mean over that texel box, while the direct
-//        light hair_bsdf(..) * vis uses the pcf box: lighting.glsl, light_visibility_ms)
+//        light hair_bsdf(..) * vis uses the pcf box: lighting.glsl, light0_visibility_ms)
 //   n  = -log(t), at most HAIR_DUAL_MAX_HAIRS: the mean number of fibres a ray towards the
 //        light meets. Fibres lie at random, so the count k is Poisson with mean n and the
 //        light that meets none is exp(-n) = t, which is what the deep opacity map measures.

@@ -4,7 +4,7 @@
 // transmittance in [0, 1] is the fraction of light reaching the fragment through the hair
 // in front of it (deep opacity map: exp(-opacity)); 1 at the lit surface. The renderer's
 // shadow and transmittance may differ: with settings.ms_shadow_footprint > 0 the latter is the
-// deep opacity map's over a wider texel box (hair_radiance.glsl, light_visibility_ms).
+// deep opacity map's over a wider texel box (hair_radiance.glsl, light0_visibility_ms).
 //
 // HAIR_MS_KARIS (Karis 2016, "Physically Based Hair Shading in Unreal", the UE4 code):
 //   fake normal N = normalize(V - T (T.V)); kk = 1 - |T.L|; wrap = saturate((N.L + 1) / 4)
