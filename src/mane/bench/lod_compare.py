@@ -25,11 +25,6 @@ import numpy as np
 GUIDES, POINTS = 6250, 17   # the scale rows' default groom (mane.bench.scale_rows)
 
 
-def _linear(img8) -> np.ndarray:
-    c = np.asarray(img8, np.float64) / 255.0
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4)
-
-
 def _frame(ctx, settings, groom, head, frames: int):
     from ..render import Renderer
 
@@ -61,14 +56,14 @@ def _frame(ctx, settings, groom, head, frames: int):
 
 
 def compare(ctx, strands: int, size, out: Path, lod_depth: float | None = None, rasterizer: str = "auto",
-            frames: int = 5, render: dict | None = None) -> dict:
+            frames: int = 5, render: dict | None = None, guides: int = GUIDES) -> dict:
     from ..bench import fidelity_metrics as fm
     from ..render import RenderSettings
     from .render_bench import Workloads
 
     work = Workloads()
-    spg = max(1, int(strands) // GUIDES)
-    groom = work.groom(GUIDES, POINTS)
+    spg = max(1, int(strands) // int(guides))
+    groom = work.groom(int(guides), POINTS)
     base = RenderSettings(size=tuple(size), strands_per_guide=spg, rasterizer=rasterizer, **(render or {}))
     on = base if lod_depth is None else base.replace(lod_depth=float(lod_depth))
     out.mkdir(parents=True, exist_ok=True)
@@ -81,7 +76,9 @@ def compare(ctx, strands: int, size, out: Path, lod_depth: float | None = None, 
     Image.fromarray(img_off).save(out / "lod_off.png")
     diff = np.clip(np.abs(img_on.astype(np.int32) - img_off.astype(np.int32)) * 4, 0, 255).astype(np.uint8)
     Image.fromarray(diff).save(out / "lod_diff.png")
-    a, b = _linear(img_on), _linear(img_off)
+    from ..render.passes.resolve import srgb_to_linear
+
+    a, b = srgb_to_linear(img_on / 255.0), srgb_to_linear(img_off / 255.0)
     hair = np.any(img_off != img_head, axis=-1)
     metrics = {}
     for name, mask in (("frame", None), ("hair", hair)):
@@ -89,7 +86,7 @@ def compare(ctx, strands: int, size, out: Path, lod_depth: float | None = None, 
             metrics[name] = fm.all_metrics(a, b, mask, with_flip=True)
         except Exception as exc:   # no flip-evaluator: the NumPy metrics alone
             metrics[name] = dict(fm.all_metrics(a, b, mask, with_flip=False), flip=None, flip_error=str(exc))
-    result = {"strands": GUIDES * spg, "guides": GUIDES, "strands_per_guide": spg, "size": list(size),
+    result = {"strands": int(guides) * spg, "guides": int(guides), "strands_per_guide": spg, "size": list(size),
               "lod_depth": on.lod_depth, "hair_pixels": int(hair.sum()), "lod_on": info_on, "lod_off": info_off,
               "metrics_on_vs_off": metrics,
               "note": "metrics: the LOD frame against the full one (sRGB output made linear); 'hair': pixels where "
