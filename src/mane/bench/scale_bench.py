@@ -24,13 +24,14 @@ GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
 ``scale_crowd``
     ``crowd_heads`` instances of one groom (``crowd_strands`` rendered strands each;
     ``Renderer.set_instances``: one groom's guides, a transform per head) and one merged head
-    mesh, on a grid ``crowd_spacing`` m apart, framed whole, with the coverage LOD
-    (``RenderSettings.lod_depth``, each head thinned by how the camera sees it: the expanded
+    mesh, on a grid ``crowd_spacing`` m apart, framed whole, with the coverage LOD at
+    ``crowd_lod_depth`` (``RenderSettings.lod_depth`` 32 rather than the default 64, whose kept
+    strands need more than an H200's 2 GiB storage block; each head thinned by how the camera sees it: the expanded
     strands hold only what is kept) and without (every strand of every head expanded: refused
     where that buffer cannot be made). ``RenderScale(bench, picture_dir=DIR)`` writes the LOD
     row's last frame to ``DIR/crowd.png``.
 
-Every row runs with the renderer's defaults, the coverage LOD on (``lod_depth``); the rows
+Every other row runs with the renderer's defaults, the coverage LOD on (``lod_depth``); the rows
 named in the mode's ``no_lod`` are measured again with it off (``lod_depth`` 0, key
 ``..._no_lod``). Each row's ``renderer_stats`` holds the LOD's figures (``lod_keep_fraction``,
 ``strands_expanded``, ``lod_depth_complexity``).

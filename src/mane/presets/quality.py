@@ -21,8 +21,10 @@ class Quality:
     msaa: int
     shading: str = "chiang"
     shadows: str = "deep_opacity"
-    shadow_map_size: int = 512
-    pcf: int = 2
+    shadow_map_size: int | None = None
+    """RenderSettings.shadow_map_size; None: the renderer's default (a fibre-resolving 1024)."""
+    pcf: int | None = None
+    """RenderSettings.pcf; None: the renderer's default."""
     sim_dt: float = 1.0 / 120.0
     friction: float = 0.05
     viewer_sim_dt: float | None = None
@@ -47,10 +49,10 @@ class Quality:
 
         base = dict(**DEFAULT_SCENE_RENDER, size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
-                    shadow_map_size=self.shadow_map_size, pcf=self.pcf, geometry=self.geometry,
-                    hair_shadow_lookup=self.hair_shadow_lookup,
+                    geometry=self.geometry, hair_shadow_lookup=self.hair_shadow_lookup,
                     shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
                                      "multiple_scattering": self.multiple_scattering})
+        base.update({k: v for k, v in (("shadow_map_size", self.shadow_map_size), ("pcf", self.pcf)) if v is not None})
         base.update(changes)
         return RenderSettings(**base)
 
