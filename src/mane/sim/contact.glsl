@@ -34,11 +34,8 @@ float sdf_at(sampler3D tex, vec3 lo, float h, vec3 x) {
     return sdf_trilinear(tex, lo, h, textureSize(tex, 0), x);
 }
 
-vec3 sdf_grad(sampler3D tex, vec3 lo, float h, vec3 x) {
-    float e = 0.5 * h;
-    vec3 g = vec3(sdf_at(tex, lo, h, x + vec3(e, 0, 0)) - sdf_at(tex, lo, h, x - vec3(e, 0, 0)),
-                  sdf_at(tex, lo, h, x + vec3(0, e, 0)) - sdf_at(tex, lo, h, x - vec3(0, e, 0)),
-                  sdf_at(tex, lo, h, x + vec3(0, 0, e)) - sdf_at(tex, lo, h, x - vec3(0, 0, e)));
+vec3 sdf_grad(sampler3D tex, vec3 lo, float h, vec3 x) {   // normalised central difference, e = h / 2
+    vec3 g = sdf_trilinear_diff(tex, lo, h, textureSize(tex, 0), x);
     float len = length(g);
     return len > 1e-12 ? g / len : vec3(0.0);
 }

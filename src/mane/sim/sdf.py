@@ -324,10 +324,15 @@ class MeshSDF:
         """Signed distance (metres) at points (n, 3) in the mesh's frame (the shaders' twin)."""
         return sample_grid(self.values, self.lo, self.h, points)
 
-    def gradient(self, points, eps: float | None = None) -> np.ndarray:
-        """Central-difference gradient of ``sample`` (step ``eps``, default h / 2), not normalised."""
-        e = 0.5 * self.h if eps is None else float(eps)
+    def gradient(self, points) -> np.ndarray:
+        """Central-difference gradient of ``sample`` (step h / 2), not normalised; the shaders'
+        twin (sdf_trilinear_diff): points nearer the box's faces than the stencil reaches (half a
+        node at the low faces, two at the high ones) take the gradient of the nearest point where
+        it does."""
+        e = 0.5 * self.h
         p = np.asarray(points, np.float64).reshape(-1, 3)
+        g_lo, g_hi = 0.5, np.array(self.shape, np.float64) - 2.0
+        p = self.lo + np.clip((p - self.lo) / self.h, g_lo, g_hi) * self.h
         g = np.zeros_like(p)
         for a in range(3):
             d = np.zeros(3)

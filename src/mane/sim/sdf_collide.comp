@@ -15,11 +15,8 @@ uniform mat4 prev_world_to_local;
 uniform float margin;
 uniform float friction;
 
-vec3 sdf_normal(vec3 x) {
-    float e = 0.5 * sdf_h;
-    vec3 g = vec3(sdf_value(x + vec3(e, 0, 0)) - sdf_value(x - vec3(e, 0, 0)),
-                  sdf_value(x + vec3(0, e, 0)) - sdf_value(x - vec3(0, e, 0)),
-                  sdf_value(x + vec3(0, 0, e)) - sdf_value(x - vec3(0, 0, e)));
+vec3 sdf_normal(vec3 x) {   // normalised central difference, e = h / 2
+    vec3 g = sdf_trilinear_diff(sdf_texture, sdf_lo, sdf_h, sdf_res, x);
     float len = length(g);
     return len > 1e-12 ? g / len : vec3(0.0);
 }

@@ -462,7 +462,11 @@ def sdf_value(sdf, x):
 
 
 def sdf_normal(sdf, x):
-    e = 0.5 * float(sdf["h"])
+    """The normalised central difference (step h / 2), taken at the nearest point whose stencil
+    lies in the box (node coordinates clamped to [1/2, res - 2], as sdf_trilinear_diff)."""
+    h, lo = float(sdf["h"]), np.asarray(sdf["lo"], float)
+    x = lo + np.clip((np.asarray(x, float) - lo) / h, 0.5, np.array(sdf["values"].shape) - 2.0) * h
+    e = 0.5 * h
     g = np.array([sdf_value(sdf, x + e * ax) - sdf_value(sdf, x - e * ax) for ax in np.eye(3)])
     n = np.linalg.norm(g)
     return g / n if n > 1e-12 else np.zeros(3)
