@@ -23,10 +23,12 @@ before the hair is scan-converted against it (Renderer.hdr_textures).
 from __future__ import annotations
 
 import math
+import os
 import re
 
 import numpy as np
 
+from ...errors import UsageError
 from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
@@ -37,6 +39,25 @@ STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
 # renderer strings of GPUs with few raster units for their size: "auto" picks compute there
 FEW_RASTER_UNITS = re.compile(r"\b(H100|H200|H800|H20|GH200|A100|A800|A30|B100|B200|GB200)\b", re.I)
+
+
+def _balance_from_env() -> int:
+    v = os.environ.get("MANE_RASTER_BALANCE", "1").strip()
+    if v not in ("0", "1"):
+        raise UsageError(f"MANE_RASTER_BALANCE must be 0 or 1, not {v!r}")
+    return int(v)
+
+
+# TEMPORARY, for issue 14's H200 A/B of the two scan-conversion forms (raster_segment.glsl):
+# 1, the load-balanced form (a work group shares its segments' sample columns), the default;
+# 0, one thread walks every column of its segment. Set from MANE_RASTER_BALANCE=0/1 at import;
+# read at each dispatch, so a script may flip it between frames. The losing form goes after the A/B.
+RASTER_BALANCE = _balance_from_env()
+
+
+def raster_defines() -> dict:
+    """The defines every kernel including raster_segment.glsl takes (RASTER_BALANCE)."""
+    return {"RASTER_BALANCE": int(bool(RASTER_BALANCE))}
 
 
 def sample_grid(msaa: int) -> int:
@@ -121,10 +142,10 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        raster_defines = {**defines, "RASTER_STATS": 1} if stats is not None else defines
+        scan = {**defines, **raster_defines(), **({"RASTER_STATS": 1} if stats is not None else {})}
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
-                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**raster_defines, "RASTER_PASS": raster_pass},
+                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**scan, "RASTER_PASS": raster_pass},
                                     include_dirs=[RENDER_DIR])
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)

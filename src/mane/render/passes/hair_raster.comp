@@ -58,7 +58,7 @@ void visit(ivec2 q, float z, float cov) {
 #include "raster_segment.glsl"
 
 void main() {
-    if (!raster_expanded_segment()) return;
+    raster_expanded_segment();   // every invocation (the balanced form shares the group's columns)
 #if RASTER_STATS
     uint slot = (gl_WorkGroupID.x & 63u) * 4u;
 #if VIS64 || RASTER_PASS == 0
