@@ -5,11 +5,16 @@ thin strands drawn as triangles are bound by a fraction of the chip; scan-conver
 compute shaders uses all of it (Unreal's and Frostbite's strand rasterisers do the same for
 thin hair). Per frame, after the head has been drawn by hardware into the HDR target:
 
-1. ``hair_raster.comp``, one thread per segment of the expanded strands (passes/expand.py):
+1. ``hair_raster.comp``, one invocation per segment of the expanded strands (passes/expand.py):
    every sample of a ``grid`` x ``grid`` per-pixel sample grid the segment covers
    (raster_segment.glsl) keeps the nearest segment in front of the head (atomic min of depth
    and id: one 64-bit atomic where the GPU has them, else two dispatches of 32-bit ones) and
-   adds -log(1 - coverage) to the sample's coverage sum.
+   adds -log(1 - coverage) to the sample's coverage sum. The scan conversion is load-balanced
+   (RASTER_BALANCE): each work group sets up its 128 segments, prefix-sums their sample
+   columns in shared memory and deals the columns to its threads, so that a close-up's long
+   segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
+   per-sample buffers are bit-identical to one thread walking its own segment (the atomics
+   commute). Both forms stay selectable (RASTER_BALANCE below) until the H200 A/B.
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples

@@ -11,7 +11,7 @@ uniform int u_points_per_strand;
 uniform int u_num_segments;         // rendered strands x (points - 1)
 #include "raster_view.glsl"
 
-uint g_id;
+uint g_id;   // the visited segment (its first point; RASTER_SEGMENT sets it)
 #ifndef RASTER_STATS
 #define RASTER_STATS 0
 #endif

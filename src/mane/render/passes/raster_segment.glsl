@@ -131,7 +131,7 @@ shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
 shared vec4 rs_zh[gl_WorkGroupSize.x];      // za, zb, ha, hb
 shared vec3 rs_c[gl_WorkGroupSize.x];       // ca, cb, inv_cos
 shared ivec3 rs_meta[gl_WorkGroupSize.x];   // x0, steep, first point
-shared int rs_end[gl_WorkGroupSize.x];      // inclusive prefix sum of the column counts
+shared int rs_scan[2u * gl_WorkGroupSize.x];   // the column counts' prefix sum, two halves in turn
 
 void raster_expanded_segment() {
     RasterSpan s;
@@ -142,34 +142,42 @@ void raster_expanded_segment() {
     rs_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
     rs_c[lid] = vec3(s.ca, s.cb, s.inv_cos);
     rs_meta[lid] = ivec3(s.x0, int(s.steep), i);
-    rs_end[lid] = raster_columns(s);
+    rs_scan[lid] = raster_columns(s);
     barrier();
-    for (int off = 1; off < RASTER_GROUP; off <<= 1) {   // Hillis-Steele scan
-        int v = lid >= off ? rs_end[lid - off] : 0;
-        barrier();
-        rs_end[lid] += v;
+    int src = 0;   // Hillis-Steele inclusive scan, reading one half and writing the other
+    for (int off = 1; off < RASTER_GROUP; off <<= 1) {
+        int v = rs_scan[src + lid];
+        if (lid >= off) v += rs_scan[src + lid - off];
+        src = RASTER_GROUP - src;
+        rs_scan[src + lid] = v;
         barrier();
     }
-    int total = rs_end[RASTER_GROUP - 1];   // <= group size x (RASTER_MAX_STEPS + 1): bounded
+    // rs_scan[src + k]: the columns of segments 0..k; column j of the group is column
+    // j - (end of k - 1) of the first segment k whose end passes j
+    int total = rs_scan[src + RASTER_GROUP - 1];   // <= group size x (RASTER_MAX_STEPS + 1): bounded
+    int lo = 0, cur = -1, start = 0;
+    RasterSpan t;
     for (int j = lid; j < total; j += RASTER_GROUP) {
-        int lo = 0, hi = RASTER_GROUP - 1;   // the first segment whose prefix end passes j
+        int hi = RASTER_GROUP - 1;   // j only grows: the last segment found bounds the search below
         while (lo < hi) {
             int mid = (lo + hi) >> 1;
-            if (rs_end[mid] > j) hi = mid; else lo = mid + 1;
+            if (rs_scan[src + mid] > j) hi = mid; else lo = mid + 1;
         }
-        int start = lo > 0 ? rs_end[lo - 1] : 0;
-        vec4 ad = rs_ad[lo], zh = rs_zh[lo];
-        vec3 c = rs_c[lo];
-        ivec3 m = rs_meta[lo];
-        RasterSpan t;
-        t.a = ad.xy; t.d = ad.zw;
-        t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
-        t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
-        t.steep = m.y != 0;
-        t.x0 = m.x;
-        t.x1 = m.x + rs_end[lo] - start - 1;
-        RASTER_SEGMENT(m.z);
-        raster_column(t, m.x + j - start, u_raster_size);
+        if (lo != cur) {   // a new segment for this thread: its span from shared memory
+            cur = lo;
+            start = lo > 0 ? rs_scan[src + lo - 1] : 0;
+            vec4 ad = rs_ad[lo], zh = rs_zh[lo];
+            vec3 c = rs_c[lo];
+            ivec3 m = rs_meta[lo];
+            t.a = ad.xy; t.d = ad.zw;
+            t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
+            t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
+            t.steep = m.y != 0;
+            t.x0 = m.x;
+            t.x1 = m.x + rs_scan[src + lo] - start - 1;
+            RASTER_SEGMENT(m.z);
+        }
+        raster_column(t, t.x0 + j - start, u_raster_size);
     }
 }
 #else
