@@ -6,8 +6,8 @@ a sample saturates: assert_cover_equal): the same samples visited with the same 
 coverage, whatever thread visits them. Scenes: thin strands widened to
 a sample, wide close-up strands crossing many samples (some leaving the frame), segments in
 every direction (steep, shallow, both ways), strands crossing the eye's plane (ends behind the
-eye, and ends just in front of it whose projections are huge: the RASTER_MAX_STEPS / SPAN
-bounds), on one sample per pixel and 2 x 2. llvmpipe has no 64-bit atomics, so there this runs
+eye), ends just in front of it whose projections are huge (the RASTER_MAX_SPAN bound) and
+segments longer than RASTER_MAX_STEPS columns, on one sample per pixel, 2 x 2 and 3 x 3. llvmpipe has no 64-bit atomics, so there this runs
 the two-pass 32-bit path; a GPU with them runs VIS64. Also the deep opacity maps
 (dom_raster.comp) and the OIT fill (oit_raster.comp) that include the same scan conversion."""
 from __future__ import annotations
@@ -121,6 +121,29 @@ def test_hostile_segments_are_bounded_in_both_forms(gl, monkeypatch):
     np.testing.assert_array_equal(got[0][0]["ids"], got[1][0]["ids"])
     assert_cover_equal(got[0][0]["cover"], got[1][0]["cover"])
     assert got[0][1] == got[1][1] and got[0][1]["sample_visits"] > 0
+
+
+def test_columns_past_raster_max_steps_are_cut_in_both_forms(gl, monkeypatch):
+    # two horizontal one-segment strands across a 4096 x 8 frame at 3 x 3 samples a pixel
+    # (12288 sample columns, the segments wider still): each is cut to RASTER_MAX_STEPS + 1
+    # columns from the frame's left edge, one sample each (widened to one sample: h = 0.5)
+    import re
+    from pathlib import Path
+
+    text = (Path(hair_compute.__file__).parent / "raster_segment.glsl").read_text()
+    steps = int(re.search(r"#define RASTER_MAX_STEPS (\d+)", text)[1])
+    x = np.array([[-150.0], [150.0]])
+    g = Groom.from_strands([np.c_[x, np.zeros_like(x), np.zeros_like(x)], np.c_[x, np.full_like(x, 0.02), 0 * x]])
+    cam = Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0))
+    assert 12288 > steps + 1
+    for form in (0, 1):
+        bufs, stats, _ = _capture(gl, form, monkeypatch, g, camera=cam, size=(4096, 8), msaa=8, width=0.0006,
+                                  segments=1, strands_per_guide=1)
+        assert stats["segments"] == 2
+        assert stats["sample_visits"] == 2 * (steps + 1), form
+        hit = bufs["ids"] >= 0
+        assert hit.sum() == 2 * (steps + 1)
+        assert hit[:, :steps + 1].any(axis=0).all() and not hit[:, steps + 1:].any()
 
 
 def test_deep_opacity_maps_are_bit_identical(gl, monkeypatch):
