@@ -1,5 +1,5 @@
 """The compute rasteriser's two scan-conversion forms (raster_segment.glsl, RASTER_BALANCE;
-hair_compute.RASTER_BALANCE): one thread walking every sample column of its segment, and the
+raster_segment.RASTER_BALANCE): one thread walking every sample column of its segment, and the
 load-balanced form in which a work group shares its segments' columns. Atomic min and integer
 add commute, so both must leave the per-sample buffers bit-identical (the coverage up to where
 a sample saturates: assert_cover_equal): the same samples visited with the same depth and
@@ -15,7 +15,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-import mane.render.passes.hair_compute as hair_compute
+import mane.render.passes.raster_segment as raster_segment
 from mane.errors import UsageError
 from mane.groom import Groom
 from mane.grooming.scene import default_scene
@@ -47,7 +47,7 @@ def star_groom() -> Groom:
 def _capture(gl, form: int, monkeypatch, groom, head=None, camera=None, azimuth=25.0, distance_scale=1.0, **kw):
     """(the per-sample buffers after the raster pass, count_samples' statistics) with
     RASTER_BALANCE = form."""
-    monkeypatch.setattr(hair_compute, "RASTER_BALANCE", form)
+    monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
     s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
                           "draw_head": head is not None, **kw})
     r = Renderer(s, ctx=gl, profile=False)
@@ -130,7 +130,7 @@ def test_columns_past_raster_max_steps_are_cut_in_both_forms(gl, monkeypatch):
     import re
     from pathlib import Path
 
-    text = (Path(hair_compute.__file__).parent / "raster_segment.glsl").read_text()
+    text = Path(raster_segment.__file__).with_suffix(".glsl").read_text()
     steps = int(re.search(r"#define RASTER_MAX_STEPS (\d+)", text)[1])
     x = np.array([[-150.0], [150.0]])
     g = Groom.from_strands([np.c_[x, np.zeros_like(x), np.zeros_like(x)], np.c_[x, np.full_like(x, 0.02), 0 * x]])
@@ -150,7 +150,7 @@ def test_deep_opacity_maps_are_bit_identical(gl, monkeypatch):
     groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
     maps = []
     for form in (0, 1):
-        monkeypatch.setattr(hair_compute, "RASTER_BALANCE", form)
+        monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
         r = Renderer(RenderSettings(size=(96, 72), msaa=1, rasterizer="compute", shadows="deep_opacity",
                                     shadow_map_size=128, strands_per_guide=4), ctx=gl, profile=False)
         try:
@@ -171,7 +171,7 @@ def test_oit_fill_is_the_same_in_both_forms(gl, monkeypatch):
 
     got = []
     for form in (0, 1):
-        monkeypatch.setattr(hair_compute, "RASTER_BALANCE", form)
+        monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
         r = Renderer(RenderSettings(size=(96, 72), msaa=1, rasterizer="compute", oit="k_buffer", oit_k=4,
                                     shadows="none"), ctx=gl, profile=False)
         try:
@@ -195,13 +195,13 @@ def test_oit_fill_is_the_same_in_both_forms(gl, monkeypatch):
 
 def test_raster_balance_environment_variable(monkeypatch):
     monkeypatch.setenv("MANE_RASTER_BALANCE", "0")
-    assert hair_compute._balance_from_env() == 0
+    assert raster_segment._balance_from_env() == 0
     monkeypatch.setenv("MANE_RASTER_BALANCE", "1")
-    assert hair_compute._balance_from_env() == 1
+    assert raster_segment._balance_from_env() == 1
     monkeypatch.delenv("MANE_RASTER_BALANCE")
-    assert hair_compute._balance_from_env() == 1   # the default: balanced
+    assert raster_segment._balance_from_env() == 1   # the default: balanced
     monkeypatch.setenv("MANE_RASTER_BALANCE", "yes")
     with pytest.raises(UsageError, match="MANE_RASTER_BALANCE"):
-        hair_compute._balance_from_env()
-    monkeypatch.setattr(hair_compute, "RASTER_BALANCE", 0)
-    assert hair_compute.raster_defines() == {"RASTER_BALANCE": 0}
+        raster_segment._balance_from_env()
+    monkeypatch.setattr(raster_segment, "RASTER_BALANCE", 0)
+    assert raster_segment.raster_defines() == {"RASTER_BALANCE": 0}

@@ -21,8 +21,8 @@ from ...gpu.glsl import compute_shader, program
 from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
 from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
                    read_f32, set_uniform, set_view)
-from .hair_compute import raster_defines
 from .light_depth import LightDepthPass
+from .raster_segment import raster_defines
 
 
 class DeepOpacityPass(LightDepthPass):

@@ -14,7 +14,7 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    columns in shared memory and deals the columns to its threads, so that a close-up's long
    segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
    per-sample buffers are bit-identical to one thread walking its own segment (the atomics
-   commute). Both forms stay selectable (RASTER_BALANCE below) until the H200 A/B.
+   commute). Both forms stay selectable (raster_segment.py's RASTER_BALANCE) until the H200 A/B.
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
@@ -28,41 +28,21 @@ before the hair is scan-converted against it (Renderer.hdr_textures).
 from __future__ import annotations
 
 import math
-import os
 import re
 
 import numpy as np
 
-from ...errors import UsageError
 from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .raster_segment import raster_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
 # renderer strings of GPUs with few raster units for their size: "auto" picks compute there
 FEW_RASTER_UNITS = re.compile(r"\b(H100|H200|H800|H20|GH200|A100|A800|A30|B100|B200|GB200)\b", re.I)
-
-
-def _balance_from_env() -> int:
-    v = os.environ.get("MANE_RASTER_BALANCE", "1").strip()
-    if v not in ("0", "1"):
-        raise UsageError(f"MANE_RASTER_BALANCE must be 0 or 1, not {v!r}")
-    return int(v)
-
-
-# TEMPORARY, for issue 14's H200 A/B of the two scan-conversion forms (raster_segment.glsl):
-# 1, the load-balanced form (a work group shares its segments' sample columns), the default;
-# 0, one thread walks every column of its segment. Set from MANE_RASTER_BALANCE=0/1 at import;
-# read at each dispatch, so a script may flip it between frames. The losing form goes after the A/B.
-RASTER_BALANCE = _balance_from_env()
-
-
-def raster_defines() -> dict:
-    """The defines every kernel including raster_segment.glsl takes (RASTER_BALANCE)."""
-    return {"RASTER_BALANCE": int(bool(RASTER_BALANCE))}
 
 
 def sample_grid(msaa: int) -> int:

@@ -85,7 +85,7 @@ void raster_column(RasterSpan s, int x, ivec2 size) {
 // depth in metres); RASTER_SEGMENT(I), run with a segment's first point before its samples are
 // visited (per column in the balanced form: the state it sets is the visit's segment's).
 //
-// RASTER_BALANCE (set by the Python, hair_compute.raster_defines; TEMPORARY both forms for
+// RASTER_BALANCE (set by the Python, raster_segment.py; TEMPORARY both forms for
 // issue 14's H200 A/B): 0, the invocation walks its own segment's columns (in close-ups a
 // segment crosses tens to hundreds of columns, so a warp waits on its longest segment); 1, the
 // work group (local_size_x, every thread calling this, none returning before it) sets up its
@@ -99,7 +99,7 @@ void raster_column(RasterSpan s, int x, ivec2 size) {
 #define RASTER_SEGMENT(I)
 #endif
 #ifndef RASTER_BALANCE
-#error "RASTER_BALANCE must be defined (hair_compute.raster_defines)"
+#error "RASTER_BALANCE must be defined (raster_segment.py)"
 #endif
 
 // The thread's segment: false when none (past the end, a strand the distance LOD dropped, an
