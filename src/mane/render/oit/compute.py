@@ -59,6 +59,7 @@ from ..bindings import (B_EXPANDED, B_OIT_BEHIND, B_OIT_BEHIND_OPTICAL, B_OIT_CO
                         B_OIT_HEADS, B_OIT_MEASURE, B_OIT_NODES, B_OIT_RECORDS, B_OIT_SLOT_IDS, B_OIT_SLOTS,
                         B_OIT_TAIL, IMG_HDR, TEX_SCENE_DEPTH)
 from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
+from ..passes.raster_segment import raster_defines
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
 from .dbk_buffer import AutoShift
@@ -163,7 +164,7 @@ class ComputeOit(OitMethod):
     def raster(self, frame: Frame, pass_id: int, shading: bool = False, cm: int | None = None, **uniforms) -> None:
         """One oit_raster.comp dispatch over every segment of the expanded strands."""
         r, ctx = self.r, self.ctx
-        defines = self._defines(shading, OIT_PASS=int(pass_id))
+        defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines())
         if cm is not None:
             defines["OIT_CM"] = int(cm)
         cs = compute_shader(ctx, HERE / "oit_raster.comp", defines, include_dirs=[HERE, RENDER_DIR])

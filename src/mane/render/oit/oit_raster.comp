@@ -1,6 +1,6 @@
 #version 430
-// The OIT methods' fill by the compute rasteriser (oit/compute.py): one thread per segment of
-// the expanded strands, scan-converted by passes/raster_segment.glsl with one sample per pixel;
+// The OIT methods' fill by the compute rasteriser (oit/compute.py): every segment of the
+// expanded strands, scan-converted by passes/raster_segment.glsl with one sample per pixel;
 // each fragment in front of the head (its window depth below the scene's) goes to the
 // method's per-pixel storage. OIT_CM (method) / OIT_PASS:
 //   1 A-buffer    0: linked lists (head pointers, a node pool {depth bits, segment, next}, a counter)
@@ -69,7 +69,7 @@ layout(std430, binding = B_OIT_COUNTER) buffer Counter { uint counter[]; };
 layout(std430, binding = B_OIT_RECORDS) writeonly buffer Records { uint records[]; };   // 8 words a fragment
 #endif
 
-uint g_id;   // the segment (its first point's index in the expanded buffer)
+uint g_id;   // the visited segment (its first point's index in the expanded buffer; RASTER_SEGMENT)
 
 #if OIT_SLOTS
 // a fragment out of the slots (segment seg at pixel q; cov: its coverage when it is this

@@ -22,6 +22,7 @@ from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
 from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
                    read_f32, set_uniform, set_view)
 from .light_depth import LightDepthPass
+from .raster_segment import raster_defines
 
 
 class DeepOpacityPass(LightDepthPass):
@@ -129,7 +130,8 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
-    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
+    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines()},
+                        include_dirs=[RENDER_DIR])
     set_view(cs, view)
     set_uniform(cs, "u_raster_size", (n, n))
     set_uniform(cs, "u_grid", 1)

@@ -5,11 +5,16 @@ thin strands drawn as triangles are bound by a fraction of the chip; scan-conver
 compute shaders uses all of it (Unreal's and Frostbite's strand rasterisers do the same for
 thin hair). Per frame, after the head has been drawn by hardware into the HDR target:
 
-1. ``hair_raster.comp``, one thread per segment of the expanded strands (passes/expand.py):
+1. ``hair_raster.comp``, one invocation per segment of the expanded strands (passes/expand.py):
    every sample of a ``grid`` x ``grid`` per-pixel sample grid the segment covers
    (raster_segment.glsl) keeps the nearest segment in front of the head (atomic min of depth
    and id: one 64-bit atomic where the GPU has them, else two dispatches of 32-bit ones) and
-   adds -log(1 - coverage) to the sample's coverage sum.
+   adds -log(1 - coverage) to the sample's coverage sum. The scan conversion is load-balanced
+   (RASTER_BALANCE): each work group sets up its 128 segments, prefix-sums their sample
+   columns in shared memory and deals the columns to its threads, so that a close-up's long
+   segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
+   per-sample buffers are bit-identical to one thread walking its own segment (the atomics
+   commute). Both forms stay selectable (raster_segment.py's RASTER_BALANCE) until the H200 A/B.
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
@@ -32,6 +37,7 @@ from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from her
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .raster_segment import raster_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
@@ -121,10 +127,10 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        raster_defines = {**defines, "RASTER_STATS": 1} if stats is not None else defines
+        scan = {**defines, **raster_defines(), **({"RASTER_STATS": 1} if stats is not None else {})}
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
-                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**raster_defines, "RASTER_PASS": raster_pass},
+                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**scan, "RASTER_PASS": raster_pass},
                                     include_dirs=[RENDER_DIR])
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)

@@ -11,7 +11,7 @@ uniform int u_points_per_strand;
 uniform int u_num_segments;         // rendered strands x (points - 1)
 #include "raster_view.glsl"
 
-uint g_id;
+uint g_id;   // the visited segment (its first point; RASTER_SEGMENT sets it)
 #ifndef RASTER_STATS
 #define RASTER_STATS 0
 #endif
@@ -58,7 +58,7 @@ void visit(ivec2 q, float z, float cov) {
 #include "raster_segment.glsl"
 
 void main() {
-    if (!raster_expanded_segment()) return;
+    raster_expanded_segment();   // every invocation (the balanced form shares the group's columns)
 #if RASTER_STATS
     uint slot = (gl_WorkGroupID.x & 63u) * 4u;
 #if VIS64 || RASTER_PASS == 0

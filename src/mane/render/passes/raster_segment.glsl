@@ -1,9 +1,9 @@
-// Scan conversion of one strand segment in a compute shader (the compute rasteriser: hair
-// drawn without the GPU's raster units, as Unreal's and Frostbite's strand rasterisers do).
+// Scan conversion of strand segments in a compute shader (the compute rasteriser: hair drawn
+// without the GPU's raster units, as Unreal's and Frostbite's strand rasterisers do).
 //
 //     #define RASTER_VISIT(Q, Z, COV) ...   // before the include: what to do at sample Q
 //     #include "raster_segment.glsl"
-//     void main() { raster_expanded_segment(); }   // or raster_segment(a, b, ...) directly
+//     void main() { raster_expanded_segment(); }
 //
 // a, b: the end points in sample units (sample (i, j) has its centre at (i + 0.5, j + 0.5));
 // za, zb: depths, interpolated linearly along the segment on screen (window depth or an
@@ -14,6 +14,11 @@
 // the centre line, half-open again (h = 0.5: exactly one sample per column). Samples
 // outside [0, size) are skipped; at most RASTER_MAX_STEPS columns and RASTER_MAX_SPAN
 // samples across, so that a hostile segment cannot stall the GPU.
+//
+// raster_span() sets a segment up (steep segments swap x and y, every segment walks left to
+// right, its columns x0..x1 clamped); raster_column() visits the samples of one column. Both
+// forms of raster_expanded_segment (below) call these two, so they visit the same samples with
+// the same z and coverage.
 #ifndef RASTER_MAX_STEPS
 #define RASTER_MAX_STEPS 8192
 #endif
@@ -21,65 +26,166 @@
 #define RASTER_MAX_SPAN 64
 #endif
 
-void raster_segment(vec2 a, vec2 b, float za, float zb, float ha, float hb, float ca, float cb, ivec2 size) {
+struct RasterSpan {
+    vec2 a, d;             // the first end and b - a, major axis along x (swapped when steep)
+    float za, zb, ha, hb, ca, cb;
+    float inv_cos;         // length(d) / d.x: a column's band across is 2h x inv_cos
+    bool steep;            // x and y swapped
+    int x0, x1;            // the sample columns (x1 < x0: none)
+};
+
+RasterSpan raster_span(vec2 a, vec2 b, float za, float zb, float ha, float hb, float ca, float cb, ivec2 size) {
+    RasterSpan s;
     vec2 d = b - a;
-    bool steep = abs(d.y) > abs(d.x);
-    if (steep) { a = a.yx; b = b.yx; d = d.yx; size = size.yx; }
+    s.steep = abs(d.y) > abs(d.x);
+    if (s.steep) { a = a.yx; b = b.yx; d = d.yx; size = size.yx; }
     if (d.x < 0.0) {   // walk left to right
         vec2 tv = a; a = b; b = tv; d = -d;
         float t = za; za = zb; zb = t;
         t = ha; ha = hb; hb = t;
         t = ca; ca = cb; cb = t;
     }
-    if (!(d.x > 1e-6)) return;   // shorter than a sample along its major axis (or NaN)
-    float inv_cos = length(d) / d.x;
-    int x0 = max(int(ceil(a.x - 0.5)), 0);
-    int x1 = min(min(int(ceil(b.x - 0.5)) - 1, size.x - 1), x0 + RASTER_MAX_STEPS);
-    for (int x = x0; x <= x1; ++x) {
-        float t = (float(x) + 0.5 - a.x) / d.x;
-        float y = a.y + t * d.y;
-        float h = min(mix(ha, hb, t) * inv_cos, float(RASTER_MAX_SPAN));
-        int y0 = max(int(ceil(y - h - 0.5)), 0);
-        int y1 = min(int(ceil(y + h - 0.5)) - 1, size.y - 1);
-        float z = mix(za, zb, t);
-        float cov = mix(ca, cb, t);
-        for (int yy = y0; yy <= y1; ++yy) {
-            ivec2 q = steep ? ivec2(yy, x) : ivec2(x, yy);
-            RASTER_VISIT(q, z, cov);
-        }
+    s.a = a; s.d = d; s.za = za; s.zb = zb; s.ha = ha; s.hb = hb; s.ca = ca; s.cb = cb;
+    s.inv_cos = 1.0;
+    s.x0 = 0;
+    s.x1 = -1;
+    if (!(d.x > 1e-6)) return s;   // shorter than a sample along its major axis (or NaN)
+    s.inv_cos = length(d) / d.x;
+    s.x0 = max(int(ceil(a.x - 0.5)), 0);
+    s.x1 = min(min(int(ceil(b.x - 0.5)) - 1, size.x - 1), s.x0 + RASTER_MAX_STEPS);
+    return s;
+}
+
+// the number of columns of a span (0..RASTER_MAX_STEPS + 1)
+int raster_columns(RasterSpan s) {
+    return s.x1 >= s.x0 ? s.x1 - s.x0 + 1 : 0;
+}
+
+// the samples of column x (x0 <= x <= x1) of span s; size: the sample grid (not swapped)
+void raster_column(RasterSpan s, int x, ivec2 size) {
+    int ny = s.steep ? size.x : size.y;
+    float t = (float(x) + 0.5 - s.a.x) / s.d.x;
+    float y = s.a.y + t * s.d.y;
+    float h = min(mix(s.ha, s.hb, t) * s.inv_cos, float(RASTER_MAX_SPAN));
+    int y0 = max(int(ceil(y - h - 0.5)), 0);
+    int y1 = min(int(ceil(y + h - 0.5)) - 1, ny - 1);
+    float z = mix(s.za, s.zb, t);
+    float cov = mix(s.ca, s.cb, t);
+    for (int yy = y0; yy <= y1; ++yy) {
+        ivec2 q = s.steep ? ivec2(yy, x) : ivec2(x, yy);
+        RASTER_VISIT(q, z, cov);
     }
 }
 
-// One thread per segment of the expanded strands (strand_expand.comp: strands of
-// u_points_per_strand points, 2 vec4 a point), the loop of every compute-raster kernel
-// (hair_raster.comp, dom_raster.comp, oit/oit_raster.comp). Before the include: the
+// The segments of the expanded strands (strand_expand.comp: strands of u_points_per_strand
+// points, 2 vec4 a point), the loop of every compute-raster kernel (hair_raster.comp,
+// dom_raster.comp, oit/oit_raster.comp), one invocation per segment. Before the include: the
 // `expanded` buffer, u_points_per_strand, u_num_segments and raster_view.glsl;
 // RASTER_DEPTH, the RasterPoint field handed to RASTER_VISIT as Z (window_z, the default, or
-// depth in metres); RASTER_SEGMENT(I), run with the segment's first point once both ends are in
-// front of the eye. False: no segment for this thread (past the end, a strand the distance LOD
-// dropped, behind the eye).
+// depth in metres); RASTER_SEGMENT(I), run with a segment's first point before its samples are
+// visited (per column in the balanced form: the state it sets is the visit's segment's).
+//
+// RASTER_BALANCE (set by the Python, raster_segment.py; TEMPORARY both forms for
+// issue 14's H200 A/B): 0, the invocation walks its own segment's columns (in close-ups a
+// segment crosses tens to hundreds of columns, so a warp waits on its longest segment); 1, the
+// work group (local_size_x, every thread calling this, none returning before it) sets up its
+// segments, stores them and their column counts in shared memory, prefix-sums the counts and
+// deals the group's columns round-robin to its threads (each finds its column's segment by
+// binary search). Atomic min and integer add commute, so the buffers end bit-identical.
 #ifndef RASTER_DEPTH
 #define RASTER_DEPTH window_z
 #endif
 #ifndef RASTER_SEGMENT
 #define RASTER_SEGMENT(I)
 #endif
+#ifndef RASTER_BALANCE
+#error "RASTER_BALANCE must be defined (raster_segment.py)"
+#endif
 
-bool raster_expanded_segment() {
+// The thread's segment: false when none (past the end, a strand the distance LOD dropped, an
+// end behind the eye); i: its first point.
+bool raster_thread_span(out RasterSpan s, out int i) {
+    s.x0 = 0;
+    s.x1 = -1;
+    i = 0;
     int k = int((gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * gl_WorkGroupSize.x
                 + gl_LocalInvocationID.x);
     if (k >= u_num_segments) return false;
     int per = u_points_per_strand - 1;
     int strand = k / per;
-    int i = strand * u_points_per_strand + (k - strand * per);   // the segment's first point
+    i = strand * u_points_per_strand + (k - strand * per);
     vec4 p0 = expanded[2 * i];
     vec4 p1 = expanded[2 * i + 2];
     if (!(p0.w > 0.0 || p1.w > 0.0)) return false;   // a strand the distance LOD dropped
     RasterPoint a = raster_point(p0.xyz, p0.w);
     RasterPoint b = raster_point(p1.xyz, p1.w);
     if (!a.ok || !b.ok) return false;   // behind the eye
-    RASTER_SEGMENT(i);
-    raster_segment(a.s, b.s, a.RASTER_DEPTH, b.RASTER_DEPTH, a.half_width, b.half_width, a.coverage, b.coverage,
-                   u_raster_size);
+    s = raster_span(a.s, b.s, a.RASTER_DEPTH, b.RASTER_DEPTH, a.half_width, b.half_width, a.coverage, b.coverage,
+                    u_raster_size);
     return true;
 }
+
+#if RASTER_BALANCE
+#define RASTER_GROUP int(gl_WorkGroupSize.x)
+shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
+shared vec4 rs_zh[gl_WorkGroupSize.x];      // za, zb, ha, hb
+shared vec3 rs_c[gl_WorkGroupSize.x];       // ca, cb, inv_cos
+shared ivec3 rs_meta[gl_WorkGroupSize.x];   // x0, steep, first point
+shared int rs_scan[2u * gl_WorkGroupSize.x];   // the column counts' prefix sum, two halves in turn
+
+void raster_expanded_segment() {
+    RasterSpan s;
+    int i;
+    raster_thread_span(s, i);
+    int lid = int(gl_LocalInvocationID.x);
+    rs_ad[lid] = vec4(s.a, s.d);
+    rs_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
+    rs_c[lid] = vec3(s.ca, s.cb, s.inv_cos);
+    rs_meta[lid] = ivec3(s.x0, int(s.steep), i);
+    rs_scan[lid] = raster_columns(s);
+    barrier();
+    int src = 0;   // Hillis-Steele inclusive scan, reading one half and writing the other
+    for (int off = 1; off < RASTER_GROUP; off <<= 1) {
+        int v = rs_scan[src + lid];
+        if (lid >= off) v += rs_scan[src + lid - off];
+        src = RASTER_GROUP - src;
+        rs_scan[src + lid] = v;
+        barrier();
+    }
+    // rs_scan[src + k]: the columns of segments 0..k; column j of the group is column
+    // j - (end of k - 1) of the first segment k whose end passes j
+    int total = rs_scan[src + RASTER_GROUP - 1];   // <= group size x (RASTER_MAX_STEPS + 1): bounded
+    int lo = 0, cur = -1, start = 0;
+    RasterSpan t;
+    for (int j = lid; j < total; j += RASTER_GROUP) {
+        int hi = RASTER_GROUP - 1;   // j only grows: the last segment found bounds the search below
+        while (lo < hi) {
+            int mid = (lo + hi) >> 1;
+            if (rs_scan[src + mid] > j) hi = mid; else lo = mid + 1;
+        }
+        if (lo != cur) {   // a new segment for this thread: its span from shared memory
+            cur = lo;
+            start = lo > 0 ? rs_scan[src + lo - 1] : 0;
+            vec4 ad = rs_ad[lo], zh = rs_zh[lo];
+            vec3 c = rs_c[lo];
+            ivec3 m = rs_meta[lo];
+            t.a = ad.xy; t.d = ad.zw;
+            t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
+            t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
+            t.steep = m.y != 0;
+            t.x0 = m.x;
+            t.x1 = m.x + rs_scan[src + lo] - start - 1;
+            RASTER_SEGMENT(m.z);
+        }
+        raster_column(t, t.x0 + j - start, u_raster_size);
+    }
+}
+#else
+void raster_expanded_segment() {
+    RasterSpan s;
+    int i;
+    if (!raster_thread_span(s, i)) return;
+    RASTER_SEGMENT(i);
+    for (int x = s.x0; x <= s.x1; ++x) raster_column(s, x, u_raster_size);
+}
+#endif
