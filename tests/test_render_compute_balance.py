@@ -1,5 +1,5 @@
 """The compute rasteriser's two scan-conversion forms (raster_segment.glsl, RASTER_BALANCE;
-raster_segment.RASTER_BALANCE): one thread walking every sample column of its segment, and the
+raster_segment.FORCED): one thread walking every sample column of its segment, and the
 load-balanced form in which a work group shares its segments' columns. Atomic min and integer
 add commute, so both must leave the per-sample buffers bit-identical (the coverage up to where
 a sample saturates: assert_cover_equal): the same samples visited with the same depth and
@@ -46,8 +46,8 @@ def star_groom() -> Groom:
 
 def _capture(gl, form: int, monkeypatch, groom, head=None, camera=None, azimuth=25.0, distance_scale=1.0, **kw):
     """(the per-sample buffers after the raster pass, count_samples' statistics) with
-    RASTER_BALANCE = form."""
-    monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
+    the form forced."""
+    monkeypatch.setattr(raster_segment, "FORCED", form)
     s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
                           "draw_head": head is not None, **kw})
     r = Renderer(s, ctx=gl, profile=False)
@@ -150,7 +150,7 @@ def test_deep_opacity_maps_are_bit_identical(gl, monkeypatch):
     groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
     maps = []
     for form in (0, 1):
-        monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
+        monkeypatch.setattr(raster_segment, "FORCED", form)
         r = Renderer(RenderSettings(size=(96, 72), msaa=1, rasterizer="compute", shadows="deep_opacity",
                                     shadow_map_size=128, strands_per_guide=4), ctx=gl, profile=False)
         try:
@@ -171,7 +171,7 @@ def test_oit_fill_is_the_same_in_both_forms(gl, monkeypatch):
 
     got = []
     for form in (0, 1):
-        monkeypatch.setattr(raster_segment, "RASTER_BALANCE", form)
+        monkeypatch.setattr(raster_segment, "FORCED", form)
         r = Renderer(RenderSettings(size=(96, 72), msaa=1, rasterizer="compute", oit="k_buffer", oit_k=4,
                                     shadows="none"), ctx=gl, profile=False)
         try:
@@ -193,15 +193,20 @@ def test_oit_fill_is_the_same_in_both_forms(gl, monkeypatch):
     np.testing.assert_array_equal(z0, z1)
 
 
-def test_raster_balance_environment_variable(monkeypatch):
+def test_raster_balance_by_renderer_and_environment(gl, monkeypatch):
+    from mane.gpu.context import is_software_renderer
+
     monkeypatch.setenv("MANE_RASTER_BALANCE", "0")
     assert raster_segment._balance_from_env() == 0
     monkeypatch.setenv("MANE_RASTER_BALANCE", "1")
     assert raster_segment._balance_from_env() == 1
     monkeypatch.delenv("MANE_RASTER_BALANCE")
-    assert raster_segment._balance_from_env() == 1   # the default: balanced
+    assert raster_segment._balance_from_env() is None   # unset: by the renderer
     monkeypatch.setenv("MANE_RASTER_BALANCE", "yes")
     with pytest.raises(UsageError, match="MANE_RASTER_BALANCE"):
         raster_segment._balance_from_env()
-    monkeypatch.setattr(raster_segment, "RASTER_BALANCE", 0)
-    assert raster_segment.raster_defines() == {"RASTER_BALANCE": 0}
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    # balanced on GPUs, one thread a segment on CPU rasterisers (llvmpipe: 3-4x faster there)
+    assert raster_segment.raster_defines(gl) == {"RASTER_BALANCE": 0 if is_software_renderer(gl) else 1}
+    monkeypatch.setattr(raster_segment, "FORCED", 1)
+    assert raster_segment.raster_defines(gl) == {"RASTER_BALANCE": 1}

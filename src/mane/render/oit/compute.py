@@ -164,7 +164,7 @@ class ComputeOit(OitMethod):
     def raster(self, frame: Frame, pass_id: int, shading: bool = False, cm: int | None = None, **uniforms) -> None:
         """One oit_raster.comp dispatch over every segment of the expanded strands."""
         r, ctx = self.r, self.ctx
-        defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines())
+        defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines(ctx))
         if cm is not None:
             defines["OIT_CM"] = int(cm)
         cs = compute_shader(ctx, HERE / "oit_raster.comp", defines, include_dirs=[HERE, RENDER_DIR])

@@ -130,7 +130,7 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
     ctx = renderer.ctx
-    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines()},
+    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines(ctx)},
                         include_dirs=[RENDER_DIR])
     set_view(cs, view)
     set_uniform(cs, "u_raster_size", (n, n))
