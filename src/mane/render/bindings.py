@@ -30,6 +30,7 @@ B_VIS_ID = 9              # 32-bit path: segment + 1
 B_COVER = 10              # coverage sums
 B_RASTER_STATS = 11       # hair_raster.comp's optional counters
 B_AUX_OUT = 12            # aux_maps.comp's output
+B_DEPTH_TILES = 18        # the scene depth's tile map (depth_tiles.comp; hair_raster.comp, oit_raster.comp)
 # deep opacity maps by the compute rasteriser (dom_raster.comp, dom_pack.comp, shadow_merge.comp)
 B_DOM_Z0 = 11
 B_DOM_LAYERS = 12

@@ -38,6 +38,7 @@ from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from her
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from . import depth_tiles
 from .raster_segment import raster_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
@@ -81,6 +82,7 @@ class HairComputePass(Pass):
         self.count_stats = False   # True: hair_raster.comp counts its samples (RASTER_STATS); see count_samples
         self.raster_stats = None
         self.after_raster: list = []   # callables (frame) run on the filled sample buffers (render/aux_maps.py)
+        self.tiles = depth_tiles.DepthTiles(self.ctx)   # the head's depth tile map (head culling)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -128,7 +130,11 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        scan = {**defines, **raster_defines(ctx), **({"RASTER_STATS": 1} if stats is not None else {})}
+        cull = depth_tiles.cull_defines()
+        scan = {**defines, **raster_defines(ctx), **cull, **({"RASTER_STATS": 1} if stats is not None else {})}
+        if cull["RASTER_HEAD_CULL"]:
+            with r.profiler.section("depth_tiles"):
+                self.tiles.update(depth)
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
                 cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**scan, "RASTER_PASS": raster_pass},
@@ -136,6 +142,8 @@ class HairComputePass(Pass):
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)
                 set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
+                if cull["RASTER_HEAD_CULL"]:
+                    self.tiles.bind(cs)
                 expand.dispatch_segments(cs)
                 ctx.memory_barrier()
         if stats is not None:
@@ -161,9 +169,11 @@ class HairComputePass(Pass):
     def count_samples(self, camera=None, lights=None) -> dict:
         """Render one frame with hair_raster.comp's counters on (RASTER_STATS; the normal
         shaders have none): ``sample_visits`` (samples the segments scan-convert), ``sample_writes``
-        (those in front of the head, each an atomic min and a coverage add), ``raster_atomics``
-        (every atomic on the per-sample buffers: 2 per write, and on the 32-bit path the id pass's
-        atomicMax) and ``raster_atomic_bits`` (64: the depth-and-id min is one 64-bit atomic)."""
+        (those in front of the head, each an atomic min and a coverage add), ``sample_culled`` (of
+        the visits, those skipped whole columns at a time behind the head's depth tile map:
+        depth_tiles.py; 0 with the cull off), ``raster_atomics`` (every atomic on the per-sample
+        buffers: 2 per write, and on the 32-bit path the id pass's atomicMax) and
+        ``raster_atomic_bits`` (64: the depth-and-id min is one 64-bit atomic)."""
         self.count_stats, self.raster_stats = True, None
         try:
             self.renderer.render(camera, lights)
@@ -180,8 +190,9 @@ class HairComputePass(Pass):
     def _read_stats(self, buf) -> dict:
         c = np.frombuffer(buf.read(), np.uint32).reshape(STATS_SLOTS, 4).astype(np.uint64).sum(axis=0)
         buf.release()
-        scanned, written, id_atomics = (int(v) for v in c[:3])
-        return {"sample_visits": scanned, "sample_writes": written, "raster_atomics": 2 * written + id_atomics,
+        scanned, written, id_atomics, culled = (int(v) for v in c[:4])
+        return {"sample_visits": scanned, "sample_writes": written, "sample_culled": culled,
+                "raster_atomics": 2 * written + id_atomics,
                 "raster_atomic_bits": 64 if self.vis64 else 32}
 
     def _read_buffers(self) -> dict:
@@ -218,6 +229,7 @@ class HairComputePass(Pass):
 
     def release(self) -> None:
         self._release_buffers()
+        self.tiles.release()
 
 
 def unsupported_reason(renderer) -> str | None:

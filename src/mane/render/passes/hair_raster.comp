@@ -1,7 +1,8 @@
 #version 430
 // The compute rasteriser, step 1: every segment of the expanded strands (strand_expand.comp)
 // scan-converted into the sample grid (raster_segment.glsl); at each sample in front of the
-// scene's depth (the head) the nearest segment is kept (hair_vis.glsl) and the coverage added.
+// scene's depth (the head) the nearest segment is kept (hair_vis.glsl) and the coverage added;
+// RASTER_HEAD_CULL: columns behind the head's depth tile map are skipped whole (depth_tiles.py).
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
@@ -17,9 +18,28 @@ uint g_id;   // the visited segment (its first point; RASTER_SEGMENT sets it)
 #endif
 #if RASTER_STATS
 // statistics, off by default (HairComputePass.count_samples): per slot (work group mod 64),
-// samples scanned, samples in front of the scene (RASTER_PASS 0 / VIS64) and the pass-1 id atomics
+// samples scanned, samples in front of the scene (RASTER_PASS 0 / VIS64), the pass-1 id atomics
+// and the scanned samples skipped by the head cull
 layout(std430, binding = B_RASTER_STATS) buffer RasterStats { uint raster_stats[]; };
-uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u;
+uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u, g_culled = 0u;
+#endif
+#ifndef RASTER_HEAD_CULL
+#define RASTER_HEAD_CULL 0
+#endif
+#if RASTER_HEAD_CULL
+// a sample column at or behind the head's depth tile map (depth_tiles.py): each of its samples
+// would fail visit()'s `z >= scene depth`, so none is visited
+#include "depth_tiles.glsl"
+bool column_behind(ivec2 q0, ivec2 q1, float z) {
+    if (!depth_tiles_behind(q0 / u_grid, q1 / u_grid, z)) return false;
+#if RASTER_STATS
+    uint n = uint(max(q1.x - q0.x, q1.y - q0.y) + 1);
+    g_scanned += n;
+    g_culled += n;
+#endif
+    return true;
+}
+#define RASTER_COLUMN_CULL(Q0, Q1, Z) column_behind(Q0, Q1, Z)
 #endif
 
 void visit(ivec2 q, float z, float cov) {
@@ -64,6 +84,7 @@ void main() {
 #if VIS64 || RASTER_PASS == 0
     atomicAdd(raster_stats[slot], g_scanned);
     atomicAdd(raster_stats[slot + 1u], g_written);
+    atomicAdd(raster_stats[slot + 3u], g_culled);
 #else
     atomicAdd(raster_stats[slot + 2u], g_id_atomics);
 #endif

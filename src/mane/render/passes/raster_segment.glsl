@@ -19,6 +19,13 @@
 // right, its columns x0..x1 clamped); raster_column() visits the samples of one column. Both
 // forms of raster_expanded_segment (below) call these two, so they visit the same samples with
 // the same z and coverage.
+//
+//     #define RASTER_COLUMN_CULL(Q0, Q1, Z) ...   // optional: true skips a column's samples
+//
+// Along a column z and coverage are constant: a kernel that defines RASTER_COLUMN_CULL is asked
+// once per column with its first and last samples Q0, Q1 (a line of samples, not swapped) and
+// its depth, and RASTER_VISIT is not called on that column when it answers true (hair_raster.comp
+// and oit_raster.comp: a column behind the head's depth tile map, depth_tiles.glsl).
 #ifndef RASTER_MAX_STEPS
 #define RASTER_MAX_STEPS 8192
 #endif
@@ -71,6 +78,12 @@ void raster_column(RasterSpan s, int x, ivec2 size) {
     int y1 = min(int(ceil(y + h - 0.5)) - 1, ny - 1);
     float z = mix(s.za, s.zb, t);
     float cov = mix(s.ca, s.cb, t);
+#ifdef RASTER_COLUMN_CULL
+    if (y0 <= y1) {   // the kernel may skip the whole column (its first and last samples, depth)
+        if (RASTER_COLUMN_CULL((s.steep ? ivec2(y0, x) : ivec2(x, y0)), (s.steep ? ivec2(y1, x) : ivec2(x, y1)), z))
+            return;
+    }
+#endif
     for (int yy = y0; yy <= y1; ++yy) {
         ivec2 q = s.steep ? ivec2(yy, x) : ivec2(x, yy);
         RASTER_VISIT(q, z, cov);

@@ -1,0 +1,136 @@
+"""The compute rasteriser's head culling (passes/depth_tiles.py): a per-frame tile map of the
+head's depth (the max of each TILE x TILE pixel tile), and the sample columns at or behind it
+skipped whole (raster_segment.glsl's RASTER_COLUMN_CULL). Every skipped sample would have failed
+its own `z >= scene depth` test, so the per-sample buffers must be bit-identical with the cull on
+and off (the coverage up to where a sample saturates: assert_cover_equal), on heads in front of,
+behind and partly covering the hair, at 1, 2 x 2 and 4 x 4 samples a pixel, the head drawn with
+one sample and multisampled (head_msaa: the resolved depth). The map is checked against a NumPy
+max-pool of the read-back depth texture, and the cull must actually skip samples where hair lies
+behind the head, and none where there is no head. Also the OIT fill (oit_raster.comp), which
+makes the same test at a fragment."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mane.render.passes.depth_tiles as depth_tiles
+import mane.render.passes.raster_segment as raster_segment
+from mane.grooming.scene import default_scene
+from mane.render import Renderer, RenderSettings
+
+from test_oit_methods import CAM, LIGHTS, curtain_groom, sphere
+from test_render_compute_balance import assert_cover_equal
+
+pytestmark = pytest.mark.gpu
+
+
+def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **kw):
+    """(captured buffers, count_samples' statistics, the tile map, the scene depth) with the cull
+    forced on or off."""
+    monkeypatch.setattr(depth_tiles, "HEAD_CULL", cull)
+    if form is not None:
+        monkeypatch.setattr(raster_segment, "FORCED", form)
+    s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
+                          "draw_head": head is not None, "strands_per_guide": 2, "width": 0.002, **kw})
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        cam = camera or r.default_camera(25.0, points=None)
+        hc = r.get_pass("hair_compute")
+        assert r.compute_raster
+        hc.capture = True
+        r.render(cam, LIGHTS)
+        bufs = {k: v.copy() for k, v in hc.captured.items()}
+        tiles = hc.tiles.read() if cull else None
+        _, depth = r.hdr_textures()
+        z = np.frombuffer(depth.read(), np.float32).reshape(depth.size[1], depth.size[0]).copy()
+        stats = hc.count_samples(cam, LIGHTS)
+        return bufs, stats, tiles, z
+    finally:
+        r.release()
+
+
+def max_pool(z: np.ndarray, t: int) -> np.ndarray:
+    """The max of each t x t tile of z (rows, columns), tiles past the edge over what is there."""
+    h, w = z.shape
+    th, tw = -(-h // t), -(-w // t)
+    p = np.full((th * t, tw * t), -np.inf, np.float32)
+    p[:h, :w] = z
+    return p.reshape(th, t, tw, t).max(axis=(1, 3))
+
+
+SCENES = {
+    # a ball between the eye and the curtain of hair: most of the hair behind it
+    "head_in_front": lambda: dict(groom=curtain_groom(), head=sphere(0.035, (0.01, 0.0, 0.12)), camera=CAM),
+    # the ball behind the curtain: the hair in front (nothing of it behind the head)
+    "head_behind": lambda: dict(groom=curtain_groom(), head=sphere(0.05, (0.0, 0.0, -0.12)), camera=CAM),
+    # the ball through the curtain, off centre: partly in front, partly behind, a silhouette across
+    "head_partly": lambda: dict(groom=curtain_groom(), head=sphere(0.04, (0.03, -0.02, 0.0)), camera=CAM),
+    # the default head and hair (hair over the scalp, behind the head, at its silhouette)
+    "default_head": lambda: dict(zip(("groom", "head"), default_scene(num_guides=80, points=8, subdivisions=3))),
+}
+CASES = [("head_in_front", 1, False), ("head_in_front", 4, True), ("head_in_front", 16, False),
+         ("head_behind", 4, False), ("head_partly", 1, False), ("head_partly", 4, True), ("head_partly", 16, True),
+         ("default_head", 4, False), ("default_head", 16, True)]
+
+
+@pytest.mark.parametrize("scene,msaa,head_msaa", CASES)
+def test_head_cull_is_bit_identical_and_the_tile_map_is_the_max(gl, monkeypatch, scene, msaa, head_msaa):
+    kw = SCENES[scene]()
+    off, s_off, _, z = _render(gl, monkeypatch, False, msaa=msaa, head_msaa=head_msaa, **kw)
+    on, s_on, tiles, z_on = _render(gl, monkeypatch, True, msaa=msaa, head_msaa=head_msaa, **kw)
+    np.testing.assert_array_equal(z_on, z)
+    assert (z < 1.0).sum() > 200 and (z == 1.0).sum() > 200   # head and background
+    assert (off["ids"] >= 0).sum() > 200
+    np.testing.assert_array_equal(on["ids"], off["ids"])
+    assert_cover_equal(on["cover"], off["cover"])
+    # the cull keeps what the visits mean: the samples the segments cover, the same writes
+    culled = s_on.pop("sample_culled")
+    assert s_off.pop("sample_culled") == 0
+    assert s_on == s_off
+    assert 0 <= culled <= s_on["sample_visits"] - s_on["sample_writes"]
+    # the read-back converts the 24-bit depth to float apart from the shader's fetch: within a step
+    np.testing.assert_allclose(tiles, max_pool(z, depth_tiles.TILE), rtol=0, atol=2.0 ** -24)
+    assert (tiles < 1.0).any() and (tiles == 1.0).any()
+    if scene in ("head_in_front", "default_head"):   # hair behind the head: columns skipped
+        assert culled > 0.2 * (s_on["sample_visits"] - s_on["sample_writes"]), (culled, s_on)
+    if scene == "head_behind":   # the hair is all in front of the head: nothing to skip
+        assert culled == 0
+
+
+@pytest.mark.parametrize("form", (0, 1))
+def test_head_cull_in_both_scan_conversion_forms(gl, monkeypatch, form):
+    kw = SCENES["head_in_front"]()
+    off, s_off, _, _ = _render(gl, monkeypatch, False, form=form, msaa=4, **kw)
+    on, s_on, _, _ = _render(gl, monkeypatch, True, form=form, msaa=4, **kw)
+    np.testing.assert_array_equal(on["ids"], off["ids"])
+    assert_cover_equal(on["cover"], off["cover"])
+    assert s_on["sample_culled"] > 0 and s_on["sample_visits"] == s_off["sample_visits"]
+
+
+def test_no_head_culls_nothing(gl, monkeypatch):
+    kw = SCENES["head_in_front"]()
+    kw["head"] = None
+    bufs, stats, tiles, z = _render(gl, monkeypatch, True, msaa=4, **kw)
+    assert (bufs["ids"] >= 0).sum() > 200
+    assert stats["sample_culled"] == 0 and stats["sample_visits"] > 0
+    assert (tiles == 1.0).all() and (z == 1.0).all()
+
+
+def test_the_tile_map_of_a_known_depth(gl):
+    # a depth texture with one known value per pixel, 21 x 11 (tiles cut at both edges)
+    from mane.render.passes.depth_tiles import TILE, DepthTiles
+
+    # (below 0.5: a pixel past the edge read as the clear's 1.0 would show), stored as 24 bits
+    rng = np.random.default_rng(5)
+    z = rng.uniform(0.0, 0.5, (11, 21)).astype(np.float32)
+    tex = gl.depth_texture((21, 11), data=z.tobytes())
+    t = DepthTiles(gl)
+    try:
+        t.update(tex)
+        np.testing.assert_allclose(t.read(), max_pool(z, TILE), rtol=0, atol=2.0 ** -24)
+        assert t.tiles == (-(-21 // TILE), -(-11 // TILE))
+    finally:
+        t.release()
+        tex.release()
