@@ -134,3 +134,34 @@ def test_the_tile_map_of_a_known_depth(gl):
     finally:
         t.release()
         tex.release()
+
+
+@pytest.mark.parametrize("method", ("k_buffer", "dbk_buffer"))
+def test_oit_fill_is_the_same_with_the_head_cull(gl, monkeypatch, method):
+    # oit_raster.comp makes the same test at a fragment: every fragment of the frame (the OIT
+    # capture: pixel, depth, segment, colour) and the kept depths, with the cull off and on,
+    # hair partly behind a ball
+    got = []
+    for cull in (False, True):
+        monkeypatch.setattr(depth_tiles, "HEAD_CULL", cull)
+        r = Renderer(RenderSettings(size=(96, 72), msaa=1, rasterizer="compute", oit=method, oit_k=4,
+                                    shadows="none"), ctx=gl, profile=False)
+        try:
+            r.set_strands(curtain_groom())
+            r.set_head(sphere(0.06, (0.03, -0.02, 0.01)))
+            m = r.get_pass("oit").current()
+            m.capture, m.reset = True, False
+            r.render(CAM, LIGHTS)
+            f = m.captured
+            order = np.lexsort((f["segment"], f["window_z"].view(np.uint32), f["pixel"]))
+            tiles = m.tiles.read() if cull else None
+            got.append(({k: np.asarray(v)[order] for k, v in f.items() if k != "size"},
+                        m.read_slots()["zbits"], tiles))
+        finally:
+            r.release()
+    (f0, z0, _), (f1, z1, tiles) = got
+    assert len(f0["pixel"]) > 500
+    assert (tiles < 1.0).sum() > 8   # the ball is in the map
+    for k in f0:
+        np.testing.assert_array_equal(f0[k], f1[k], err_msg=k)
+    np.testing.assert_array_equal(z0, z1)

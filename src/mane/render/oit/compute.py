@@ -9,7 +9,8 @@ and settings are the hardware path's; ``stats()`` says ``rasterizer: "compute"``
 
 Every pass reads the expanded strands (passes/expand.py) and scan-converts each segment with
 passes/raster_segment.glsl, one sample per pixel (oit_raster.comp); a fragment is a (pixel,
-segment) pair in front of the head, keyed by its window depth's float bits over the segment
+segment) pair in front of the head (columns behind the head's depth tile map skipped whole:
+passes/depth_tiles.py), keyed by its window depth's float bits over the segment
 id; its alpha is clamp(coverage x oit_opacity) and its colour the hair BSDF at the segment's
 point nearest the pixel centre (compute_oit.glsl). The resolve (oit_resolve.comp, one thread a
 pixel) shades the kept fragments, blends them front to back over the head and background in
@@ -59,6 +60,7 @@ from ..bindings import (B_EXPANDED, B_OIT_BEHIND, B_OIT_BEHIND_OPTICAL, B_OIT_CO
                         B_OIT_HEADS, B_OIT_MEASURE, B_OIT_NODES, B_OIT_RECORDS, B_OIT_SLOT_IDS, B_OIT_SLOTS,
                         B_OIT_TAIL, IMG_HDR, TEX_SCENE_DEPTH)
 from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
+from ..passes import depth_tiles
 from ..passes.raster_segment import raster_defines
 from .a_buffer import COUNTER_WORDS, PPLLMethod
 from .base import END, HERE, OitMethod
@@ -117,6 +119,7 @@ class ComputeOit(OitMethod):
         self.captured = None
         self.reset = True             # False: the resolve leaves the storage for reading back
         self._dirty = False
+        self.tiles = depth_tiles.DepthTiles(self.ctx)   # the head's depth tile map (head culling)
 
     def _pick_keys(self) -> bool:
         wanted = self.settings.oit_kbuffer
@@ -134,6 +137,10 @@ class ComputeOit(OitMethod):
     @property
     def slots_k(self) -> int:
         return max(1, self.k)
+
+    def release(self) -> None:
+        super().release()
+        self.tiles.release()
 
     # ------------------------------------------------------------------ dispatches
     def _defines(self, shading: bool, **extra) -> dict:
@@ -164,7 +171,8 @@ class ComputeOit(OitMethod):
     def raster(self, frame: Frame, pass_id: int, shading: bool = False, cm: int | None = None, **uniforms) -> None:
         """One oit_raster.comp dispatch over every segment of the expanded strands."""
         r, ctx = self.r, self.ctx
-        defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines(ctx))
+        cull = depth_tiles.cull_defines()
+        defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines(ctx), **cull)
         if cm is not None:
             defines["OIT_CM"] = int(cm)
         cs = compute_shader(ctx, HERE / "oit_raster.comp", defines, include_dirs=[HERE, RENDER_DIR])
@@ -172,6 +180,11 @@ class ComputeOit(OitMethod):
         for k, v in uniforms.items():
             set_uniform(cs, k, v)
         _, depth = r.hdr_textures()
+        if cull["RASTER_HEAD_CULL"]:
+            if pass_id == 0 or self.tiles.buffer is None:   # every frame's fill starts with pass 0
+                with self.section("depth_tiles"):
+                    self.tiles.update(depth)
+            self.tiles.bind(cs)
         depth.use(TEX_SCENE_DEPTH)
         set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
         with self.section(f"raster{int(pass_id)}"):
