@@ -17,6 +17,7 @@ import mane.render.passes.depth_tiles as depth_tiles
 import mane.render.passes.raster_segment as raster_segment
 from mane.grooming.scene import default_scene
 from mane.render import Renderer, RenderSettings
+from mane.render.passes.hair_compute import sample_grid
 
 from test_oit_methods import CAM, LIGHTS, curtain_groom, sphere
 from test_render_compute_balance import assert_cover_equal
@@ -60,6 +61,13 @@ def max_pool(z: np.ndarray, t: int) -> np.ndarray:
     return p.reshape(th, t, tw, t).max(axis=(1, 3))
 
 
+def sample_tiles(z: np.ndarray, grid: int) -> np.ndarray:
+    """The tile map's twin: each pixel's depth at its grid x grid samples, pooled over tiles of
+    TILE pixels a side rounded up to a power of two samples."""
+    side = 1 << int(np.ceil(np.log2(depth_tiles.TILE * grid)))
+    return max_pool(np.kron(z, np.ones((grid, grid), np.float32)), side)
+
+
 SCENES = {
     # a ball between the eye and the curtain of hair: most of the hair behind it
     "head_in_front": lambda: dict(groom=curtain_groom(), head=sphere(0.035, (0.01, 0.0, 0.12)), camera=CAM),
@@ -91,7 +99,7 @@ def test_head_cull_is_bit_identical_and_the_tile_map_is_the_max(gl, monkeypatch,
     assert s_on == s_off
     assert 0 <= culled <= s_on["sample_visits"] - s_on["sample_writes"]
     # the read-back converts the 24-bit depth to float apart from the shader's fetch: within a step
-    np.testing.assert_allclose(tiles, max_pool(z, depth_tiles.TILE), rtol=0, atol=2.0 ** -24)
+    np.testing.assert_allclose(tiles, sample_tiles(z, sample_grid(msaa)), rtol=0, atol=2.0 ** -24)
     assert (tiles < 1.0).any() and (tiles == 1.0).any()
     if scene in ("head_in_front", "default_head"):   # hair behind the head: columns skipped
         assert culled > 0.2 * (s_on["sample_visits"] - s_on["sample_writes"]), (culled, s_on)
@@ -119,8 +127,9 @@ def test_no_head_culls_nothing(gl, monkeypatch):
 
 
 def test_the_tile_map_of_a_known_depth(gl):
-    # a depth texture with one known value per pixel, 21 x 11 (tiles cut at both edges)
-    from mane.render.passes.depth_tiles import TILE, DepthTiles
+    # a depth texture with one known value per pixel, 21 x 11 (tiles cut at both edges), at 1,
+    # 2 x 2 and 3 x 3 samples a pixel (tiles of 8, 16 and 32 samples; at 3 x 3 tile edges cut pixels)
+    from mane.render.passes.depth_tiles import DepthTiles
 
     # (below 0.5: a pixel past the edge read as the clear's 1.0 would show), stored as 24 bits
     rng = np.random.default_rng(5)
@@ -128,9 +137,11 @@ def test_the_tile_map_of_a_known_depth(gl):
     tex = gl.depth_texture((21, 11), data=z.tobytes())
     t = DepthTiles(gl)
     try:
-        t.update(tex)
-        np.testing.assert_allclose(t.read(), max_pool(z, TILE), rtol=0, atol=2.0 ** -24)
-        assert t.tiles == (-(-21 // TILE), -(-11 // TILE))
+        for grid, side in ((1, 8), (2, 16), (3, 32)):
+            t.update(tex, grid)
+            assert t.tiles == (-(-21 * grid // side), -(-11 * grid // side))
+            np.testing.assert_allclose(t.read(), max_pool(np.kron(z, np.ones((grid, grid), np.float32)), side),
+                                       rtol=0, atol=2.0 ** -24)
     finally:
         t.release()
         tex.release()

@@ -1,22 +1,25 @@
 #version 430
-// The scene depth's tile map (depth_tiles.py): one work group per DEPTH_TILE x DEPTH_TILE tile
-// of pixels, one thread a pixel; the tile's largest window depth (background: the clear's 1.0),
-// pixels past the texture's edge left out. Window depths are >= 0, so their bits order as the
-// floats do and a shared atomicMax on the bits is the float max.
-layout(local_size_x = DEPTH_TILE, local_size_y = DEPTH_TILE) in;
-layout(std430, binding = B_DEPTH_TILES) writeonly buffer DepthTilesOut { uint depth_tiles_out[]; };
+// The scene depth's tile map (depth_tiles.py): one thread a tile of 2^u_tile_shift x
+// 2^u_tile_shift samples of the rasteriser's grid (u_grid x u_grid a pixel), the largest window
+// depth of the pixels its samples lie in (background: the clear's 1.0). A loop of bounded length
+// a thread: no barriers or shared memory (CPU rasterisers run a work group's barriers slowly),
+// the fetches free to overlap.
+layout(local_size_x = 8, local_size_y = 8) in;
+layout(std430, binding = B_DEPTH_TILES) writeonly buffer DepthTilesOut { float depth_tiles_out[]; };
 uniform sampler2D u_scene_depth;   // exactly the texture the compute rasteriser tests against
 uniform ivec2 u_depth_tiles;       // tiles across and down
-
-shared uint tile_max;
+uniform int u_tile_shift;          // log2 of a tile's side in samples
+uniform int u_grid;                // samples a pixel side
 
 void main() {
-    if (gl_LocalInvocationIndex == 0u) tile_max = 0u;
-    barrier();
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    if (all(lessThan(p, textureSize(u_scene_depth, 0))))
-        atomicMax(tile_max, floatBitsToUint(max(texelFetch(u_scene_depth, p, 0).r, 0.0)));
-    barrier();
-    if (gl_LocalInvocationIndex == 0u)
-        depth_tiles_out[gl_WorkGroupID.y * uint(u_depth_tiles.x) + gl_WorkGroupID.x] = tile_max;
+    ivec2 t = ivec2(gl_GlobalInvocationID.xy);
+    if (any(greaterThanEqual(t, u_depth_tiles))) return;
+    ivec2 size = textureSize(u_scene_depth, 0);
+    ivec2 p0 = (t << u_tile_shift) / u_grid;                            // the first sample's pixel
+    ivec2 p1 = min((((t + 1) << u_tile_shift) - 1) / u_grid, size - 1);   // the last's, in the texture
+    float m = 0.0;
+    for (int y = p0.y; y <= p1.y; ++y)
+        for (int x = p0.x; x <= p1.x; ++x)
+            m = max(m, texelFetch(u_scene_depth, ivec2(x, y), 0).r);
+    depth_tiles_out[t.y * u_depth_tiles.x + t.x] = m;
 }

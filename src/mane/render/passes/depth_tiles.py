@@ -4,19 +4,22 @@ Most of a frame's sample visits land behind the head (1M strands at the default 
 H200: 63% of 1.0G visits, each rejected alone by ``z >= scene depth``). ``depth_tiles.comp``
 reduces the head's depth texture (exactly the one the rasteriser tests against:
 Renderer.hdr_textures, the resolved MSAA head with ``head_msaa``) to the largest window depth
-of each ``TILE`` x ``TILE`` pixel tile (a tile with any background pixel holds the clear's 1.0
-and never culls). Before it visits a sample column (raster_segment.glsl's RASTER_COLUMN_CULL,
-along which depth and coverage are constant), a kernel checks the column's depth against the max
-of the tiles the column touches (depth_tiles.glsl): at or behind every one, every sample's own
-test would fail, so the column is skipped and the per-sample buffers stay bit-identical
+over each tile of the sample grid (a tile with any background pixel holds the clear's 1.0 and
+never culls). Before it visits a sample column (raster_segment.glsl's RASTER_COLUMN_CULL, along
+which depth and coverage are constant), a kernel checks the column's depth against the max of
+the tiles the column touches (depth_tiles.glsl): at or behind every one, every sample's own test
+would fail, so the column is skipped and the per-sample buffers stay bit-identical
 (tests/test_render_compute_headcull.py).
 
-``TILE`` = 8: a column spans a few samples across (about one pixel), so it touches one tile,
-two at a tile edge, whatever the tile size; a smaller tile follows the head's silhouette and
-the slope of its depth more closely (hair on the far side of the scalp is only centimetres
-behind the near side), and the map stays small (1080p: 240 x 135 floats, 127 KB, in L2 all
-frame); the reduction is one thread a pixel either way. ``HEAD_CULL`` (read each frame) turns
-the cull off: tests and the A/B script (gpu-scripts/headcull.py) flip it.
+A tile is ``TILE`` = 8 pixels a side, as samples rounded up to a power of two (grid 1: 8
+samples, 2 x 2: 16, 3 x 3 and 4 x 4: 32), so that a kernel finds a sample's tile by a shift (an
+integer division by the grid, per column, made the scan 1.3x slower on llvmpipe, where the
+divides of the SIMD lanes are scalar). 8 pixels: a column spans a few samples across (about a
+pixel), so it touches one tile, two at a tile edge, whatever the tile size; a smaller tile
+follows the head's silhouette and the slope of its depth more closely (hair on the far side of
+the scalp is only centimetres behind the near side), and the map stays small (1080p: 240 x 135
+floats, 127 KB, in L2 all frame). ``HEAD_CULL`` (read each frame) turns the cull off: tests and
+the A/B script (gpu-scripts/headcull.py) flip it.
 """
 from __future__ import annotations
 
@@ -28,13 +31,21 @@ from ...gpu.glsl import compute_shader
 from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
 from .base import set_uniform, shader_path
 
-TILE = 8           # pixels a tile side
+TILE = 8           # pixels a tile side (a power of two)
 HEAD_CULL = True   # RASTER_HEAD_CULL: False compiles the kernels without the column cull
 
 
 def cull_defines() -> dict:
     """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp)."""
-    return {"RASTER_HEAD_CULL": int(bool(HEAD_CULL)), "DEPTH_TILE": TILE}
+    return {"RASTER_HEAD_CULL": int(bool(HEAD_CULL))}
+
+
+def tile_shift(grid: int) -> int:
+    """log2 of a tile's side in samples at ``grid`` x ``grid`` samples a pixel: TILE pixels,
+    rounded up to a power of two samples."""
+    if TILE < 1 or TILE & (TILE - 1):
+        raise ValueError(f"depth_tiles.TILE must be a power of two, not {TILE}")
+    return (TILE - 1).bit_length() + (int(grid) - 1).bit_length()
 
 
 class DepthTiles:
@@ -45,26 +56,34 @@ class DepthTiles:
         self.ctx = ctx
         self.buffer = None
         self.tiles = (0, 0)   # across, down
+        self.shift = 0        # log2 of a tile's side in samples
 
-    def update(self, depth) -> None:
-        """Reduce ``depth`` (a single-sample depth texture) into the map (one dispatch)."""
+    def update(self, depth, grid: int = 1) -> None:
+        """Reduce ``depth`` (a single-sample depth texture, a pixel ``grid`` x ``grid`` samples
+        of the rasteriser) into the map (one dispatch)."""
         w, h = depth.size
-        tiles = (math.ceil(w / TILE), math.ceil(h / TILE))
+        shift = tile_shift(grid)
+        side = 1 << shift
+        tiles = (-(-w * grid // side), -(-h * grid // side))
         if self.buffer is None or tiles != self.tiles:
             self.release()
             self.buffer = self.ctx.buffer(reserve=4 * tiles[0] * tiles[1])
             self.tiles = tiles
-        cs = compute_shader(self.ctx, shader_path("depth_tiles.comp"), {"DEPTH_TILE": TILE})
+        self.shift = shift
+        cs = compute_shader(self.ctx, shader_path("depth_tiles.comp"))
         depth.use(TEX_SCENE_DEPTH)
         set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
         set_uniform(cs, "u_depth_tiles", tiles)
+        set_uniform(cs, "u_tile_shift", shift)
+        set_uniform(cs, "u_grid", int(grid))
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        cs.run(*tiles)
+        cs.run(math.ceil(tiles[0] / 8), math.ceil(tiles[1] / 8))
         self.ctx.memory_barrier()
 
     def bind(self, cs) -> None:
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
         set_uniform(cs, "u_depth_tiles", self.tiles)
+        set_uniform(cs, "u_tile_shift", self.shift)
 
     def read(self) -> np.ndarray:
         """The map, (tiles down, tiles across) float32."""

@@ -134,7 +134,7 @@ class HairComputePass(Pass):
         scan = {**defines, **raster_defines(ctx), **cull, **({"RASTER_STATS": 1} if stats is not None else {})}
         if cull["RASTER_HEAD_CULL"]:
             with r.profiler.section("depth_tiles"):
-                self.tiles.update(depth)
+                self.tiles.update(depth, grid)
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
                 cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**scan, "RASTER_PASS": raster_pass},

@@ -31,7 +31,7 @@ uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u, g_culled = 0u;
 // would fail visit()'s `z >= scene depth`, so none is visited
 #include "depth_tiles.glsl"
 bool column_behind(ivec2 q0, ivec2 q1, float z) {
-    if (!depth_tiles_behind(q0 / u_grid, q1 / u_grid, z)) return false;
+    if (!depth_tiles_behind(q0, q1, z)) return false;
 #if RASTER_STATS
     uint n = uint(max(q1.x - q0.x, q1.y - q0.y) + 1);
     g_scanned += n;
