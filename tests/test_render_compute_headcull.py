@@ -15,6 +15,7 @@ import pytest
 
 import mane.render.passes.depth_tiles as depth_tiles
 import mane.render.passes.raster_segment as raster_segment
+from mane.groom import Groom
 from mane.grooming.scene import default_scene
 from mane.render import Renderer, RenderSettings
 from mane.render.passes.hair_compute import sample_grid
@@ -43,7 +44,7 @@ def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **
         hc.capture = True
         r.render(cam, LIGHTS)
         bufs = {k: v.copy() for k, v in hc.captured.items()}
-        tiles = hc.tiles.read() if cull else None
+        tiles = hc.tiles.read() if cull is not False else None
         _, depth = r.hdr_textures()
         z = np.frombuffer(depth.read(), np.float32).reshape(depth.size[1], depth.size[0]).copy()
         stats = hc.count_samples(cam, LIGHTS)
@@ -68,7 +69,24 @@ def sample_tiles(z: np.ndarray, grid: int) -> np.ndarray:
     return max_pool(np.kron(z, np.ones((grid, grid), np.float32)), side)
 
 
+def needles_groom(n: int = 60, seed: int = 4) -> Groom:
+    """Straight strands of 3 points running from in front of a ball at the origin to behind it
+    (mostly along the view axis, slanted): long segments with one end in front of the head's
+    surface and one behind it."""
+    rng = np.random.default_rng(seed)
+    t = np.linspace(0.0, 1.0, 3)[:, None]
+    strands = []
+    for _ in range(n):
+        x, y = rng.uniform(-0.045, 0.045, 2)
+        dx, dy = rng.uniform(-0.03, 0.03, 2)
+        strands.append(np.c_[x + dx * t, y + dy * t, 0.09 - 0.18 * t])
+    return Groom.from_strands(strands)
+
+
 SCENES = {
+    # strands through a ball: segments from in front of the head to behind it
+    "head_pierced": lambda: dict(groom=needles_groom(), head=sphere(0.04, (0.0, 0.0, 0.0)), camera=CAM,
+                                 segments=2, strands_per_guide=1),
     # a ball between the eye and the curtain of hair: most of the hair behind it
     "head_in_front": lambda: dict(groom=curtain_groom(), head=sphere(0.035, (0.01, 0.0, 0.12)), camera=CAM),
     # the ball behind the curtain: the hair in front (nothing of it behind the head)
@@ -78,7 +96,7 @@ SCENES = {
     # the default head and hair (hair over the scalp, behind the head, at its silhouette)
     "default_head": lambda: dict(zip(("groom", "head"), default_scene(num_guides=80, points=8, subdivisions=3))),
 }
-CASES = [("head_in_front", 1, False), ("head_in_front", 4, True), ("head_in_front", 16, False),
+CASES = [("head_pierced", 1, False), ("head_pierced", 4, True), ("head_in_front", 1, False), ("head_in_front", 4, True), ("head_in_front", 16, False),
          ("head_behind", 4, False), ("head_partly", 1, False), ("head_partly", 4, True), ("head_partly", 16, True),
          ("default_head", 4, False), ("default_head", 16, True)]
 
@@ -108,8 +126,9 @@ def test_head_cull_is_bit_identical_and_the_tile_map_is_the_max(gl, monkeypatch,
 
 
 @pytest.mark.parametrize("form", (0, 1))
-def test_head_cull_in_both_scan_conversion_forms(gl, monkeypatch, form):
-    kw = SCENES["head_in_front"]()
+@pytest.mark.parametrize("scene", ("head_in_front", "head_pierced"))
+def test_head_cull_in_both_scan_conversion_forms(gl, monkeypatch, form, scene):
+    kw = SCENES[scene]()
     off, s_off, _, _ = _render(gl, monkeypatch, False, form=form, msaa=4, **kw)
     on, s_on, _, _ = _render(gl, monkeypatch, True, form=form, msaa=4, **kw)
     np.testing.assert_array_equal(on["ids"], off["ids"])
@@ -176,3 +195,24 @@ def test_oit_fill_is_the_same_with_the_head_cull(gl, monkeypatch, method):
     for k in f0:
         np.testing.assert_array_equal(f0[k], f1[k], err_msg=k)
     np.testing.assert_array_equal(z0, z1)
+
+
+@pytest.mark.parametrize("part", ("segments", "columns"))
+def test_each_part_of_the_cull_alone(gl, monkeypatch, part):
+    # whole segments (their bounding box against their nearest depth) and single columns, each
+    # alone (the A/B script measures them apart): the same buffers, samples skipped
+    for scene in ("head_in_front", "head_pierced"):
+        kw = SCENES[scene]()
+        off, s_off, _, _ = _render(gl, monkeypatch, False, msaa=4, **kw)
+        on, s_on, _, _ = _render(gl, monkeypatch, part, msaa=4, **kw)
+        np.testing.assert_array_equal(on["ids"], off["ids"])
+        assert_cover_equal(on["cover"], off["cover"])
+        assert s_on["sample_visits"] == s_off["sample_visits"] and s_on["sample_writes"] == s_off["sample_writes"]
+        if scene == "head_in_front":
+            assert s_on["sample_culled"] > 0.2 * (s_on["sample_visits"] - s_on["sample_writes"])
+
+
+def test_a_bad_cull_switch_is_refused(monkeypatch):
+    monkeypatch.setattr(depth_tiles, "HEAD_CULL", "tiles")
+    with pytest.raises(ValueError, match="HEAD_CULL"):
+        depth_tiles.cull_defines()

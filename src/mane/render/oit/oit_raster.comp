@@ -150,10 +150,10 @@ void claim_slot(uint zb, ivec2 q, uint p, float cov) {
 #define RASTER_HEAD_CULL 0
 #endif
 #if RASTER_HEAD_CULL
-// a column at or behind the head's depth tile map (passes/depth_tiles.py): each of its
-// fragments would fail visit()'s `z >= scene depth`, so none is visited
+// segments and columns at or behind the head's depth tile map (passes/depth_tiles.py): each of
+// their fragments would fail visit()'s `z >= scene depth`, so none is visited
 #include "passes/depth_tiles.glsl"
-#define RASTER_COLUMN_CULL(Q0, Q1, Z) depth_tiles_behind(Q0, Q1, Z)
+#define RASTER_CULL(Q0, Q1, Z) depth_tiles_behind(Q0, Q1, Z)
 #endif
 
 void visit(ivec2 q, float z, float cov) {

@@ -19,7 +19,7 @@ pixel), so it touches one tile, two at a tile edge, whatever the tile size; a sm
 follows the head's silhouette and the slope of its depth more closely (hair on the far side of
 the scalp is only centimetres behind the near side), and the map stays small (1080p: 240 x 135
 floats, 127 KB, in L2 all frame). ``HEAD_CULL`` (read each frame) turns the cull off: tests and
-the A/B script (gpu-scripts/headcull.py) flip it.
+the A/B script (gpu-scripts/headcull.py) flip it (and may cull only the segments or the columns).
 """
 from __future__ import annotations
 
@@ -32,12 +32,18 @@ from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
 from .base import set_uniform, shader_path
 
 TILE = 8           # pixels a tile side (a power of two)
-HEAD_CULL = True   # RASTER_HEAD_CULL: False compiles the kernels without the column cull
+HEAD_CULL = True   # RASTER_HEAD_CULL: False compiles the kernels without the cull
+# for measuring the parts apart (gpu-scripts/headcull.py): HEAD_CULL "segments" or "columns" culls only those
+CULL_PARTS = {True: (1, 1), False: (0, 0), "segments": (1, 0), "columns": (0, 1)}
 
 
 def cull_defines() -> dict:
     """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp)."""
-    return {"RASTER_HEAD_CULL": int(bool(HEAD_CULL))}
+    key = HEAD_CULL if isinstance(HEAD_CULL, str) else bool(HEAD_CULL)
+    if key not in CULL_PARTS:
+        raise ValueError(f"depth_tiles.HEAD_CULL must be True, False, 'segments' or 'columns', not {HEAD_CULL!r}")
+    spans, columns = CULL_PARTS[key]
+    return {"RASTER_HEAD_CULL": int(spans or columns), "RASTER_CULL_SPANS": spans, "RASTER_CULL_COLUMNS": columns}
 
 
 def tile_shift(grid: int) -> int:

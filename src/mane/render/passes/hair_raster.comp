@@ -27,19 +27,13 @@ uint g_scanned = 0u, g_written = 0u, g_id_atomics = 0u, g_culled = 0u;
 #define RASTER_HEAD_CULL 0
 #endif
 #if RASTER_HEAD_CULL
-// a sample column at or behind the head's depth tile map (depth_tiles.py): each of its samples
-// would fail visit()'s `z >= scene depth`, so none is visited
+// segments and sample columns at or behind the head's depth tile map (depth_tiles.py): each of
+// their samples would fail visit()'s `z >= scene depth`, so none is visited
 #include "depth_tiles.glsl"
-bool column_behind(ivec2 q0, ivec2 q1, float z) {
-    if (!depth_tiles_behind(q0, q1, z)) return false;
+#define RASTER_CULL(Q0, Q1, Z) depth_tiles_behind(Q0, Q1, Z)
 #if RASTER_STATS
-    uint n = uint(max(q1.x - q0.x, q1.y - q0.y) + 1);
-    g_scanned += n;
-    g_culled += n;
+#define RASTER_CULLED(N) { g_scanned += uint(N); g_culled += uint(N); }
 #endif
-    return true;
-}
-#define RASTER_COLUMN_CULL(Q0, Q1, Z) column_behind(Q0, Q1, Z)
 #endif
 
 void visit(ivec2 q, float z, float cov) {

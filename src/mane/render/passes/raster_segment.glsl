@@ -20,12 +20,22 @@
 // forms of raster_expanded_segment (below) call these two, so they visit the same samples with
 // the same z and coverage.
 //
-//     #define RASTER_COLUMN_CULL(Q0, Q1, Z) ...   // optional: true skips a column's samples
+//     #define RASTER_CULL(Q0, Q1, Z) ...   // optional: true skips the samples of a box
+//     #define RASTER_CULLED(N) ...         // optional: told how many samples a cull skipped
 //
-// Along a column z and coverage are constant: a kernel that defines RASTER_COLUMN_CULL is asked
-// once per column with its first and last samples Q0, Q1 (a line of samples, not swapped) and
-// its depth, and RASTER_VISIT is not called on that column when it answers true (hair_raster.comp
-// and oit_raster.comp: a column behind the head's depth tile map, depth_tiles.glsl).
+// Culling (hair_raster.comp and oit_raster.comp: what lies behind the head's depth tile map,
+// depth_tiles.glsl): a kernel that defines RASTER_CULL is asked whether every sample of the box
+// Q0..Q1 (inclusive, samples, not swapped) would be rejected at a depth of at least Z, once per
+// segment (its bounding box and its smallest depth; raster_span_box) and, for a segment it
+// keeps, once per column (along which z and coverage are constant); RASTER_VISIT is not called
+// on what it skips. RASTER_CULLED(N), where defined, counts the samples skipped (for a segment,
+// walking its columns: statistics only).
+#ifndef RASTER_CULL_SPANS
+#define RASTER_CULL_SPANS 1     // RASTER_CULL asked per segment (0: not; depth_tiles.py's A/B parts)
+#endif
+#ifndef RASTER_CULL_COLUMNS
+#define RASTER_CULL_COLUMNS 1   // and per column
+#endif
 #ifndef RASTER_MAX_STEPS
 #define RASTER_MAX_STEPS 8192
 #endif
@@ -68,20 +78,34 @@ int raster_columns(RasterSpan s) {
     return s.x1 >= s.x0 ? s.x1 - s.x0 + 1 : 0;
 }
 
-// the samples of column x (x0 <= x <= x1) of span s; size: the sample grid (not swapped)
-void raster_column(RasterSpan s, int x, ivec2 size) {
+// column x's samples y0..y1 along the minor axis (swapped when steep; none when y1 < y0), its
+// depth and its coverage (x0 <= x <= x1); size: the sample grid (not swapped)
+void raster_column_range(RasterSpan s, int x, ivec2 size, out int y0, out int y1, out float z, out float cov) {
     int ny = s.steep ? size.x : size.y;
     float t = (float(x) + 0.5 - s.a.x) / s.d.x;
     float y = s.a.y + t * s.d.y;
     float h = min(mix(s.ha, s.hb, t) * s.inv_cos, float(RASTER_MAX_SPAN));
-    int y0 = max(int(ceil(y - h - 0.5)), 0);
-    int y1 = min(int(ceil(y + h - 0.5)) - 1, ny - 1);
-    float z = mix(s.za, s.zb, t);
-    float cov = mix(s.ca, s.cb, t);
-#ifdef RASTER_COLUMN_CULL
-    if (y0 <= y1) {   // the kernel may skip the whole column (its first and last samples, depth)
-        if (RASTER_COLUMN_CULL((s.steep ? ivec2(y0, x) : ivec2(x, y0)), (s.steep ? ivec2(y1, x) : ivec2(x, y1)), z))
+    y0 = max(int(ceil(y - h - 0.5)), 0);
+    y1 = min(int(ceil(y + h - 0.5)) - 1, ny - 1);
+    z = mix(s.za, s.zb, t);
+    cov = mix(s.ca, s.cb, t);
+}
+
+// the samples of column x (x0 <= x <= x1) of span s; size: the sample grid (not swapped)
+void raster_column(RasterSpan s, int x, ivec2 size) {
+    int y0, y1;
+    float z, cov;
+    raster_column_range(s, x, size, y0, y1, z, cov);
+#if defined(RASTER_CULL) && RASTER_CULL_COLUMNS
+    if (y0 <= y1) {
+        ivec2 q0 = s.steep ? ivec2(y0, x) : ivec2(x, y0);
+        ivec2 q1 = s.steep ? ivec2(y1, x) : ivec2(x, y1);
+        if (RASTER_CULL(q0, q1, z)) {
+#ifdef RASTER_CULLED
+            RASTER_CULLED(y1 - y0 + 1);
+#endif
             return;
+        }
     }
 #endif
     for (int yy = y0; yy <= y1; ++yy) {
@@ -89,6 +113,46 @@ void raster_column(RasterSpan s, int x, ivec2 size) {
         RASTER_VISIT(q, z, cov);
     }
 }
+
+#ifdef RASTER_CULL
+// A box of samples (not swapped) holding every sample of span s's columns, a sample's margin
+// around the end points' rows widened by the larger half width (t lies in [0, 1) at every
+// column), and a depth at or below every column's (mix() may round below its ends, as an fma
+// by up to an ulp of |zb - za|: a margin of 1e-6 (1 + |za| + |zb|), 16 steps of a 24-bit depth
+// buffer at the usual window depths); false: no samples, or a NaN.
+bool raster_span_box(RasterSpan s, ivec2 size, out ivec2 q0, out ivec2 q1, out float zmin) {
+    q0 = ivec2(0);
+    q1 = ivec2(-1);
+    zmin = min(s.za, s.zb) - 1e-6 * (1.0 + abs(s.za) + abs(s.zb));
+    int ny = s.steep ? size.x : size.y;
+    float h = min(max(s.ha, s.hb) * s.inv_cos, float(RASTER_MAX_SPAN));
+    float ya = s.a.y, yb = s.a.y + s.d.y;
+    float lo = min(ya, yb) - h - 1.5, hi = max(ya, yb) + h + 0.5;
+    if (s.x1 < s.x0 || !(lo <= hi) || !(zmin == zmin)) return false;
+    int y0 = int(clamp(floor(lo), 0.0, float(ny)));
+    int y1 = int(clamp(ceil(hi), -1.0, float(ny - 1)));
+    if (y1 < y0) return false;
+    q0 = s.steep ? ivec2(y0, s.x0) : ivec2(s.x0, y0);
+    q1 = s.steep ? ivec2(y1, s.x1) : ivec2(s.x1, y1);
+    return true;
+}
+
+// whether the kernel skips span s whole (RASTER_CULL on its box)
+bool raster_span_culled(RasterSpan s, ivec2 size) {
+    ivec2 q0, q1;
+    float zmin;
+    if (!raster_span_box(s, size, q0, q1, zmin) || !RASTER_CULL(q0, q1, zmin)) return false;
+#ifdef RASTER_CULLED
+    for (int x = s.x0; x <= s.x1; ++x) {   // the samples it would have visited
+        int y0, y1;
+        float z, cov;
+        raster_column_range(s, x, size, y0, y1, z, cov);
+        RASTER_CULLED(max(y1 - y0 + 1, 0));
+    }
+#endif
+    return true;
+}
+#endif
 
 // The segments of the expanded strands (strand_expand.comp: strands of u_points_per_strand
 // points, 2 vec4 a point), the loop of every compute-raster kernel (hair_raster.comp,
@@ -135,6 +199,12 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     if (!a.ok || !b.ok) return false;   // behind the eye
     s = raster_span(a.s, b.s, a.RASTER_DEPTH, b.RASTER_DEPTH, a.half_width, b.half_width, a.coverage, b.coverage,
                     u_raster_size);
+#if defined(RASTER_CULL) && RASTER_CULL_SPANS
+    if (raster_span_culled(s, u_raster_size)) {   // none of its columns
+        s.x1 = s.x0 - 1;
+        return false;
+    }
+#endif
     return true;
 }
 
