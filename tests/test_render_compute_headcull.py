@@ -1,13 +1,14 @@
 """The compute rasteriser's head culling (passes/depth_tiles.py): a per-frame tile map of the
-head's depth (the max of each TILE x TILE pixel tile), and the sample columns at or behind it
-skipped whole (raster_segment.glsl's RASTER_COLUMN_CULL). Every skipped sample would have failed
-its own `z >= scene depth` test, so the per-sample buffers must be bit-identical with the cull on
-and off (the coverage up to where a sample saturates: assert_cover_equal), on heads in front of,
-behind and partly covering the hair, at 1, 2 x 2 and 4 x 4 samples a pixel, the head drawn with
-one sample and multisampled (head_msaa: the resolved depth). The map is checked against a NumPy
-max-pool of the read-back depth texture, and the cull must actually skip samples where hair lies
-behind the head, and none where there is no head. Also the OIT fill (oit_raster.comp), which
-makes the same test at a fragment."""
+head's depth (the max over tiles of about TILE x TILE pixels), and the segments (by their
+bounding box and nearest depth) and sample columns at or behind it skipped whole
+(raster_segment.glsl's RASTER_CULL). Every skipped sample would have failed its own `z >= scene
+depth` test, so the per-sample buffers must be bit-identical with the cull on and off (the
+coverage up to where a sample saturates: assert_cover_equal), on heads in front of, behind,
+partly covering and pierced by the hair, at 1, 2 x 2 and 4 x 4 samples a pixel, the head drawn
+with one sample and multisampled (head_msaa: the resolved depth). The map is checked against a
+NumPy max-pool of the read-back depth texture, and the cull must actually skip samples where
+hair lies behind the head, and none where there is no head. Also the OIT fill (oit_raster.comp),
+which makes the same test at a fragment."""
 from __future__ import annotations
 
 import numpy as np
@@ -212,7 +213,19 @@ def test_each_part_of_the_cull_alone(gl, monkeypatch, part):
             assert s_on["sample_culled"] > 0.2 * (s_on["sample_visits"] - s_on["sample_writes"])
 
 
-def test_a_bad_cull_switch_is_refused(monkeypatch):
+def test_the_cull_by_renderer(gl, monkeypatch):
+    # segments always; columns with the balanced scan conversion (GPUs), not in the per-thread
+    # form (CPU rasterisers: a lane's skipped column saves nothing while its neighbours walk on)
+    monkeypatch.setattr(depth_tiles, "HEAD_CULL", None)
+    for form in (0, 1):
+        monkeypatch.setattr(raster_segment, "FORCED", form)
+        assert depth_tiles.cull_defines(gl) == {"RASTER_HEAD_CULL": 1, "RASTER_CULL_SPANS": 1,
+                                                "RASTER_CULL_COLUMNS": form}
+    monkeypatch.setattr(depth_tiles, "HEAD_CULL", False)
+    assert depth_tiles.cull_defines(gl)["RASTER_HEAD_CULL"] == 0
+
+
+def test_a_bad_cull_switch_is_refused(gl, monkeypatch):
     monkeypatch.setattr(depth_tiles, "HEAD_CULL", "tiles")
     with pytest.raises(ValueError, match="HEAD_CULL"):
-        depth_tiles.cull_defines()
+        depth_tiles.cull_defines(gl)

@@ -171,7 +171,7 @@ class ComputeOit(OitMethod):
     def raster(self, frame: Frame, pass_id: int, shading: bool = False, cm: int | None = None, **uniforms) -> None:
         """One oit_raster.comp dispatch over every segment of the expanded strands."""
         r, ctx = self.r, self.ctx
-        cull = depth_tiles.cull_defines()
+        cull = depth_tiles.cull_defines(ctx)
         defines = self._defines(shading, OIT_PASS=int(pass_id), **raster_defines(ctx), **cull)
         if cm is not None:
             defines["OIT_CM"] = int(cm)

@@ -3,7 +3,7 @@
 // depth of the head's depth texture over the pixels the samples lie in. A depth z at or behind
 // the max of every tile that a box of samples touches is at or behind the depth of every
 // sample's pixel there, so each per-sample test `z >= depth` in the box would fail: the kernels
-// skip the box's samples at once (RASTER_COLUMN_CULL). A tile is found by shifts (an integer
+// skip the box's samples at once (RASTER_CULL). A tile is found by shifts (an integer
 // division by a uniform costs a CPU rasteriser scalar divides in every SIMD lane).
 layout(std430, binding = B_DEPTH_TILES) readonly buffer DepthTiles { float depth_tiles[]; };
 uniform ivec2 u_depth_tiles;   // tiles across and down

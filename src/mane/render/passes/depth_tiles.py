@@ -5,10 +5,12 @@ H200: 63% of 1.0G visits, each rejected alone by ``z >= scene depth``). ``depth_
 reduces the head's depth texture (exactly the one the rasteriser tests against:
 Renderer.hdr_textures, the resolved MSAA head with ``head_msaa``) to the largest window depth
 over each tile of the sample grid (a tile with any background pixel holds the clear's 1.0 and
-never culls). Before it visits a sample column (raster_segment.glsl's RASTER_COLUMN_CULL, along
-which depth and coverage are constant), a kernel checks the column's depth against the max of
-the tiles the column touches (depth_tiles.glsl): at or behind every one, every sample's own test
-would fail, so the column is skipped and the per-sample buffers stay bit-identical
+never culls). The kernels (raster_segment.glsl's RASTER_CULL hook, depth_tiles.glsl) then skip
+a segment whose bounding box of samples lies at or behind the map at the segment's nearest depth
+(it gets no columns, so in the balanced form none is dealt), and, of the others, a sample column
+(along which depth and coverage are constant) at or behind the tiles it touches: every sample
+they hold would fail its own test (``z >= depth``, and the tile's max is at least the depth of
+each of its pixels), so the per-sample buffers stay bit-identical
 (tests/test_render_compute_headcull.py).
 
 A tile is ``TILE`` = 8 pixels a side, as samples rounded up to a power of two (grid 1: 8
@@ -18,8 +20,17 @@ divides of the SIMD lanes are scalar). 8 pixels: a column spans a few samples ac
 pixel), so it touches one tile, two at a tile edge, whatever the tile size; a smaller tile
 follows the head's silhouette and the slope of its depth more closely (hair on the far side of
 the scalp is only centimetres behind the near side), and the map stays small (1080p: 240 x 135
-floats, 127 KB, in L2 all frame). ``HEAD_CULL`` (read each frame) turns the cull off: tests and
-the A/B script (gpu-scripts/headcull.py) flip it (and may cull only the segments or the columns).
+floats, 127 KB, in L2 all frame); a segment's box at the default framing (a few pixels) touches
+1-4 tiles, and one touching more than 32 (depth_tiles.glsl) is left to its columns
+(``headcull.py --tile 16`` measures the other choice).
+
+Columns are culled with the balanced scan conversion (GPUs: raster_segment.py), where a warp's
+lanes take neighbouring columns and skip them together; in the per-thread form (CPU
+rasterisers) a lane's skipped column saves nothing while its neighbours walk their own
+segments', and the check made the scan 1.1-1.3x slower on llvmpipe (960x540, the scale
+section's quick stand-ins), where the segment cull alone made it 1.06-1.18x faster.
+``HEAD_CULL`` (read each frame) overrides the choice: tests and the A/B script
+(gpu-scripts/headcull.py) set it.
 """
 from __future__ import annotations
 
@@ -30,19 +41,24 @@ import numpy as np
 from ...gpu.glsl import compute_shader
 from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
 from .base import set_uniform, shader_path
+from .raster_segment import balance_for
 
 TILE = 8           # pixels a tile side (a power of two)
-HEAD_CULL = True   # RASTER_HEAD_CULL: False compiles the kernels without the cull
-# for measuring the parts apart (gpu-scripts/headcull.py): HEAD_CULL "segments" or "columns" culls only those
+# RASTER_HEAD_CULL, read each frame: None, by the renderer (segments always, columns with the
+# balanced scan conversion); True, segments and columns; False, off; "segments" or "columns" alone
+HEAD_CULL = None
 CULL_PARTS = {True: (1, 1), False: (0, 0), "segments": (1, 0), "columns": (0, 1)}
 
 
-def cull_defines() -> dict:
+def cull_defines(ctx) -> dict:
     """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp)."""
-    key = HEAD_CULL if isinstance(HEAD_CULL, str) else bool(HEAD_CULL)
-    if key not in CULL_PARTS:
-        raise ValueError(f"depth_tiles.HEAD_CULL must be True, False, 'segments' or 'columns', not {HEAD_CULL!r}")
-    spans, columns = CULL_PARTS[key]
+    key = HEAD_CULL if HEAD_CULL is None or isinstance(HEAD_CULL, str) else bool(HEAD_CULL)
+    if key is None:
+        spans, columns = 1, balance_for(ctx)
+    elif key in CULL_PARTS:
+        spans, columns = CULL_PARTS[key]
+    else:
+        raise ValueError(f"depth_tiles.HEAD_CULL must be None, True, False, 'segments' or 'columns', not {HEAD_CULL!r}")
     return {"RASTER_HEAD_CULL": int(spans or columns), "RASTER_CULL_SPANS": spans, "RASTER_CULL_COLUMNS": columns}
 
 

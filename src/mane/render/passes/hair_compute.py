@@ -15,7 +15,12 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
    per-sample buffers are bit-identical to one thread walking its own segment (the atomics
    commute). On the H200 this took a 100k-strand close-up's scan from 23.4 to 8.6 ms; CPU
-   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py).
+   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). Head culling
+   (depth_tiles.py; ``depth_tiles`` section, a few microseconds): first a tile map of the head's
+   depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
+   or behind the map at its nearest depth gets no columns, and a column (constant depth) at or
+   behind the tiles it touches is skipped: the samples they hold would all fail the per-sample
+   depth test, so the buffers are bit-identical (``count_samples``' ``sample_culled``).
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
@@ -130,7 +135,7 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        cull = depth_tiles.cull_defines()
+        cull = depth_tiles.cull_defines(ctx)
         scan = {**defines, **raster_defines(ctx), **cull, **({"RASTER_STATS": 1} if stats is not None else {})}
         if cull["RASTER_HEAD_CULL"]:
             with r.profiler.section("depth_tiles"):

@@ -2,7 +2,8 @@
 // The compute rasteriser, step 1: every segment of the expanded strands (strand_expand.comp)
 // scan-converted into the sample grid (raster_segment.glsl); at each sample in front of the
 // scene's depth (the head) the nearest segment is kept (hair_vis.glsl) and the coverage added;
-// RASTER_HEAD_CULL: columns behind the head's depth tile map are skipped whole (depth_tiles.py).
+// RASTER_HEAD_CULL: segments and columns behind the head's depth tile map are skipped whole
+// (depth_tiles.py).
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
