@@ -19,10 +19,11 @@ import mane.render.passes.raster_segment as raster_segment
 from mane.groom import Groom
 from mane.grooming.scene import default_scene
 from mane.render import Renderer, RenderSettings
+from mane.render.camera import Camera
 from mane.render.passes.hair_compute import sample_grid
 
 from test_oit_methods import CAM, LIGHTS, curtain_groom, sphere
-from test_render_compute_balance import assert_cover_equal
+from test_render_compute_balance import assert_cover_equal, star_groom
 
 pytestmark = pytest.mark.gpu
 
@@ -85,6 +86,11 @@ def needles_groom(n: int = 60, seed: int = 4) -> Groom:
 
 
 SCENES = {
+    # every direction, strands through the eye's plane (ends projected far off the frame), a ball
+    # behind the star's centre
+    "star_eye": lambda: dict(groom=star_groom(), head=sphere(0.12, (0.05, 0.0, -0.15)),
+                             camera=Camera(eye=(0.0, 0.0, 1.0), target=(0.0, 0.0, 0.0)), width=0.003, segments=24,
+                             strands_per_guide=1),
     # strands through a ball: segments from in front of the head to behind it
     "head_pierced": lambda: dict(groom=needles_groom(), head=sphere(0.04, (0.0, 0.0, 0.0)), camera=CAM,
                                  segments=2, strands_per_guide=1),
@@ -97,7 +103,7 @@ SCENES = {
     # the default head and hair (hair over the scalp, behind the head, at its silhouette)
     "default_head": lambda: dict(zip(("groom", "head"), default_scene(num_guides=80, points=8, subdivisions=3))),
 }
-CASES = [("head_pierced", 1, False), ("head_pierced", 4, True), ("head_in_front", 1, False), ("head_in_front", 4, True), ("head_in_front", 16, False),
+CASES = [("star_eye", 1, False), ("star_eye", 4, False), ("head_pierced", 1, False), ("head_pierced", 4, True), ("head_in_front", 1, False), ("head_in_front", 4, True), ("head_in_front", 16, False),
          ("head_behind", 4, False), ("head_partly", 1, False), ("head_partly", 4, True), ("head_partly", 16, True),
          ("default_head", 4, False), ("default_head", 16, True)]
 

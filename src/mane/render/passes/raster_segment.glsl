@@ -119,7 +119,9 @@ void raster_column(RasterSpan s, int x, ivec2 size) {
 // around the end points' rows widened by the larger half width (t lies in [0, 1) at every
 // column), and a depth at or below every column's (mix() may round below its ends, as an fma
 // by up to an ulp of |zb - za|: a margin of 1e-6 (1 + |za| + |zb|), 16 steps of a 24-bit depth
-// buffer at the usual window depths); false: no samples, or a NaN.
+// buffer at the usual window depths); false: no samples, a NaN, or an end past 2^20 samples
+// from the origin (an end near the eye's plane: there a column's y, a sum of large terms, may
+// round by more than the margin).
 bool raster_span_box(RasterSpan s, ivec2 size, out ivec2 q0, out ivec2 q1, out float zmin) {
     q0 = ivec2(0);
     q1 = ivec2(-1);
@@ -128,7 +130,9 @@ bool raster_span_box(RasterSpan s, ivec2 size, out ivec2 q0, out ivec2 q1, out f
     float h = min(max(s.ha, s.hb) * s.inv_cos, float(RASTER_MAX_SPAN));
     float ya = s.a.y, yb = s.a.y + s.d.y;
     float lo = min(ya, yb) - h - 1.5, hi = max(ya, yb) + h + 0.5;
-    if (s.x1 < s.x0 || !(lo <= hi) || !(zmin == zmin)) return false;
+    vec2 b = s.a + s.d;
+    if (s.x1 < s.x0 || !(lo <= hi) || !(zmin == zmin)
+        || !(max(max(abs(s.a.x), abs(s.a.y)), max(abs(b.x), abs(b.y))) <= 1048576.0)) return false;
     int y0 = int(clamp(floor(lo), 0.0, float(ny)));
     int y1 = int(clamp(ceil(hi), -1.0, float(ny - 1)));
     if (y1 < y0) return false;
