@@ -36,11 +36,12 @@ def clear_texture(ctx, texture, value=(0.0, 0.0, 0.0, 0.0)) -> None:
     import moderngl
 
     from .glsl import compute_shader
+    from .uniforms import write_uniform
 
     cs = compute_shader(ctx, HERE / "clear_image.comp", defines={"FORMAT": image_format(texture)})
     w, h = texture.size
-    cs["size"].value = (int(w), int(h))
-    cs["value"].value = tuple(float(v) for v in value)
+    write_uniform(cs["size"], (int(w), int(h)))
+    write_uniform(cs["value"], tuple(float(v) for v in value))
     texture.bind_to_image(IMG_CLEAR, read=False, write=True)
     cs.run((w + LOCAL - 1) // LOCAL, (h + LOCAL - 1) // LOCAL)
     ctx.memory_barrier(moderngl.FRAMEBUFFER_BARRIER_BIT | moderngl.TEXTURE_FETCH_BARRIER_BIT

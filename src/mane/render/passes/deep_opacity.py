@@ -13,14 +13,15 @@ bits for z0, fixed-point atomic adds (1/65536) for the layers.
 """
 from __future__ import annotations
 
-import numpy as np
-
+import functools
 import math
+
+import numpy as np
 
 from ...gpu.glsl import compute_shader, program
 from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
 from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
-                   read_f32, set_uniform, set_view)
+                   read_f32, set_uniform, set_uniforms, set_view)
 from .light_depth import LightDepthPass
 
 
@@ -131,9 +132,12 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     ctx = renderer.ctx
     cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass}, include_dirs=[RENDER_DIR])
     set_view(cs, view)
-    set_uniform(cs, "u_raster_size", (n, n))
-    set_uniform(cs, "u_grid", 1)
-    set_uniform(cs, "u_dom_layers_abs", tuple(float(x) for x in layer_ends))
-    set_uniform(cs, "u_strand_opacity", float(strand_opacity))
+    set_uniforms(cs, _scan_uniforms(int(n), tuple(float(x) for x in layer_ends), float(strand_opacity)))
     renderer.get_pass("expand").dispatch_segments(cs)
     ctx.memory_barrier()
+
+
+@functools.lru_cache(maxsize=32)
+def _scan_uniforms(n: int, layer_ends: tuple, strand_opacity: float) -> dict:
+    """scan_light_depths' uniforms, one dict per value (set_uniforms skips them by identity)."""
+    return {"u_raster_size": (n, n), "u_grid": 1, "u_dom_layers_abs": layer_ends, "u_strand_opacity": strand_opacity}

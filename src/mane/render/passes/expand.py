@@ -35,6 +35,7 @@ class ExpandPass(Pass):
         self.points = 0        # per rendered strand
         self.strands = 0       # rendered strands
         self._key = None
+        self._key_memo = None   # (what key() was made of, by identity; the key)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -44,6 +45,21 @@ class ExpandPass(Pass):
         self.ensure()
 
     def key(self):
+        """What the expanded buffer was made from (a new key: expand again). Kept while the
+        objects it is made of are the same ones (the strands, their box, the settings, the
+        geometry version, the camera's view and LOD eye, the instances): a frame asks 5 times."""
+        r = self.renderer
+        st = r.strands
+        inputs = (st, st.bbox() if st is not None else None, r.settings, r.lod_view, r.lod_eye, r.instances)
+        memo = self._key_memo
+        if (memo is not None and memo[1] == r.geometry_version
+                and all(a is b for a, b in zip(memo[0], inputs))):
+            return memo[2]
+        key = self._make_key()
+        self._key_memo = (inputs, r.geometry_version, key)
+        return key
+
+    def _make_key(self):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
         plan = r.lod_plan()
@@ -147,7 +163,7 @@ class ExpandPass(Pass):
         if self.buffer is not None:
             self.buffer.release()
             self.buffer = None
-        self._key = None
+        self._key = self._key_memo = None
 
 
 def run_1d(cs, n: int) -> None:

@@ -29,7 +29,7 @@ import numpy as np
 
 from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
-from ...gpu.glsl import compute_shader
+from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
 
@@ -67,6 +67,7 @@ class HairComputePass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self.vis64 = has_atomic64(self.ctx)
+        self._programs = ProgramMemo()
         self._buffers: tuple = ()
         self._key = None
         self.capture = False       # True: keep each frame's visibility (read_capture) before shading
@@ -138,9 +139,9 @@ class HairComputePass(Pass):
         for hook in self.after_raster:
             hook(frame)
         with r.profiler.section("hair_shade"):
-            cs = compute_shader(ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(),
-                                                                **shadow_defines(r.settings)},
-                                include_dirs=[RENDER_DIR])
+            cs = self._programs.get("shade", (r.shading, r.settings), lambda: compute_shader(
+                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings)},
+                include_dirs=[RENDER_DIR]))
             self._set_common(cs, frame, size, grid, expand.points)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)
             r.shading.bind(cs, ctx, r.settings)

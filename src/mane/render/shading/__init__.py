@@ -216,7 +216,19 @@ class ShadingSettings:
     def ms_mode(self) -> int:
         return MULTIPLE_SCATTERING[self.resolved_multiple_scattering]
 
+    def _derived(self, name: str, make):
+        """A value made from the (frozen) fields, made once per object: the renderer binds the
+        material every frame, and melanin's sigma_a and the tables' keys cost NumPy work."""
+        d = self.__dict__
+        out = d.get(name)
+        if out is None:
+            out = d[name] = make()
+        return out
+
     def resolved_sigma_a(self) -> np.ndarray:
+        return self._derived("_sigma_a", self._resolve_sigma_a).copy()
+
+    def _resolve_sigma_a(self) -> np.ndarray:
         if self.sigma_a is not None:
             return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
         if self.color is not None:
@@ -271,6 +283,9 @@ class ShadingSettings:
         }
 
     def lut_key(self) -> tuple:
+        return self._derived("_lut_key", self._lut_key)
+
+    def _lut_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
                 float(self.shift), float(self.glint), float(self.caustic_width),
                 float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
@@ -289,6 +304,9 @@ class ShadingSettings:
                        lambda: build_marschner_luts(sigma_a, **args))
 
     def chiang_key(self) -> tuple:
+        return self._derived("_chiang_key", self._chiang_key)
+
+    def _chiang_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.beta_n),
                 int(self.chiang_size))
 
@@ -319,6 +337,9 @@ class ShadingSettings:
         return float(self.beta_n)
 
     def dual_key(self) -> tuple:
+        return self._derived("_dual_key", self._dual_key)
+
+    def _dual_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
                 float(self.shift), float(self.glint), float(self.caustic_width),
                 float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
@@ -345,24 +366,26 @@ class ShadingSettings:
         """Set the material uniforms that ``program`` uses and, for the LUT model, bind the
         lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``;
         for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``."""
-        for name, value in self.material_uniforms(prefix).items():
-            if name in program:
-                write_uniform(program[name], value)
+        material = self._derived(f"_material_{prefix}", lambda: self.material_uniforms(prefix))
+        for name, value in material.items():
+            u = program.get(name, None)   # ``name in program`` walks every uniform of the program
+            if u is not None:
+                write_uniform(u, value)
         if self.model == "marschner_lut":
             tex_m, tex_n = lut_textures(ctx, self)
             tex_m.use(unit_m)
             tex_n.use(unit_n)
-            if "hair_lut_m" in program:
+            if program.get("hair_lut_m", None) is not None:
                 write_uniform(program["hair_lut_m"], unit_m)
-            if "hair_lut_n" in program:
+            if program.get("hair_lut_n", None) is not None:
                 write_uniform(program["hair_lut_n"], unit_n)
         if self.model == "chiang":
             chiang_texture(ctx, self).use(LUT_UNIT_CHIANG)
-            if "hair_chiang_n" in program:
+            if program.get("hair_chiang_n", None) is not None:
                 write_uniform(program["hair_chiang_n"], LUT_UNIT_CHIANG)
         if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
             dual_lut_texture(ctx, self).use(unit_dual)
-            if "hair_dual_lut" in program:
+            if program.get("hair_dual_lut", None) is not None:
                 write_uniform(program["hair_dual_lut"], unit_dual)
 
 
