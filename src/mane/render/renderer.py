@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from ..errors import UsageError
+from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
@@ -544,8 +545,6 @@ class Renderer(GpuOwner):
         if self.samples > 1 or not self.compute_raster:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             return
-        from ..gpu.clear import clear_texture
-
         if "hdr_depth" not in self._targets:
             self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
         self._targets["hdr_depth"][0].clear(depth=1.0)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...gpu.glsl import compute_shader
 from ..bindings import B_EXPANDED, B_STRAND_TABLE
-from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, subdivisions  # noqa: F401  (pulls: here too)
+from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, set_uniform, set_uniforms, subdivisions  # noqa: F401  (pulls: here too)
 
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
@@ -36,6 +36,7 @@ class ExpandPass(Pass):
         self.strands = 0       # rendered strands
         self._key = None
         self._key_memo = None   # (what key() was made of, by identity; the key)
+        self._dispatch_memo = None
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -135,9 +136,16 @@ class ExpandPass(Pass):
         compute rasteriser's scan conversions)."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        _set(cs, "u_points_per_strand", int(self.points))
-        _set(cs, "u_num_segments", int(self.segments))
+        set_uniforms(cs, self._dispatch_uniforms())
         run_1d(cs, self.segments)
+
+    def _dispatch_uniforms(self) -> dict:
+        """dispatch_segments' uniforms, one dict while the expanded buffer's shape is the same."""
+        key = (int(self.points), int(self.segments))
+        memo = self._dispatch_memo
+        if memo is None or memo[0] != key:
+            memo = self._dispatch_memo = (key, {"u_points_per_strand": key[0], "u_num_segments": key[1]})
+        return memo[1]
 
     def read(self) -> np.ndarray:
         """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random; instance by
@@ -182,7 +190,4 @@ def _ids():
     return {"interp": INTERPOLATION_IDS, "multi": MULTI_IDS}
 
 
-def _set(prog, name, value) -> None:
-    from .base import set_uniform
-
-    set_uniform(prog, name, value)
+_set = set_uniform

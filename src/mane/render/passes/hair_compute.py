@@ -31,7 +31,8 @@ from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
-from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_uniforms, set_view,
+                   shadow_defines)
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
@@ -68,6 +69,7 @@ class HairComputePass(Pass):
         super().__init__(renderer)
         self.vis64 = has_atomic64(self.ctx)
         self._programs = ProgramMemo()
+        self._common = None   # (what _set_common's uniforms were made of, the uniforms)
         self._buffers: tuple = ()
         self._key = None
         self.capture = False       # True: keep each frame's visibility (read_capture) before shading
@@ -199,10 +201,12 @@ class HairComputePass(Pass):
 
     def _set_common(self, cs, frame: Frame, size, grid: int, points: int) -> None:
         set_view(cs, frame.view)
-        set_uniform(cs, "u_raster_size", tuple(int(v) for v in size))
-        set_uniform(cs, "u_grid", int(grid))
-        set_uniform(cs, "u_lines", int(self.renderer.settings.geometry == "lines"))
-        set_uniform(cs, "u_points_per_strand", int(points))
+        key = (tuple(size), grid, self.renderer.settings.geometry == "lines", points)
+        memo = self._common
+        if memo is None or memo[0] != key:   # one dict while they stay the same: set_uniforms skips it
+            memo = self._common = (key, {"u_raster_size": tuple(int(v) for v in size), "u_grid": int(grid),
+                                         "u_lines": int(key[2]), "u_points_per_strand": int(points)})
+        set_uniforms(cs, memo[1])
 
     def _release_buffers(self) -> None:
         for _, b in self._buffers:

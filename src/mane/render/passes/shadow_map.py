@@ -54,7 +54,8 @@ class ShadowMapPass(LightDepthPass):
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
         self._z0.bind_to_storage_buffer(B_DOM_Z0)
         scan_light_depths(r, frame.light_view, n, 0)
-        merge = compute_shader(ctx, shader_path("shadow_merge.comp"), include_dirs=[RENDER_DIR])
+        merge = self._programs.get("merge", (), lambda: compute_shader(ctx, shader_path("shadow_merge.comp"),
+                                                                       include_dirs=[RENDER_DIR]))
         set_uniform(merge, "u_size", n)
         self.texture.bind_to_image(IMG_SHADOW, read=True, write=True)
         merge.run(math.ceil(n / 8), math.ceil(n / 8))

@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...gpu.uniforms import write_uniform
+from ...gpu.uniforms import LAST_SENT, write_uniform
 from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from .melanin import (  # noqa: F401
@@ -365,28 +365,37 @@ class ShadingSettings:
              unit_n: int = LUT_UNIT_N, unit_dual: int = LUT_UNIT_DUAL) -> None:
         """Set the material uniforms that ``program`` uses and, for the LUT model, bind the
         lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``;
-        for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``."""
-        material = self._derived(f"_material_{prefix}", lambda: self.material_uniforms(prefix))
-        for name, value in material.items():
-            u = program.get(name, None)   # ``name in program`` walks every uniform of the program
-            if u is not None:
+        for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``. What a program gets
+        (its uniforms, their values, the textures) is found once per (program, material) and
+        kept on the program; a value the uniform was last written is skipped by identity."""
+        from moderngl import InvalidObject
+
+        units = (prefix, unit_m, unit_n, unit_dual)
+        # kept on the program: (settings, units, ((uniform, value), ...), ((texture, unit), ...))
+        plan = program.__dict__.get("_mane_material")
+        if (plan is None or plan[0] is not self or plan[1] != units
+                or any(isinstance(t.mglo, InvalidObject) for t, _ in plan[3])):   # a cache let one go
+            values = dict(self.material_uniforms(prefix))
+            textures = []
+            if self.model == "marschner_lut":
+                tex_m, tex_n = lut_textures(ctx, self)
+                textures += [(tex_m, unit_m), (tex_n, unit_n)]
+                values.update(hair_lut_m=unit_m, hair_lut_n=unit_n)
+            if self.model == "chiang":
+                textures.append((chiang_texture(ctx, self), LUT_UNIT_CHIANG))
+                values["hair_chiang_n"] = LUT_UNIT_CHIANG
+            if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
+                textures.append((dual_lut_texture(ctx, self), unit_dual))
+                values["hair_dual_lut"] = unit_dual
+            # ``name in program`` would walk every uniform of the program: get() looks one up
+            pairs = tuple((program.get(k, None), v) for k, v in values.items())
+            plan = program.__dict__["_mane_material"] = (self, units, tuple(p for p in pairs if p[0] is not None),
+                                                         tuple(textures))
+        for u, value in plan[2]:
+            if u.__dict__.get(LAST_SENT) is not value:   # the value object it was last written: skipped
                 write_uniform(u, value)
-        if self.model == "marschner_lut":
-            tex_m, tex_n = lut_textures(ctx, self)
-            tex_m.use(unit_m)
-            tex_n.use(unit_n)
-            if program.get("hair_lut_m", None) is not None:
-                write_uniform(program["hair_lut_m"], unit_m)
-            if program.get("hair_lut_n", None) is not None:
-                write_uniform(program["hair_lut_n"], unit_n)
-        if self.model == "chiang":
-            chiang_texture(ctx, self).use(LUT_UNIT_CHIANG)
-            if program.get("hair_chiang_n", None) is not None:
-                write_uniform(program["hair_chiang_n"], LUT_UNIT_CHIANG)
-        if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
-            dual_lut_texture(ctx, self).use(unit_dual)
-            if program.get("hair_dual_lut", None) is not None:
-                write_uniform(program["hair_dual_lut"], unit_dual)
+        for tex, unit in plan[3]:
+            tex.use(unit)
 
 
 def _stored(kind: str, key, build) -> tuple:
