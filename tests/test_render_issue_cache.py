@@ -183,3 +183,31 @@ def test_rebuilt_programs_get_every_uniform(gl, monkeypatch):
         assert np.array_equal(again, first)
     finally:
         r.release()
+
+
+@pytest.mark.gpu
+def test_lod_plan_kept_over_new_positions_and_made_again_for_a_new_box(gl):
+    """A simulator's frames move the geometry version every frame: the coverage LOD's plan is
+    kept while the view, the settings, the strands and their box are the same, and made again
+    when one changes (here: instances, then another groom's box)."""
+    r = Renderer(base_settings(lod_depth=8.0), ctx=gl, profile=False)
+    try:
+        r.set_strands(fan())
+        r.set_head(ball())
+        r.render(CAM, LIGHTS)
+        plan = r.lod_plan()
+        r.strands_changed()
+        r.render(CAM, LIGHTS)
+        assert r.lod_plan() is plan
+        shifted = np.eye(4)
+        shifted[:3, 3] = (0.3, 0.0, 0.0)
+        r.set_instances([np.eye(4), shifted])
+        r.render(CAM, LIGHTS)
+        assert len(r.lod_plan().kept) == 2
+        r.set_instances(None)
+        r.set_strands(fan(0.05))
+        r.render(CAM, LIGHTS)
+        other = r.lod_plan()
+        assert other is not plan and len(other.kept) == 1
+    finally:
+        r.release()

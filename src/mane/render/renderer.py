@@ -233,14 +233,19 @@ class Renderer(GpuOwner):
         if view is None or not float(s.lod_depth) > 0 or s.interpolation_mode != "single" or st is None:
             instances = len(self.instance_transforms())
             return LodPlan((float("nan"),) * instances, (spg,) * instances, spg)
-        key = (id(view), id(s), self._geometry_version, st.bbox()[0].tobytes(), self.compute_raster)
+        # what the plan is made of: the view, the settings, the strands (their guides, mean length and
+        # box: a simulator's box and rest length stay) and the instances; not the geometry version,
+        # which a simulator moves every frame (the plan cost 0.1-0.3 ms of NumPy a frame)
+        lo, hi = st.bbox()
+        key = (lo.tobytes(), hi.tobytes(), self.compute_raster)
         memo = self._lod_memo
-        if memo is not None and memo[0] == key and memo[2] is view:
+        if (memo is not None and memo[0] == key and memo[2] is view and memo[3] is s and memo[4] is st
+                and memo[5] is self.instances):
             return memo[1]
         plan = lod_plan(view, s.render_size, self.instance_boxes(self.strand_pad()), strands_per_guide=spg,
                         guides=st.num_guides, mean_length=st.mean_length(), mean_width=mean_width(s),
                         min_width_px=self.min_drawn_width_px(), lod_depth=float(s.lod_depth))
-        self._lod_memo = (key, plan, view)
+        self._lod_memo = (key, plan, view, s, st, self.instances)
         return plan
 
     def set_guide_weights(self, guide_weights, weights=None, offsets=None) -> None:

@@ -233,30 +233,40 @@ def draw_hair(renderer, prog, view: View, lod_eye=None, vao=None) -> None:
 
 def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) -> None:
     """The strand uniforms of strand_common.glsl / strand_eval.glsl (a program or compute shader)."""
-    s = renderer.settings
-    st = renderer.strands
-    N = st.points_per_strand
-    for name, value in (("u_n", N), ("u_num_guides", st.num_guides),
-                        ("u_strands_per_guide", int(s.strands_per_guide)),
-                        ("u_subdivisions", subdivisions(s, N)), ("u_keep_guide", int(s.keep_guide))):
-        set_uniform(prog, name, int(value))
-    for name, value in (("u_clump_radius", s.clump_radius), ("u_clump_root", s.clump_root),
-                        ("u_clump_tip", s.clump_tip), ("u_stray_fraction", s.stray_fraction),
-                        ("u_stray_amount", s.stray_amount), ("u_width", s.width),
-                        ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
-                        ("u_strand_spread", math.radians(float(s.strand_spread))),
-                        ("u_curl_frequency", s.curl_frequency)):
-        set_uniform(prog, name, float(value))
     if lod_eye is None:
         lod_eye = getattr(renderer, "lod_eye", None)
     if lod_eye is None and view is not None:
         lod_eye = view.eye
-    if lod_eye is not None:
-        set_uniform(prog, "u_lod_eye", tuple(float(x) for x in lod_eye))
-    set_uniform(prog, "u_lod_range", (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
-                                      float(s.lod_width_multiplier) if s.lod else 1.0))
-    set_uniform(prog, "u_lod_segments", (float(s.lod_segment_percent), float(s.lod_min_segments)))
-    set_uniform(prog, "u_segments", int(s.segments))
+    set_uniforms(prog, strand_uniforms(renderer, lod_eye))
+
+
+def strand_uniforms(renderer, lod_eye=None) -> dict:
+    """set_strand_uniforms' values: one dict while the settings object, the strands' shape and
+    the LOD eye's values are the same (a simulator's frames expand every frame)."""
+    s = renderer.settings
+    st = renderer.strands
+    eye = None if lod_eye is None else tuple(float(x) for x in lod_eye)
+    key = (st.points_per_strand, st.num_guides, eye)
+    memo = renderer.__dict__.get("_strand_uniforms")
+    if memo is not None and memo[0] is s and memo[1] == key:
+        return memo[2]
+    N = st.points_per_strand
+    out = {name: int(value) for name, value in (
+        ("u_n", N), ("u_num_guides", st.num_guides), ("u_strands_per_guide", int(s.strands_per_guide)),
+        ("u_subdivisions", subdivisions(s, N)), ("u_keep_guide", int(s.keep_guide)))}
+    out.update({name: float(value) for name, value in (
+        ("u_clump_radius", s.clump_radius), ("u_clump_root", s.clump_root), ("u_clump_tip", s.clump_tip),
+        ("u_stray_fraction", s.stray_fraction), ("u_stray_amount", s.stray_amount), ("u_width", s.width),
+        ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
+        ("u_strand_spread", math.radians(float(s.strand_spread))), ("u_curl_frequency", s.curl_frequency))})
+    if eye is not None:
+        out["u_lod_eye"] = eye
+    out["u_lod_range"] = (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
+                          float(s.lod_width_multiplier) if s.lod else 1.0)
+    out["u_lod_segments"] = (float(s.lod_segment_percent), float(s.lod_min_segments))
+    out["u_segments"] = int(s.segments)
+    renderer.__dict__["_strand_uniforms"] = (s, key, out)
+    return out
 
 
 def bind_lighting(renderer, prog, frame: Frame) -> None:
