@@ -118,7 +118,7 @@ def set_uniform(prog, name: str, value) -> bool:
     return True
 
 
-_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, packed value), ...))
+_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, its __dict__, packed value), ...))
 MAX_PLANS = 64
 
 
@@ -136,12 +136,12 @@ def set_uniforms(prog, values: dict) -> None:
         for name, value in values.items():
             u = prog.get(name, None)
             if u is not None:
-                pairs.append((u, _packable(u, value)))
+                pairs.append((u, u.__dict__, _packable(u, value)))
         if len(plans) >= MAX_PLANS:
             plans.clear()
         entry = plans[id(values)] = (values, tuple(pairs))
-    for u, v in entry[1]:
-        if u.__dict__.get(LAST_SENT) is not v:
+    for u, sent, v in entry[1]:
+        if sent.get(LAST_SENT) is not v:
             write_uniform(u, v)
 
 

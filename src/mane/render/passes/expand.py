@@ -51,11 +51,14 @@ class ExpandPass(Pass):
         geometry version, the camera's view and LOD eye, the instances): a frame asks 5 times."""
         r = self.renderer
         st = r.strands
-        inputs = (st, st.bbox() if st is not None else None, r.settings, r.lod_view, r.lod_eye, r.instances)
+        box = st.bbox() if st is not None else None
         memo = self._key_memo
-        if (memo is not None and memo[1] == r.geometry_version
-                and all(a is b for a, b in zip(memo[0], inputs))):
-            return memo[2]
+        if memo is not None and memo[1] == r.geometry_version:
+            m = memo[0]
+            if (m[0] is st and m[1] is box and m[2] is r.settings and m[3] is r.lod_view and m[4] is r.lod_eye
+                    and m[5] is r.instances):
+                return memo[2]
+        inputs = (st, box, r.settings, r.lod_view, r.lod_eye, r.instances)
         key = self._make_key()
         self._key_memo = (inputs, r.geometry_version, key)
         return key
