@@ -97,7 +97,8 @@ class Renderer(GpuOwner):
                  profiler_source: str | None = None):
         self.ctx = ctx if ctx is not None else get_context()
         self._compute_raster = None   # (settings, compute_raster)
-        self._lighting_memo = None    # (what made it, the lighting uniforms): passes/base.py
+        self.memo: dict = {}          # what the passes keep from frame to frame (passes/base.py: the
+                                      # lighting and strand uniforms, with what they were made of)
         self._head_model = None       # (head_transform's dtype, shape and bytes, u_head_model's bytes, keeps the winding)
         self.settings = settings if settings is not None else RenderSettings()
         if not isinstance(self.settings, RenderSettings):

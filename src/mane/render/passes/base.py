@@ -247,7 +247,7 @@ def strand_uniforms(renderer, lod_eye=None) -> dict:
     st = renderer.strands
     eye = None if lod_eye is None else tuple(float(x) for x in lod_eye)
     key = (st.points_per_strand, st.num_guides, eye)
-    memo = renderer.__dict__.get("_strand_uniforms")
+    memo = renderer.memo.get("strand_uniforms")
     if memo is not None and memo[0] is s and memo[1] == key:
         return memo[2]
     N = st.points_per_strand
@@ -265,7 +265,7 @@ def strand_uniforms(renderer, lod_eye=None) -> dict:
                           float(s.lod_width_multiplier) if s.lod else 1.0)
     out["u_lod_segments"] = (float(s.lod_segment_percent), float(s.lod_min_segments))
     out["u_segments"] = int(s.segments)
-    renderer.__dict__["_strand_uniforms"] = (s, key, out)
+    renderer.memo["strand_uniforms"] = (s, key, out)
     return out
 
 
@@ -296,14 +296,14 @@ def _lighting_uniforms(renderer, frame: Frame) -> dict:
         hash(key)
     except TypeError:   # an unhashable light: made for this frame only
         key = None
-    kept = getattr(renderer, "_lighting_memo", None)
+    kept = renderer.memo.get("lighting")
     if (key is not None and kept is not None and kept[0] == key and kept[1] is frame.light_view
             and kept[2] is renderer.settings):
         frame.memo["lighting"] = kept[3]
         return kept[3]
     out = _make_lighting_uniforms(renderer, frame)
     if key is not None:
-        renderer._lighting_memo = (key, frame.light_view, renderer.settings, out)
+        renderer.memo["lighting"] = (key, frame.light_view, renderer.settings, out)
     frame.memo["lighting"] = out
     return out
 
