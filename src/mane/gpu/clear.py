@@ -11,10 +11,17 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import moderngl
+
 from ..errors import UsageError
 from .bindings import IMG_CLEAR
+from .glsl import compute_shader
+from .uniforms import write_uniform
 
 HERE = Path(__file__).resolve().parent
+SOURCE = HERE / "clear_image.comp"
+BARRIERS = (moderngl.FRAMEBUFFER_BARRIER_BIT | moderngl.TEXTURE_FETCH_BARRIER_BIT
+            | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)   # later draws, fetches and image loads see it
 LOCAL = 16
 # (components, dtype) -> the image format the shader declares
 FORMATS = {(4, "f2"): "rgba16f", (4, "f4"): "rgba32f", (1, "f4"): "r32f", (2, "f4"): "rg32f", (4, "f1"): "rgba8"}
@@ -33,15 +40,10 @@ def image_format(texture) -> str:
 def clear_texture(ctx, texture, value=(0.0, 0.0, 0.0, 0.0)) -> None:
     """Set every texel of ``texture`` (level 0) to ``value`` (RGBA; unused channels ignored),
     then a barrier so that later draws, fetches and image loads see it."""
-    import moderngl
-
-    from .glsl import compute_shader
-
-    cs = compute_shader(ctx, HERE / "clear_image.comp", defines={"FORMAT": image_format(texture)})
+    cs = compute_shader(ctx, SOURCE, defines={"FORMAT": image_format(texture)})
     w, h = texture.size
-    cs["size"].value = (int(w), int(h))
-    cs["value"].value = tuple(float(v) for v in value)
+    write_uniform(cs["size"], (int(w), int(h)))
+    write_uniform(cs["value"], tuple(map(float, value)))
     texture.bind_to_image(IMG_CLEAR, read=False, write=True)
     cs.run((w + LOCAL - 1) // LOCAL, (h + LOCAL - 1) // LOCAL)
-    ctx.memory_barrier(moderngl.FRAMEBUFFER_BARRIER_BIT | moderngl.TEXTURE_FETCH_BARRIER_BIT
-                       | moderngl.SHADER_IMAGE_ACCESS_BARRIER_BIT)
+    ctx.memory_barrier(BARRIERS)

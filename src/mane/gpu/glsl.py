@@ -310,3 +310,27 @@ def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
     if cache:
         _store(ctx, key, sources.values(), prog)
     return prog
+
+
+class ProgramMemo:
+    """A pass's compiled programs, each kept in a slot with what it was built from (``deps``,
+    compared by identity first, then by equality): a frame then asks no define dict to be made
+    and no cache key to be hashed (a hair shading program's defines are two dozen). Every
+    RECHECK_SECONDS a slot goes back to ``build`` (compute_shader / program, whose cache
+    notices an edited shader file), so a running viewer still picks up shader edits."""
+
+    def __init__(self):
+        self._slots: dict = {}
+
+    def get(self, slot, deps: tuple, build):
+        entry = self._slots.get(slot)
+        now = time.monotonic()
+        if (entry is not None and now - entry[2] < RECHECK_SECONDS and len(entry[0]) == len(deps)
+                and all(a is b or a == b for a, b in zip(entry[0], deps))):
+            return entry[1]
+        obj = build()
+        self._slots[slot] = (deps, obj, now)
+        return obj
+
+    def clear(self) -> None:
+        self._slots.clear()

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import struct
 
-_LAST = "_mane_sent"
+LAST_SENT = _LAST = "_mane_sent"   # on a uniform: the value object it was last written
 _PLAIN = (int, float, bool, tuple, list, bytes)
 
 

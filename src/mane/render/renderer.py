@@ -20,6 +20,7 @@ import moderngl
 import numpy as np
 
 from ..errors import UsageError
+from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
@@ -46,6 +47,7 @@ class ShadingAdapter:
         self.options = dict(options or {})
         self.hair_color = tuple(hair_color) if hair_color is not None else None
         self._defines = None
+        self._color = None
         kwargs = {"model": name, **self.options}
         if self.hair_color is not None:
             if self.options.get("melanin") is not None:
@@ -66,7 +68,9 @@ class ShadingAdapter:
     @property
     def color(self) -> tuple:
         """The model's colour (ShadingSettings.resolved_color: melanin's, or the RGB opt-in)."""
-        return tuple(float(x) for x in self.settings.resolved_color())
+        if self._color is None:
+            self._color = tuple(float(x) for x in self.settings.resolved_color())   # settings are frozen
+        return self._color
 
     def bind(self, prog, ctx, render_settings=None) -> None:
         self.settings.bind(prog, ctx)
@@ -92,6 +96,10 @@ class Renderer(GpuOwner):
     def __init__(self, settings: RenderSettings | None = None, *, ctx=None, profile: bool = True,
                  profiler_source: str | None = None):
         self.ctx = ctx if ctx is not None else get_context()
+        self._compute_raster = None   # (settings, compute_raster)
+        self.memo: dict = {}          # what the passes keep from frame to frame (passes/base.py: the
+                                      # lighting and strand uniforms, with what they were made of)
+        self._head_model = None       # (head_transform's dtype, shape and bytes, u_head_model's bytes, keeps the winding)
         self.settings = settings if settings is not None else RenderSettings()
         if not isinstance(self.settings, RenderSettings):
             raise UsageError("settings must be a mane.render.RenderSettings")
@@ -148,8 +156,13 @@ class Renderer(GpuOwner):
 
     @property
     def compute_raster(self) -> bool:
-        """Whether the hair is drawn by the compute rasteriser this frame (settings.rasterizer)."""
-        return wants_compute(self.settings, self._renderer_string) and unsupported_reason(self) is None
+        """Whether the hair is drawn by the compute rasteriser this frame (settings.rasterizer);
+        kept per settings object (a frame asks a dozen times)."""
+        memo = self._compute_raster
+        if memo is None or memo[0] is not self.settings:
+            memo = self._compute_raster = (self.settings, wants_compute(self.settings, self._renderer_string)
+                                           and unsupported_reason(self) is None)
+        return memo[1]
 
     @property
     def raster_grid(self) -> int:
@@ -218,17 +231,22 @@ class Renderer(GpuOwner):
         s, st = self.settings, self.strands
         view = view if view is not None else self.lod_view
         spg = int(s.strands_per_guide)
-        instances = len(self.instance_transforms())
         if view is None or not float(s.lod_depth) > 0 or s.interpolation_mode != "single" or st is None:
+            instances = len(self.instance_transforms())
             return LodPlan((float("nan"),) * instances, (spg,) * instances, spg)
-        key = (id(view), id(s), self._geometry_version, st.bbox()[0].tobytes(), self.compute_raster)
+        # what the plan is made of: the view, the settings, the strands (their guides, mean length and
+        # box: a simulator's box and rest length stay) and the instances; not the geometry version,
+        # which a simulator moves every frame (the plan cost 0.1-0.3 ms of NumPy a frame)
+        lo, hi = st.bbox()
+        key = (lo.tobytes(), hi.tobytes(), self.compute_raster)
         memo = self._lod_memo
-        if memo is not None and memo[0] == key and memo[2] is view:
+        if (memo is not None and memo[0] == key and memo[2] is view and memo[3] is s and memo[4] is st
+                and memo[5] is self.instances):
             return memo[1]
         plan = lod_plan(view, s.render_size, self.instance_boxes(self.strand_pad()), strands_per_guide=spg,
                         guides=st.num_guides, mean_length=st.mean_length(), mean_width=mean_width(s),
                         min_width_px=self.min_drawn_width_px(), lod_depth=float(s.lod_depth))
-        self._lod_memo = (key, plan, view)
+        self._lod_memo = (key, plan, view, s, st, self.instances)
         return plan
 
     def set_guide_weights(self, guide_weights, weights=None, offsets=None) -> None:
@@ -390,8 +408,20 @@ class Renderer(GpuOwner):
 
     def draw_head(self, prog) -> None:
         """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current transform."""
-        write_uniform(prog["u_head_model"], np.ascontiguousarray(self.head_transform.T, dtype=np.float32).tobytes())
+        write_uniform(prog["u_head_model"], self.head_model()[0])
         self.head_vao(prog).render()
+
+    def head_model(self) -> tuple[bytes, bool]:
+        """The head transform as ``u_head_model``'s bytes and whether it keeps the winding (a
+        positive determinant: the head pass may cull back faces); made again when the transform's
+        values change."""
+        m = np.asarray(self.head_transform)
+        raw = (m.dtype.str, m.shape, m.tobytes())
+        memo = self._head_model
+        if memo is None or memo[0] != raw:
+            memo = self._head_model = (raw, np.ascontiguousarray(m.T, dtype=np.float32).tobytes(),
+                                       float(np.linalg.det(m[:3, :3])) > 0.0)
+        return memo[1], memo[2]
 
     def head_vao(self, prog):
         key = ("head", id(prog))
@@ -521,8 +551,6 @@ class Renderer(GpuOwner):
         if self.samples > 1 or not self.compute_raster:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             return
-        from ..gpu.clear import clear_texture
-
         if "hdr_depth" not in self._targets:
             self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
         self._targets["hdr_depth"][0].clear(depth=1.0)
@@ -678,14 +706,22 @@ class Renderer(GpuOwner):
                 frame.shadow_views.append((lv, self._hair_depth_range(lv)))
         fbo = self.hdr_fbo()
         fbo.use()
-        with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
+        profiling = self.profiler.enabled   # off: no section (a context manager a pass) at all
+        if profiling:
+            with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
+                self._clear_hdr(fbo)
+        else:
             self._clear_hdr(fbo)
+        on_pass = self.on_pass
         for p in self.passes:
             if p.enabled(frame):
-                with self.profiler.section(p.name):
+                if profiling:
+                    with self.profiler.section(p.name):
+                        p.run(frame)
+                else:
                     p.run(frame)
-            if self.on_pass is not None:
-                self.on_pass(p.name)
+            if on_pass is not None:
+                on_pass(p.name)
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame

@@ -209,7 +209,6 @@ class OitMethod:
         r = self.r
         r.shading.bind(prog, self.ctx, r.settings)
         bind_lighting(r, prog, frame)
-        set_uniform(prog, "u_premultiply", 1)
         set_uniform(prog, "u_oit_opacity", float(self.settings.oit_opacity))
         set_uniform(prog, "u_oit_size", self.size)
         set_uniform(prog, "u_oit_depth_range", self.depth_range(frame))

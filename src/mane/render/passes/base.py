@@ -11,7 +11,7 @@ import moderngl
 import numpy as np
 
 from ...gpu.glsl import program
-from ...gpu.uniforms import write_uniform
+from ...gpu.uniforms import LAST_SENT, write_uniform
 from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST,
                         TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
@@ -92,29 +92,66 @@ class Frame:
     memo: dict = field(default_factory=dict)   # uniforms the passes share, made once a frame
 
 
-def set_uniform(prog, name: str, value) -> bool:
-    """Set a uniform if the program has it (the driver drops unused ones); False when absent.
-    A value the uniform holds already is not written again (mane.gpu.uniforms): every write
-    to a render program's uniform goes through here or ``write_uniform``."""
-    u = prog.get(name, None)
-    if u is None:   # optimised away or not declared
-        return False
+def _packable(u, value):
+    """``value`` as write_uniform takes it for uniform ``u``: a 4x4 array as its bytes, another
+    array as a tuple of floats, a list of vectors trimmed or zero-padded to the uniform's length."""
     cls = value.__class__
     if cls is np.ndarray:
-        value = mat_bytes(value) if value.shape == (4, 4) else tuple(map(float, value.reshape(-1)))
-    elif (cls is list or cls is tuple) and value and isinstance(value[0], (list, tuple, np.ndarray)):
+        return mat_bytes(value) if value.shape == (4, 4) else tuple(map(float, value.reshape(-1)))
+    if (cls is list or cls is tuple) and value and isinstance(value[0], (list, tuple, np.ndarray)):
         # the driver may trim an array to what the shader uses; a shorter list is zero-padded
         n = int(getattr(u, "array_length", len(value)) or len(value))
         vals = [tuple(map(float, v)) for v in value[:n]]
         vals += [(0.0,) * len(vals[0])] * (n - len(vals))
-        value = vals[0] if n == 1 else vals
-    write_uniform(u, value)
+        return vals[0] if n == 1 else vals
+    return value
+
+
+def set_uniform(prog, name: str, value) -> bool:
+    """Set a uniform if the program has it (the driver drops unused ones); False when absent.
+    A value the uniform holds already is not written again (mane.gpu.uniforms): every write
+    to a render program's uniform goes through here, ``set_uniforms`` or ``write_uniform``."""
+    u = prog.get(name, None)
+    if u is None:   # optimised away or not declared
+        return False
+    write_uniform(u, _packable(u, value))
     return True
 
 
+_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, its __dict__, packed value), ...))
+MAX_PLANS = 64
+
+
+def set_uniforms(prog, values: dict) -> None:
+    """``set_uniform`` for every name of ``values`` (a dict not changed once made: a View's, a
+    frame's lighting). The program's uniforms of the dict and their packed values are found
+    once per (program, dict) and kept on the program; a uniform whose last write was that very
+    value object is not looked at again (write_uniform remembers the object it wrote)."""
+    plans = prog.__dict__.get(_PLANS)
+    if plans is None:
+        plans = prog.__dict__[_PLANS] = {}
+    entry = plans.get(id(values))
+    if entry is None or entry[0] is not values:
+        pairs = []
+        for name, value in values.items():
+            u = prog.get(name, None)
+            if u is not None:
+                pairs.append((u, u.__dict__, _packable(u, value)))
+        if len(plans) >= MAX_PLANS:
+            plans.clear()
+        entry = plans[id(values)] = (values, tuple(pairs))
+    for u, sent, v in entry[1]:
+        if sent.get(LAST_SENT) is not v:
+            write_uniform(u, v)
+
+
+def has_uniform(prog, name: str) -> bool:
+    """Whether ``prog`` has the uniform (``name in prog`` walks every member of a moderngl program)."""
+    return prog.get(name, None) is not None
+
+
 def set_view(prog, view: View) -> None:
-    for name, value in view.uniforms().items():
-        set_uniform(prog, name, value)
+    set_uniforms(prog, view.uniforms())
 
 
 def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str | None = None,
@@ -196,54 +233,82 @@ def draw_hair(renderer, prog, view: View, lod_eye=None, vao=None) -> None:
 
 def set_strand_uniforms(renderer, prog, view: View | None = None, lod_eye=None) -> None:
     """The strand uniforms of strand_common.glsl / strand_eval.glsl (a program or compute shader)."""
-    s = renderer.settings
-    st = renderer.strands
-    N = st.points_per_strand
-    for name, value in (("u_n", N), ("u_num_guides", st.num_guides),
-                        ("u_strands_per_guide", int(s.strands_per_guide)),
-                        ("u_subdivisions", subdivisions(s, N)), ("u_keep_guide", int(s.keep_guide))):
-        set_uniform(prog, name, int(value))
-    for name, value in (("u_clump_radius", s.clump_radius), ("u_clump_root", s.clump_root),
-                        ("u_clump_tip", s.clump_tip), ("u_stray_fraction", s.stray_fraction),
-                        ("u_stray_amount", s.stray_amount), ("u_width", s.width),
-                        ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
-                        ("u_strand_spread", math.radians(float(s.strand_spread))),
-                        ("u_curl_frequency", s.curl_frequency)):
-        set_uniform(prog, name, float(value))
     if lod_eye is None:
         lod_eye = getattr(renderer, "lod_eye", None)
     if lod_eye is None and view is not None:
         lod_eye = view.eye
-    if lod_eye is not None:
-        set_uniform(prog, "u_lod_eye", tuple(float(x) for x in lod_eye))
-    set_uniform(prog, "u_lod_range", (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
-                                      float(s.lod_width_multiplier) if s.lod else 1.0))
-    set_uniform(prog, "u_lod_segments", (float(s.lod_segment_percent), float(s.lod_min_segments)))
-    set_uniform(prog, "u_segments", int(s.segments))
+    set_uniforms(prog, strand_uniforms(renderer, lod_eye))
+
+
+def strand_uniforms(renderer, lod_eye=None) -> dict:
+    """set_strand_uniforms' values: one dict while the settings object, the strands' shape and
+    the LOD eye's values are the same (a simulator's frames expand every frame)."""
+    s = renderer.settings
+    st = renderer.strands
+    eye = None if lod_eye is None else tuple(float(x) for x in lod_eye)
+    key = (st.points_per_strand, st.num_guides, eye)
+    memo = renderer.memo.get("strand_uniforms")
+    if memo is not None and memo[0] is s and memo[1] == key:
+        return memo[2]
+    N = st.points_per_strand
+    out = {name: int(value) for name, value in (
+        ("u_n", N), ("u_num_guides", st.num_guides), ("u_strands_per_guide", int(s.strands_per_guide)),
+        ("u_subdivisions", subdivisions(s, N)), ("u_keep_guide", int(s.keep_guide)))}
+    out.update({name: float(value) for name, value in (
+        ("u_clump_radius", s.clump_radius), ("u_clump_root", s.clump_root), ("u_clump_tip", s.clump_tip),
+        ("u_stray_fraction", s.stray_fraction), ("u_stray_amount", s.stray_amount), ("u_width", s.width),
+        ("u_width_tip", s.width_tip), ("u_curl_radius", s.curl_radius),
+        ("u_strand_spread", math.radians(float(s.strand_spread))), ("u_curl_frequency", s.curl_frequency))})
+    if eye is not None:
+        out["u_lod_eye"] = eye
+    out["u_lod_range"] = (float(s.lod_start), float(s.lod_end), float(s.lod_percent),
+                          float(s.lod_width_multiplier) if s.lod else 1.0)
+    out["u_lod_segments"] = (float(s.lod_segment_percent), float(s.lod_min_segments))
+    out["u_segments"] = int(s.segments)
+    renderer.memo["strand_uniforms"] = (s, key, out)
+    return out
 
 
 def bind_lighting(renderer, prog, frame: Frame) -> None:
     """Lights, ambient and light 0's shadow maps (texture units 1..3); the PCF kernel is the
     program's define (shadow_defines)."""
-    for name, value in _lighting_uniforms(renderer, frame).items():
-        set_uniform(prog, name, value)
+    set_uniforms(prog, _lighting_uniforms(renderer, frame))
     t = frame.targets
     if "shadow_map" in t:
         t["shadow_map"].use(TEX_SHADOW_MAP)
-        set_uniform(prog, "u_shadow_map", TEX_SHADOW_MAP)
     if "dom" in t:
         t["dom"].use(TEX_DOM)
-        set_uniform(prog, "u_dom", TEX_DOM)
     bind_shadow_methods(renderer, prog, frame)
     bind_extra_shadows(renderer, prog, frame)
 
 
 def _lighting_uniforms(renderer, frame: Frame) -> dict:
-    """bind_lighting's uniforms, made once a frame (the frame's lights,
-    views and the settings do not change while it is drawn)."""
+    """bind_lighting's uniforms, made once a frame, and kept from frame to frame while what they
+    are made of (the lights, light 0's view (kept per scene box) and the hair's depth range
+    along it, the settings, the maps the frame made) is the same: the same dict then lets
+    set_uniforms skip its uniforms by identity."""
     memo = frame.memo.get("lighting")
     if memo is not None:
         return memo
+    t = frame.targets
+    try:
+        key = (tuple(frame.lights), frame.hair_depth_range, "shadow_map" in t, "dom" in t)
+        hash(key)
+    except TypeError:   # an unhashable light: made for this frame only
+        key = None
+    kept = renderer.memo.get("lighting")
+    if (key is not None and kept is not None and kept[0] == key and kept[1] is frame.light_view
+            and kept[2] is renderer.settings):
+        frame.memo["lighting"] = kept[3]
+        return kept[3]
+    out = _make_lighting_uniforms(renderer, frame)
+    if key is not None:
+        renderer.memo["lighting"] = (key, frame.light_view, renderer.settings, out)
+    frame.memo["lighting"] = out
+    return out
+
+
+def _make_lighting_uniforms(renderer, frame: Frame) -> dict:
     lights = frame.lights[:MAX_LIGHTS]
     vecs, rads = [], []
     for light in lights:
@@ -259,6 +324,11 @@ def _lighting_uniforms(renderer, frame: Frame) -> dict:
         rads.append((0.0, 0.0, 0.0))
     a = float(renderer.settings.ambient)
     out = {"u_num_lights": len(lights), "u_light_vec": vecs, "u_light_radiance": rads, "u_ambient": (a, a, a)}
+    t = frame.targets
+    if "shadow_map" in t:
+        out["u_shadow_map"] = TEX_SHADOW_MAP
+    if "dom" in t:
+        out["u_dom"] = TEX_DOM
     lv = frame.light_view
     if lv is not None:
         s = renderer.settings
@@ -271,7 +341,6 @@ def _lighting_uniforms(renderer, frame: Frame) -> dict:
                     "u_normal_offset": float(s.shadow_normal_offset), "u_slope_bias": float(s.shadow_slope_bias),
                     "u_shadow_density": float(s.shadow_density),
                     "u_dom_layers": tuple(float(f) * ext for f in s.dom_layers)})
-    frame.memo["lighting"] = out
     return out
 
 
@@ -281,18 +350,19 @@ def bind_extra_shadows(renderer, prog, frame: Frame) -> None:
     doms = frame.targets.get("extra_doms", [])
     n = 1 + len(maps) if frame.light_view is not None else 0
     set_uniform(prog, "u_num_shadow_lights", n)
-    if "u_xshadow_map" not in prog:
+    if not has_uniform(prog, "u_xshadow_map"):
         return
-    for name, value in _extra_shadow_uniforms(renderer, frame, len(maps)).items():
-        set_uniform(prog, name, value)
+    set_uniforms(prog, _extra_shadow_uniforms(renderer, frame, len(maps)))
     for k in range(MAX_SHADOW_LIGHTS):
         if 1 <= k <= len(maps):
             maps[k - 1].use(TEX_XSHADOW_FIRST + k)
             if k <= len(doms):
                 doms[k - 1].use(TEX_XDOM_FIRST + k)
-    set_uniform(prog, "u_xshadow_map", [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
-    if "u_xdom" in prog:
-        set_uniform(prog, "u_xdom", [TEX_XDOM_FIRST + k for k in range(MAX_SHADOW_LIGHTS)])
+    set_uniforms(prog, _EXTRA_UNITS)
+
+
+_EXTRA_UNITS = {"u_xshadow_map": [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADOW_LIGHTS)],
+                "u_xdom": [TEX_XDOM_FIRST + k for k in range(MAX_SHADOW_LIGHTS)]}
 
 
 def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:

@@ -13,14 +13,15 @@ bits for z0, fixed-point atomic adds (1/65536) for the layers.
 """
 from __future__ import annotations
 
-import numpy as np
-
+import functools
 import math
 
-from ...gpu.glsl import compute_shader, program
+import numpy as np
+
+from ...gpu.glsl import ProgramMemo, compute_shader, program
 from ..bindings import B_DOM_LAYERS, B_DOM_Z0, IMG_DOM, TEX_DOM_Z0
 from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, RENDER_DIR, Frame, draw_hair, hair_program,
-                   read_f32, set_uniform, set_view)
+                   read_f32, set_uniform, set_uniforms, set_view)
 from .light_depth import LightDepthPass
 from .raster_segment import raster_defines
 
@@ -46,6 +47,7 @@ class DeepOpacityPass(LightDepthPass):
         self.opacity.filter = (ctx.NEAREST, ctx.NEAREST)
         self.opacity_fbo = ctx.framebuffer([self.opacity])
         self._counters = None   # compute path: (z0 bits, 3 layer sums) per texel
+        self._programs = ProgramMemo()
 
     def run(self, frame: Frame) -> None:
         if self.renderer.compute_raster:
@@ -104,9 +106,9 @@ class DeepOpacityPass(LightDepthPass):
             scan_light_depths(r, frame.light_view, n, dom_pass,
                               layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
                               strand_opacity=float(r.settings.strand_opacity))
-        pack = compute_shader(ctx, shader_path("dom_pack.comp"), include_dirs=[RENDER_DIR])
-        set_uniform(pack, "u_size", n)
-        set_uniform(pack, "u_far", float(FAR))
+        pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
+                                                                    include_dirs=[RENDER_DIR]))
+        set_uniforms(pack, _pack_uniforms(n))
         self.opacity.bind_to_image(IMG_DOM, read=False, write=True)
         pack.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
@@ -133,9 +135,17 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines(ctx)},
                         include_dirs=[RENDER_DIR])
     set_view(cs, view)
-    set_uniform(cs, "u_raster_size", (n, n))
-    set_uniform(cs, "u_grid", 1)
-    set_uniform(cs, "u_dom_layers_abs", tuple(float(x) for x in layer_ends))
-    set_uniform(cs, "u_strand_opacity", float(strand_opacity))
+    set_uniforms(cs, _scan_uniforms(int(n), tuple(float(x) for x in layer_ends), float(strand_opacity)))
     renderer.get_pass("expand").dispatch_segments(cs)
     ctx.memory_barrier()
+
+
+@functools.lru_cache(maxsize=32)
+def _scan_uniforms(n: int, layer_ends: tuple, strand_opacity: float) -> dict:
+    """scan_light_depths' uniforms, one dict per value (set_uniforms skips them by identity)."""
+    return {"u_raster_size": (n, n), "u_grid": 1, "u_dom_layers_abs": layer_ends, "u_strand_opacity": strand_opacity}
+
+
+@functools.lru_cache(maxsize=8)
+def _pack_uniforms(n: int) -> dict:
+    return {"u_size": int(n), "u_far": float(FAR)}

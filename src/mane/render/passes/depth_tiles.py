@@ -38,7 +38,7 @@ import math
 
 import numpy as np
 
-from ...gpu.glsl import compute_shader
+from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
 from .base import set_uniform, shader_path
 from .raster_segment import balance_for
@@ -79,6 +79,7 @@ class DepthTiles:
         self.buffer = None
         self.tiles = (0, 0)   # across, down
         self.shift = 0        # log2 of a tile's side in samples
+        self._programs = ProgramMemo()
 
     def update(self, depth, grid: int = 1) -> None:
         """Reduce ``depth`` (a single-sample depth texture, a pixel ``grid`` x ``grid`` samples
@@ -92,7 +93,7 @@ class DepthTiles:
             self.buffer = self.ctx.buffer(reserve=4 * tiles[0] * tiles[1])
             self.tiles = tiles
         self.shift = shift
-        cs = compute_shader(self.ctx, shader_path("depth_tiles.comp"))
+        cs = self._programs.get("tiles", (), lambda: compute_shader(self.ctx, shader_path("depth_tiles.comp")))
         depth.use(TEX_SCENE_DEPTH)
         set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
         set_uniform(cs, "u_depth_tiles", tiles)

@@ -18,7 +18,7 @@ import numpy as np
 
 from ...gpu.glsl import compute_shader
 from ..bindings import B_EXPANDED, B_STRAND_TABLE
-from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, subdivisions  # noqa: F401  (pulls: here too)
+from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, set_uniform, set_uniforms, subdivisions  # noqa: F401  (pulls: here too)
 
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
@@ -35,6 +35,8 @@ class ExpandPass(Pass):
         self.points = 0        # per rendered strand
         self.strands = 0       # rendered strands
         self._key = None
+        self._key_memo = None   # (what key() was made of, by identity; the key)
+        self._dispatch_memo = None
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -44,6 +46,24 @@ class ExpandPass(Pass):
         self.ensure()
 
     def key(self):
+        """What the expanded buffer was made from (a new key: expand again). Kept while the
+        objects it is made of are the same ones (the strands, their box, the settings, the
+        geometry version, the camera's view and LOD eye, the instances): a frame asks 5 times."""
+        r = self.renderer
+        st = r.strands
+        box = st.bbox() if st is not None else None
+        memo = self._key_memo
+        if memo is not None and memo[1] == r.geometry_version:
+            m = memo[0]
+            if (m[0] is st and m[1] is box and m[2] is r.settings and m[3] is r.lod_view and m[4] is r.lod_eye
+                    and m[5] is r.instances):
+                return memo[2]
+        inputs = (st, box, r.settings, r.lod_view, r.lod_eye, r.instances)
+        key = self._make_key()
+        self._key_memo = (inputs, r.geometry_version, key)
+        return key
+
+    def _make_key(self):
         r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
         plan = r.lod_plan()
@@ -119,9 +139,16 @@ class ExpandPass(Pass):
         compute rasteriser's scan conversions)."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        _set(cs, "u_points_per_strand", int(self.points))
-        _set(cs, "u_num_segments", int(self.segments))
+        set_uniforms(cs, self._dispatch_uniforms())
         run_1d(cs, self.segments)
+
+    def _dispatch_uniforms(self) -> dict:
+        """dispatch_segments' uniforms, one dict while the expanded buffer's shape is the same."""
+        key = (int(self.points), int(self.segments))
+        memo = self._dispatch_memo
+        if memo is None or memo[0] != key:
+            memo = self._dispatch_memo = (key, {"u_points_per_strand": key[0], "u_num_segments": key[1]})
+        return memo[1]
 
     def read(self) -> np.ndarray:
         """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random; instance by
@@ -147,7 +174,7 @@ class ExpandPass(Pass):
         if self.buffer is not None:
             self.buffer.release()
             self.buffer = None
-        self._key = None
+        self._key = self._key_memo = None
 
 
 def run_1d(cs, n: int) -> None:
@@ -166,7 +193,4 @@ def _ids():
     return {"interp": INTERPOLATION_IDS, "multi": MULTI_IDS}
 
 
-def _set(prog, name, value) -> None:
-    from .base import set_uniform
-
-    set_uniform(prog, name, value)
+_set = set_uniform

@@ -40,9 +40,10 @@ import numpy as np
 
 from ...gpu.buffers import check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
-from ...gpu.glsl import compute_shader
+from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
-from .base import shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_uniforms, set_view,
+                   shadow_defines)
 from . import depth_tiles
 from .raster_segment import raster_defines
 
@@ -80,6 +81,8 @@ class HairComputePass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self.vis64 = has_atomic64(self.ctx)
+        self._programs = ProgramMemo()
+        self._common = None   # (what _set_common's uniforms were made of, the uniforms)
         self._buffers: tuple = ()
         self._key = None
         self.capture = False       # True: keep each frame's visibility (read_capture) before shading
@@ -135,15 +138,19 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
+        balance = raster_defines(ctx)
         cull = depth_tiles.cull_defines(ctx)
-        scan = {**defines, **raster_defines(ctx), **cull, **({"RASTER_STATS": 1} if stats is not None else {})}
         if cull["RASTER_HEAD_CULL"]:
             with r.profiler.section("depth_tiles"):
                 self.tiles.update(depth, grid)
         with r.profiler.section("hair_raster"):
             for raster_pass in ((0,) if self.vis64 else (0, 1)):
-                cs = compute_shader(ctx, shader_path("hair_raster.comp"), {**scan, "RASTER_PASS": raster_pass},
-                                    include_dirs=[RENDER_DIR])
+                cs = self._programs.get(("raster", raster_pass, stats is not None),
+                                        (balance["RASTER_BALANCE"], *cull.values()),
+                                        lambda: compute_shader(ctx, shader_path("hair_raster.comp"), {
+                                            **defines, **balance, **cull, "RASTER_PASS": raster_pass,
+                                            **({"RASTER_STATS": 1} if stats is not None else {})},
+                                            include_dirs=[RENDER_DIR]))
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)
                 set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
@@ -158,9 +165,9 @@ class HairComputePass(Pass):
         for hook in self.after_raster:
             hook(frame)
         with r.profiler.section("hair_shade"):
-            cs = compute_shader(ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(),
-                                                                **shadow_defines(r.settings)},
-                                include_dirs=[RENDER_DIR])
+            cs = self._programs.get("shade", (r.shading, r.settings), lambda: compute_shader(
+                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings)},
+                include_dirs=[RENDER_DIR]))
             self._set_common(cs, frame, size, grid, expand.points)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)
             r.shading.bind(cs, ctx, r.settings)
@@ -221,10 +228,12 @@ class HairComputePass(Pass):
 
     def _set_common(self, cs, frame: Frame, size, grid: int, points: int) -> None:
         set_view(cs, frame.view)
-        set_uniform(cs, "u_raster_size", tuple(int(v) for v in size))
-        set_uniform(cs, "u_grid", int(grid))
-        set_uniform(cs, "u_lines", int(self.renderer.settings.geometry == "lines"))
-        set_uniform(cs, "u_points_per_strand", int(points))
+        key = (tuple(size), grid, self.renderer.settings.geometry == "lines", points)
+        memo = self._common
+        if memo is None or memo[0] != key:   # one dict while they stay the same: set_uniforms skips it
+            memo = self._common = (key, {"u_raster_size": tuple(int(v) for v in size), "u_grid": int(grid),
+                                         "u_lines": int(key[2]), "u_points_per_strand": int(points)})
+        set_uniforms(cs, memo[1])
 
     def _release_buffers(self) -> None:
         for _, b in self._buffers:

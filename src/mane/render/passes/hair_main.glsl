@@ -14,7 +14,12 @@ uniform vec3 u_eye;
 uniform sampler2D u_dom_depth;   // PASS 2: z0 of the hair (m)
 uniform vec3 u_dom_layers_abs;   // PASS 3: layer ends after z0 (m)
 uniform float u_strand_opacity;
-uniform int u_premultiply;     // 1: blending (premultiplied); 0: MSAA, the coverage as a sample mask
+// SAMPLE_MASK (hair_pass.py): 0 premultiplied blending (alpha = coverage); 1 MSAA, the coverage
+// as a sample mask (coverage_mask.glsl). A define, not a uniform: a CPU rasteriser runs both
+// sides of a branch for every fragment (the mask's hashes cost llvmpipe's hair pass ~20%).
+#ifndef SAMPLE_MASK
+#define SAMPLE_MASK 0
+#endif
 
 #if PASS == 0
 layout(location = 0) out vec4 frag;
@@ -27,12 +32,12 @@ layout(location = 0) out vec4 frag_opacity;
 void main() {
 #if PASS == 0
     vec3 color = hair_radiance(g_pos, normalize(g_tangent), u_eye, g_s, g_rand);
-    if (u_premultiply != 0) {
-        frag = vec4(color * g_alpha, g_alpha);
-    } else {   // MSAA: each sample covered with probability g_alpha, covered samples opaque
-        gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));
-        frag = vec4(color, 1.0);
-    }
+#if SAMPLE_MASK   // MSAA: each sample covered with probability g_alpha, covered samples opaque
+    gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));
+    frag = vec4(color, 1.0);
+#else
+    frag = vec4(color * g_alpha, g_alpha);
+#endif
 #elif PASS == 1 || PASS == 2
     // light depth (shadow map, deep opacity z0)
     frag_depth = g_depth;

@@ -9,7 +9,7 @@ depth pre-pass (settings.depth_prepass) lets the shading run once per pixel and 
 """
 from __future__ import annotations
 
-from .base import HERE, PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program, set_uniform
+from .base import HERE, PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program
 
 
 class HairPass(Pass):
@@ -25,7 +25,7 @@ class HairPass(Pass):
         r, ctx = self.renderer, self.ctx
         msaa = r.samples > 1
         prepass = msaa and bool(r.settings.depth_prepass)
-        prog = hair_program(r, PASS_SHADE)
+        prog = hair_program(r, PASS_SHADE, extra_defines={"SAMPLE_MASK": int(msaa)})
         r.shading.bind(prog, ctx, r.settings)
         bind_lighting(r, prog, frame)
         r.hdr_fbo().use()
@@ -36,7 +36,6 @@ class HairPass(Pass):
         else:
             ctx.enable(ctx.BLEND)
             ctx.blend_func = (ctx.ONE, ctx.ONE_MINUS_SRC_ALPHA)
-        set_uniform(prog, "u_premultiply", int(not msaa))
         if prepass:
             # depth first (the coverage mask, a trivial fragment shader, no colour), then shade
             # once per pixel and visible strand: LEQUAL, no depth writes (the driver tests

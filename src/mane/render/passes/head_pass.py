@@ -1,10 +1,8 @@
 """The head mesh: Lambert skin, the scalp tinted toward the hair, shadowed by hair and head."""
 from __future__ import annotations
 
-import numpy as np
-
-from ...gpu.glsl import program
-from .base import shader_path, Frame, Pass, bind_lighting, set_uniform, set_view, shadow_defines
+from ...gpu.glsl import ProgramMemo, program
+from .base import shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
 
 
 class HeadPass(Pass):
@@ -12,26 +10,30 @@ class HeadPass(Pass):
     reads = ("head", "shadow_map", "dom")
     writes = ("hdr",)
 
+    def __init__(self, renderer):
+        super().__init__(renderer)
+        self._programs = ProgramMemo()
+        self._colors = None   # (skin colour, hair colour, their uniforms)
+
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.head is not None and self.renderer.settings.draw_head
 
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
-        prog = program(ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
-                       defines={"PASS": 0, **shadow_defines(s, pcf=s.head_pcf)})   # the skin's own filter
+        prog = self._programs.get("head", (s,), lambda: program(
+            ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
+            defines={"PASS": 0, **shadow_defines(s, pcf=s.head_pcf)}))   # the skin's own filter
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
         set_view(prog, frame.view)
         bind_lighting(r, prog, frame)
-        set_uniform(prog, "u_skin", tuple(s.skin_color))
-        hair = r.hair_color()
-        set_uniform(prog, "u_scalp_color", tuple(0.8 * c + 0.2 * k for c, k in zip(hair, s.skin_color)))
+        set_uniforms(prog, self._color_uniforms())
         # a closed head wound outward shows only its front faces: culling the back ones halves
         # the fragments on a CPU rasteriser (llvmpipe, the software preset: 41 -> 26 ms a frame),
         # the same picture; not under a mirroring transform, nor for an open or flipped mesh
-        cull = r.head_closed and float(np.linalg.det(r.head_transform[:3, :3])) > 0.0
+        cull = r.head_closed and r.head_model()[1]
         if cull:
             ctx.cull_face = "back"
             ctx.front_face = "ccw"
@@ -41,3 +43,13 @@ class HeadPass(Pass):
         finally:
             if cull:
                 ctx.disable(ctx.CULL_FACE)
+
+    def _color_uniforms(self) -> dict:
+        """The skin's and the scalp's colours (made again when the skin colour or the hair's changes)."""
+        r = self.renderer
+        skin, hair = r.settings.skin_color, r.hair_color()
+        memo = self._colors
+        if memo is None or memo[0] != skin or memo[1] != hair:
+            u = {"u_skin": tuple(skin), "u_scalp_color": tuple(0.8 * c + 0.2 * k for c, k in zip(hair, skin))}
+            memo = self._colors = (skin, hair, u)
+        return memo[2]

@@ -6,9 +6,9 @@ import functools
 
 import numpy as np
 
-from ...gpu.glsl import program
+from ...gpu.glsl import ProgramMemo, program
 from ..bindings import TEX_HDR
-from .base import shader_path, TONE_IDS, Frame, Pass, set_uniform
+from .base import shader_path, TONE_IDS, Frame, Pass, set_uniforms
 
 
 def srgb_to_linear(c):
@@ -27,21 +27,31 @@ class ResolvePass(Pass):
     reads = ("hdr",)
     writes = ("output",)
 
+    def __init__(self, renderer):
+        super().__init__(renderer)
+        self._programs = ProgramMemo()
+        self._memo = None   # (settings, uniforms)
+
+    def _uniforms(self, s) -> dict:
+        """The resolve's uniforms, made once per settings object."""
+        if self._memo is None or self._memo[0] is not s:
+            try:
+                background = _background(tuple(s.background))
+            except TypeError:
+                background = tuple(float(x) for x in srgb_to_linear(s.background))
+            self._memo = (s, {"u_hdr": TEX_HDR, "u_background": background, "u_exposure": float(s.exposure)})
+        return self._memo[1]
+
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
         hdr = r.resolved_hdr()    # blits the multisampled target when there is one
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
-        prog = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("resolve.frag"),
-                       defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]})
+        prog = self._programs.get("resolve", (s,), lambda: program(
+            ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("resolve.frag"),
+            defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]}))
         hdr.use(TEX_HDR)
-        set_uniform(prog, "u_hdr", TEX_HDR)
-        try:
-            background = _background(tuple(s.background))
-        except TypeError:
-            background = tuple(float(x) for x in srgb_to_linear(s.background))
-        set_uniform(prog, "u_background", background)
-        set_uniform(prog, "u_exposure", float(s.exposure))
+        set_uniforms(prog, self._uniforms(s))
         out = r.output_fbo()
         out.use()
         ctx.disable(ctx.DEPTH_TEST)

@@ -11,7 +11,7 @@ import math
 
 import numpy as np
 
-from ...gpu.glsl import compute_shader, program
+from ...gpu.glsl import ProgramMemo, compute_shader, program
 from ..bindings import B_DOM_Z0, IMG_SHADOW
 from .base import shader_path, RENDER_DIR, Frame, set_uniform, set_view
 from .deep_opacity import scan_light_depths
@@ -27,6 +27,7 @@ class ShadowMapPass(LightDepthPass):
         super().__init__(renderer)
         self.depth_target()   # made with the renderer: every method but "none" reads it
         self._z0 = None   # compute path: the hair's depth bits per texel
+        self._programs = ProgramMemo()
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.settings.shadows != "none" and frame.light_view is not None
@@ -35,10 +36,21 @@ class ShadowMapPass(LightDepthPass):
         ctx, r = self.ctx, self.renderer
         self.begin_depth()
         if r.head is not None and r.settings.draw_head:
-            prog = program(ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
-                           defines={"PASS": 1, "SHADOWS": 0})
+            prog = self._programs.get("head", (), lambda: program(
+                ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"), defines={"PASS": 1, "SHADOWS": 0}))
             set_view(prog, frame.light_view)
-            r.draw_head(prog)
+            # the nearest depth of a closed head wound outward is always a face toward the light:
+            # its back faces culled, the same map from half the fragments (as the head pass)
+            cull = r.head_closed and r.head_model()[1]
+            if cull:
+                ctx.cull_face = "back"
+                ctx.front_face = "ccw"
+                ctx.enable(ctx.CULL_FACE)
+            try:
+                r.draw_head(prog)
+            finally:
+                if cull:
+                    ctx.disable(ctx.CULL_FACE)
         if r.strands is not None and self.hair_casts():
             if r.compute_raster:
                 self._hair_by_compute(frame)
@@ -53,7 +65,8 @@ class ShadowMapPass(LightDepthPass):
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
         self._z0.bind_to_storage_buffer(B_DOM_Z0)
         scan_light_depths(r, frame.light_view, n, 0)
-        merge = compute_shader(ctx, shader_path("shadow_merge.comp"), include_dirs=[RENDER_DIR])
+        merge = self._programs.get("merge", (), lambda: compute_shader(ctx, shader_path("shadow_merge.comp"),
+                                                                       include_dirs=[RENDER_DIR]))
         set_uniform(merge, "u_size", n)
         self.texture.bind_to_image(IMG_SHADOW, read=True, write=True)
         merge.run(math.ceil(n / 8), math.ceil(n / 8))

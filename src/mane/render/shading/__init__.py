@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...gpu.uniforms import write_uniform
+from ...gpu.uniforms import LAST_SENT, write_uniform
 from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from .melanin import (  # noqa: F401
@@ -216,7 +216,19 @@ class ShadingSettings:
     def ms_mode(self) -> int:
         return MULTIPLE_SCATTERING[self.resolved_multiple_scattering]
 
+    def _derived(self, name: str, make):
+        """A value made from the (frozen) fields, made once per object: the renderer binds the
+        material every frame, and melanin's sigma_a and the tables' keys cost NumPy work."""
+        d = self.__dict__
+        out = d.get(name)
+        if out is None:
+            out = d[name] = make()
+        return out
+
     def resolved_sigma_a(self) -> np.ndarray:
+        return self._derived("_sigma_a", self._resolve_sigma_a).copy()
+
+    def _resolve_sigma_a(self) -> np.ndarray:
         if self.sigma_a is not None:
             return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
         if self.color is not None:
@@ -271,6 +283,9 @@ class ShadingSettings:
         }
 
     def lut_key(self) -> tuple:
+        return self._derived("_lut_key", self._lut_key)
+
+    def _lut_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
                 float(self.shift), float(self.glint), float(self.caustic_width),
                 float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
@@ -289,6 +304,9 @@ class ShadingSettings:
                        lambda: build_marschner_luts(sigma_a, **args))
 
     def chiang_key(self) -> tuple:
+        return self._derived("_chiang_key", self._chiang_key)
+
+    def _chiang_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.beta_n),
                 int(self.chiang_size))
 
@@ -319,6 +337,9 @@ class ShadingSettings:
         return float(self.beta_n)
 
     def dual_key(self) -> tuple:
+        return self._derived("_dual_key", self._dual_key)
+
+    def _dual_key(self) -> tuple:
         return (tuple(np.round(self.resolved_sigma_a(), 9)), float(self.eta), float(self.roughness),
                 float(self.shift), float(self.glint), float(self.caustic_width),
                 float(self.caustic_fade), float(self.caustic_limit), bool(self.energy_clamp),
@@ -344,26 +365,37 @@ class ShadingSettings:
              unit_n: int = LUT_UNIT_N, unit_dual: int = LUT_UNIT_DUAL) -> None:
         """Set the material uniforms that ``program`` uses and, for the LUT model, bind the
         lookup textures (built once per context and material) to ``unit_m`` / ``unit_n``;
-        for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``."""
-        for name, value in self.material_uniforms(prefix).items():
-            if name in program:
-                write_uniform(program[name], value)
-        if self.model == "marschner_lut":
-            tex_m, tex_n = lut_textures(ctx, self)
-            tex_m.use(unit_m)
-            tex_n.use(unit_n)
-            if "hair_lut_m" in program:
-                write_uniform(program["hair_lut_m"], unit_m)
-            if "hair_lut_n" in program:
-                write_uniform(program["hair_lut_n"], unit_n)
-        if self.model == "chiang":
-            chiang_texture(ctx, self).use(LUT_UNIT_CHIANG)
-            if "hair_chiang_n" in program:
-                write_uniform(program["hair_chiang_n"], LUT_UNIT_CHIANG)
-        if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
-            dual_lut_texture(ctx, self).use(unit_dual)
-            if "hair_dual_lut" in program:
-                write_uniform(program["hair_dual_lut"], unit_dual)
+        for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``. What a program gets
+        (its uniforms, their values, the textures) is found once per (program, material) and
+        kept on the program; a value the uniform was last written is skipped by identity."""
+        from moderngl import InvalidObject
+
+        units = (prefix, unit_m, unit_n, unit_dual)
+        # kept on the program: (settings, units, ((uniform, value), ...), ((texture, unit), ...))
+        plan = program.__dict__.get("_mane_material")
+        if (plan is None or plan[0] is not self or plan[1] != units
+                or any(isinstance(t.mglo, InvalidObject) for t, _ in plan[3])):   # a cache let one go
+            values = dict(self.material_uniforms(prefix))
+            textures = []
+            if self.model == "marschner_lut":
+                tex_m, tex_n = lut_textures(ctx, self)
+                textures += [(tex_m, unit_m), (tex_n, unit_n)]
+                values.update(hair_lut_m=unit_m, hair_lut_n=unit_n)
+            if self.model == "chiang":
+                textures.append((chiang_texture(ctx, self), LUT_UNIT_CHIANG))
+                values["hair_chiang_n"] = LUT_UNIT_CHIANG
+            if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
+                textures.append((dual_lut_texture(ctx, self), unit_dual))
+                values["hair_dual_lut"] = unit_dual
+            # ``name in program`` would walk every uniform of the program: get() looks one up
+            pairs = tuple((program.get(k, None), v) for k, v in values.items())
+            plan = program.__dict__["_mane_material"] = (self, units, tuple(p for p in pairs if p[0] is not None),
+                                                         tuple(textures))
+        for u, value in plan[2]:
+            if u.__dict__.get(LAST_SENT) is not value:   # the value object it was last written: skipped
+                write_uniform(u, value)
+        for tex, unit in plan[3]:
+            tex.use(unit)
 
 
 def _stored(kind: str, key, build) -> tuple:
