@@ -18,16 +18,7 @@ from mane.render.passes.base import has_uniform, set_uniforms
 from mane.render.shading import ShadingSettings
 from mane.render.shading.melanin import PRESETS, melanin_to_sigma_a
 
-from test_render_frame_cache import CAM, CAM2, LIGHTS, ball, base_settings, fan, fresh
-
-
-class FakeUniform:
-    def __init__(self, fmt: str, array_length: int = 1, dimension: int = 1):
-        self.fmt, self.array_length, self.dimension = fmt, array_length, dimension
-        self.written: list[bytes] = []
-
-    def write(self, data: bytes) -> None:
-        self.written.append(bytes(data))
+from test_render_frame_cache import CAM, CAM2, LIGHTS, FakeUniform, ball, base_settings, fan, fresh
 
 
 class FakeProgram:

@@ -406,10 +406,24 @@ class Renderer(GpuOwner):
             raise UsageError("the head transform must be a finite 4x4 matrix")
         self.head_transform = m
 
-    def draw_head(self, prog) -> None:
-        """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current transform."""
-        write_uniform(prog["u_head_model"], self.head_model()[0])
-        self.head_vao(prog).render()
+    def draw_head(self, prog, cull_back: bool = False) -> None:
+        """Draw the head mesh with ``prog`` (which declares ``u_head_model``) at its current
+        transform. ``cull_back``: a closed head wound outward (``head_closed``) shows only its
+        front faces, and its nearest depth from any view is one of them: its back faces are
+        culled (half the fragments; not under a mirroring transform, nor for an open or flipped
+        mesh)."""
+        model, keeps_winding = self.head_model()
+        write_uniform(prog["u_head_model"], model)
+        cull = cull_back and self.head_closed and keeps_winding
+        if cull:
+            self.ctx.cull_face = "back"
+            self.ctx.front_face = "ccw"
+            self.ctx.enable(self.ctx.CULL_FACE)
+        try:
+            self.head_vao(prog).render()
+        finally:
+            if cull:
+                self.ctx.disable(self.ctx.CULL_FACE)
 
     def head_model(self) -> tuple[bytes, bool]:
         """The head transform as ``u_head_model``'s bytes and whether it keeps the winding (a

@@ -39,18 +39,7 @@ class ShadowMapPass(LightDepthPass):
             prog = self._programs.get("head", (), lambda: program(
                 ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"), defines={"PASS": 1, "SHADOWS": 0}))
             set_view(prog, frame.light_view)
-            # the nearest depth of a closed head wound outward is always a face toward the light:
-            # its back faces culled, the same map from half the fragments (as the head pass)
-            cull = r.head_closed and r.head_model()[1]
-            if cull:
-                ctx.cull_face = "back"
-                ctx.front_face = "ccw"
-                ctx.enable(ctx.CULL_FACE)
-            try:
-                r.draw_head(prog)
-            finally:
-                if cull:
-                    ctx.disable(ctx.CULL_FACE)
+            r.draw_head(prog, cull_back=True)   # the same map from half the fragments
         if r.strands is not None and self.hair_casts():
             if r.compute_raster:
                 self._hair_by_compute(frame)
