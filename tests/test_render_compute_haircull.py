@@ -114,7 +114,7 @@ def test_nothing_saturated_culls_nothing(gl, monkeypatch):
 
 def test_the_occlusion_map_of_known_buffers(gl):
     # known per-sample buffers (32-bit form: depth bits, coverage) and a known head depth at
-    # 21 x 11 pixels, 1 and 2 x 2 samples a pixel; the map's twin in NumPy: per sample
+    # 21 x 11 pixels, 1 to 4 x 4 samples a pixel (at 3 x 3 tile edges cut pixels); the map's twin in NumPy: per sample
     # min(head, saturated ? next float past the hair's depth : 1), max over tiles
     from mane.render.passes.hair_compute import COVER_SCALE
     from mane.render.passes.occlusion_tiles import OcclusionTiles
@@ -127,7 +127,7 @@ def test_the_occlusion_map_of_known_buffers(gl):
     sat = int(round(saturated_cover() * COVER_SCALE))
     t = OcclusionTiles(gl)
     try:
-        for grid, side in ((1, 8), (2, 16)):
+        for grid, side in ((1, 8), (2, 16), (3, 32), (4, 32)):
             sh, sw = h * grid, w * grid
             hair = rng.uniform(0.1, 0.95, (sh, sw)).astype(np.float32)
             dbits = hair.view(np.uint32).copy()

@@ -20,7 +20,13 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
    or behind the map at its nearest depth gets no columns, and a column (constant depth) at or
    behind the tiles it touches is skipped: the samples they hold would all fail the per-sample
-   depth test, so the buffers are bit-identical (``count_samples``' ``sample_culled``).
+   depth test, so the buffers are bit-identical (``count_samples``' ``sample_culled``). Hair
+   self-occlusion culling (occlusion_tiles.py, on GPUs): the segments split by depth into two
+   dispatches, the near ones first; then a tile map of what they hide (``occlusion_tiles``
+   section: per sample the head's depth, or the next float past the nearest hair's where the
+   coverage has saturated), against which the far segments and columns are culled the same way:
+   a visit skipped there would lose the depth min and skip the saturated coverage add, so the
+   buffers stay bit-identical.
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
@@ -162,11 +168,8 @@ class HairComputePass(Pass):
             for step in steps:
                 if step == "occlusion":
                     bufs = dict(self._buffers)
-                    self.occlusion.update(depth, grid, bufs[B_VIS], bufs[B_COVER], self.vis64)
-                    for binding, buf in self._buffers:   # the map's update rebinds two of them
-                        buf.bind_to_storage_buffer(binding)
-                    if stats is not None:
-                        stats.bind_to_storage_buffer(B_RASTER_STATS)
+                    with r.profiler.section("occlusion_tiles"):
+                        self.occlusion.update(depth, grid, bufs[B_VIS], bufs[B_COVER], self.vis64)
                     continue
                 raster_pass, side, tiles = step
                 cs = self._programs.get(("raster", raster_pass, stats is not None),
@@ -208,8 +211,8 @@ class HairComputePass(Pass):
         """Render one frame with hair_raster.comp's counters on (RASTER_STATS; the normal
         shaders have none): ``sample_visits`` (samples the segments scan-convert), ``sample_writes``
         (those in front of the head, each an atomic min and a coverage add), ``sample_culled`` (of
-        the visits, those skipped whole columns at a time behind the head's depth tile map:
-        depth_tiles.py; 0 with the cull off), ``raster_atomics`` (every atomic on the per-sample
+        the visits, those skipped whole columns at a time behind the head's depth tile map,
+        depth_tiles.py, or the near hair's, occlusion_tiles.py; 0 with the culls off), ``raster_atomics`` (every atomic on the per-sample
         buffers: 2 per write, and on the 32-bit path the id pass's atomicMax) and
         ``raster_atomic_bits`` (64: the depth-and-id min is one 64-bit atomic)."""
         self.count_stats, self.raster_stats = True, None

@@ -32,8 +32,6 @@ dispatch 1 whatever depth_tiles.HEAD_CULL says (the A/B of the head cull alone: 
 """
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ...gpu.glsl import ProgramMemo, compute_shader
@@ -107,7 +105,7 @@ class OcclusionTiles:
         vis.bind_to_storage_buffer(B_VIS)
         cover.bind_to_storage_buffer(B_COVER)
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        cs.run(math.ceil(tiles[0] / 8), math.ceil(tiles[1] / 8))
+        cs.run(tiles[0], tiles[1])   # a work group a tile
         self.ctx.memory_barrier()
 
     def bind(self, cs) -> None:
