@@ -9,7 +9,7 @@ and settings are the hardware path's; ``stats()`` says ``rasterizer: "compute"``
 
 Every pass reads the expanded strands (passes/expand.py) and scan-converts each segment with
 passes/raster_segment.glsl, one sample per pixel (oit_raster.comp); a fragment is a (pixel,
-segment) pair in front of the head (columns behind the head's depth tile map skipped whole:
+segment) pair in front of the head (segments and columns behind the head's depth tile map skipped whole:
 passes/depth_tiles.py), keyed by its window depth's float bits over the segment
 id; its alpha is clamp(coverage x oit_opacity) and its colour the hair BSDF at the segment's
 point nearest the pixel centre (compute_oit.glsl). The resolve (oit_resolve.comp, one thread a
