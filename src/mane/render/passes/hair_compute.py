@@ -210,7 +210,8 @@ class HairComputePass(Pass):
     def count_samples(self, camera=None, lights=None) -> dict:
         """Render one frame with hair_raster.comp's counters on (RASTER_STATS; the normal
         shaders have none): ``sample_visits`` (samples the segments scan-convert), ``sample_writes``
-        (those in front of the head, each an atomic min and a coverage add), ``sample_culled`` (of
+        (those in front of the head, each an atomic min and a coverage add; with the hair cull
+        less those it skipped, which were no-ops), ``sample_culled`` (of
         the visits, those skipped whole columns at a time behind the head's depth tile map,
         depth_tiles.py, or the near hair's, occlusion_tiles.py; 0 with the culls off), ``raster_atomics`` (every atomic on the per-sample
         buffers: 2 per write, and on the 32-bit path the id pass's atomicMax) and
