@@ -16,6 +16,7 @@ import numpy as np
 import pytest
 
 import mane.render.passes.depth_tiles as depth_tiles
+import mane.render.passes.occlusion_tiles as occlusion_tiles
 import mane.render.passes.raster_segment as raster_segment
 from mane.errors import UsageError
 from mane.groom import Groom
@@ -49,9 +50,11 @@ def _capture(gl, form: int, monkeypatch, groom, head=None, camera=None, azimuth=
     """(the per-sample buffers after the raster pass, count_samples' statistics) with
     the form forced."""
     monkeypatch.setattr(raster_segment, "FORCED", form)
-    # the same head cull in both forms (by default the per-thread form culls no single columns),
-    # so that their statistics compare whole (tests/test_render_compute_headcull.py)
+    # the same head and hair culls in both forms (by default the per-thread form culls no single
+    # columns, nor by the hair), so that their statistics compare whole
+    # (tests/test_render_compute_headcull.py, test_render_compute_haircull.py)
     monkeypatch.setattr(depth_tiles, "HEAD_CULL", True)
+    monkeypatch.setattr(occlusion_tiles, "HAIR_CULL", True)
     s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
                           "draw_head": head is not None, **kw})
     r = Renderer(s, ctx=gl, profile=False)

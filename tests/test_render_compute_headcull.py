@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 import mane.render.passes.depth_tiles as depth_tiles
+import mane.render.passes.occlusion_tiles as occlusion_tiles
 import mane.render.passes.raster_segment as raster_segment
 from mane.groom import Groom
 from mane.grooming.scene import default_scene
@@ -32,6 +33,7 @@ def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **
     """(captured buffers, count_samples' statistics, the tile map, the scene depth) with the cull
     forced on or off."""
     monkeypatch.setattr(depth_tiles, "HEAD_CULL", cull)
+    monkeypatch.setattr(occlusion_tiles, "HAIR_CULL", False)   # the head cull alone
     if form is not None:
         monkeypatch.setattr(raster_segment, "FORCED", form)
     s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",

@@ -20,7 +20,13 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
    or behind the map at its nearest depth gets no columns, and a column (constant depth) at or
    behind the tiles it touches is skipped: the samples they hold would all fail the per-sample
-   depth test, so the buffers are bit-identical (``count_samples``' ``sample_culled``).
+   depth test, so the buffers are bit-identical (``count_samples``' ``sample_culled``). Hair
+   self-occlusion culling (occlusion_tiles.py, on GPUs): the segments split by depth into two
+   dispatches, the near ones first; then a tile map of what they hide (``occlusion_tiles``
+   section: per sample the head's depth, or the next float past the nearest hair's where the
+   coverage has saturated), against which the far segments and columns are culled the same way:
+   a visit skipped there would lose the depth min and skip the saturated coverage add, so the
+   buffers stay bit-identical.
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
@@ -44,7 +50,7 @@ from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_uniforms, set_view,
                    shadow_defines)
-from . import depth_tiles
+from . import depth_tiles, occlusion_tiles
 from .raster_segment import raster_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
@@ -91,6 +97,7 @@ class HairComputePass(Pass):
         self.raster_stats = None
         self.after_raster: list = []   # callables (frame) run on the filled sample buffers (render/aux_maps.py)
         self.tiles = depth_tiles.DepthTiles(self.ctx)   # the head's depth tile map (head culling)
+        self.occlusion = occlusion_tiles.OcclusionTiles(self.ctx)   # the near hair's (hair culling)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -140,11 +147,31 @@ class HairComputePass(Pass):
         stats = self._stats_buffer() if self.count_stats else None
         balance = raster_defines(ctx)
         cull = depth_tiles.cull_defines(ctx)
+        hair_cull = occlusion_tiles.hair_cull(ctx)
+        if hair_cull:   # both maps: segments and columns
+            cull = {"RASTER_HEAD_CULL": 1, "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
         if cull["RASTER_HEAD_CULL"]:
             with r.profiler.section("depth_tiles"):
                 self.tiles.update(depth, grid)
+        # (RASTER_PASS, split side, tile map or None): one dispatch a pass, or with the hair cull
+        # the near segments against the head's map, the occlusion map, the far ones against it
+        head_map = self.tiles if cull["RASTER_HEAD_CULL"] else None
+        if hair_cull:
+            steps = [(0, 1, self.tiles), "occlusion", (0, 2, self.occlusion)]
+            if not self.vis64:
+                steps.append((1, 0, self.occlusion))
+            split = occlusion_tiles.split_depth(r, frame.view)
+        else:
+            steps = [(p, 0, head_map) for p in ((0,) if self.vis64 else (0, 1))]
+            split = 0.0
         with r.profiler.section("hair_raster"):
-            for raster_pass in ((0,) if self.vis64 else (0, 1)):
+            for step in steps:
+                if step == "occlusion":
+                    bufs = dict(self._buffers)
+                    with r.profiler.section("occlusion_tiles"):
+                        self.occlusion.update(depth, grid, bufs[B_VIS], bufs[B_COVER], self.vis64)
+                    continue
+                raster_pass, side, tiles = step
                 cs = self._programs.get(("raster", raster_pass, stats is not None),
                                         (balance["RASTER_BALANCE"], *cull.values()),
                                         lambda: compute_shader(ctx, shader_path("hair_raster.comp"), {
@@ -154,8 +181,10 @@ class HairComputePass(Pass):
                 self._set_common(cs, frame, size, grid, expand.points)
                 depth.use(TEX_SCENE_DEPTH)
                 set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
-                if cull["RASTER_HEAD_CULL"]:
-                    self.tiles.bind(cs)
+                set_uniform(cs, "u_split_side", side)
+                set_uniform(cs, "u_split_depth", split)
+                if tiles is not None:
+                    tiles.bind(cs)
                 expand.dispatch_segments(cs)
                 ctx.memory_barrier()
         if stats is not None:
@@ -181,9 +210,10 @@ class HairComputePass(Pass):
     def count_samples(self, camera=None, lights=None) -> dict:
         """Render one frame with hair_raster.comp's counters on (RASTER_STATS; the normal
         shaders have none): ``sample_visits`` (samples the segments scan-convert), ``sample_writes``
-        (those in front of the head, each an atomic min and a coverage add), ``sample_culled`` (of
-        the visits, those skipped whole columns at a time behind the head's depth tile map:
-        depth_tiles.py; 0 with the cull off), ``raster_atomics`` (every atomic on the per-sample
+        (those in front of the head, each an atomic min and a coverage add; with the hair cull
+        less those it skipped, which were no-ops), ``sample_culled`` (of
+        the visits, those skipped whole columns at a time behind the head's depth tile map,
+        depth_tiles.py, or the near hair's, occlusion_tiles.py; 0 with the culls off), ``raster_atomics`` (every atomic on the per-sample
         buffers: 2 per write, and on the 32-bit path the id pass's atomicMax) and
         ``raster_atomic_bits`` (64: the depth-and-id min is one 64-bit atomic)."""
         self.count_stats, self.raster_stats = True, None
@@ -244,6 +274,7 @@ class HairComputePass(Pass):
     def release(self) -> None:
         self._release_buffers()
         self.tiles.release()
+        self.occlusion.release()
 
 
 def unsupported_reason(renderer) -> str | None:

@@ -2,8 +2,9 @@
 // The compute rasteriser, step 1: every segment of the expanded strands (strand_expand.comp)
 // scan-converted into the sample grid (raster_segment.glsl); at each sample in front of the
 // scene's depth (the head) the nearest segment is kept (hair_vis.glsl) and the coverage added;
-// RASTER_HEAD_CULL: segments and columns behind the head's depth tile map are skipped whole
-// (depth_tiles.py).
+// RASTER_HEAD_CULL: segments and columns behind the bound tile map are skipped whole: the head's
+// depth (depth_tiles.py), or the head's and the saturated near hair's (occlusion_tiles.py: the
+// segments split by depth between two dispatches).
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
@@ -68,6 +69,12 @@ void visit(ivec2 q, float z, float cov) {
     }
 #endif
 }
+// The depth split (occlusion_tiles.py): u_split_side 0, every segment; 1, those with an end in
+// front of u_split_depth; 2, the others (the same expression in one program: each segment in
+// exactly one of the two dispatches, NaN depths in the second).
+uniform float u_split_depth;
+uniform int u_split_side;
+#define RASTER_KEEP_SPAN(S) (u_split_side == 0 || ((S.za < u_split_depth || S.zb < u_split_depth) == (u_split_side == 1)))
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
 #define RASTER_SEGMENT(I) g_id = uint(I)
 #include "raster_segment.glsl"

@@ -30,6 +30,10 @@
 // keeps, once per column (along which z and coverage are constant); RASTER_VISIT is not called
 // on what it skips. RASTER_CULLED(N), where defined, counts the samples skipped (for a segment,
 // walking its columns: statistics only).
+//
+//     #define RASTER_KEEP_SPAN(S) ...      // optional: false leaves span S to another dispatch
+//
+// (hair_raster.comp splits the segments by depth between two dispatches: occlusion_tiles.py.)
 #ifndef RASTER_CULL_SPANS
 #define RASTER_CULL_SPANS 1     // RASTER_CULL asked per segment (0: not; depth_tiles.py's A/B parts)
 #endif
@@ -203,6 +207,12 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     if (!a.ok || !b.ok) return false;   // behind the eye
     s = raster_span(a.s, b.s, a.RASTER_DEPTH, b.RASTER_DEPTH, a.half_width, b.half_width, a.coverage, b.coverage,
                     u_raster_size);
+#ifdef RASTER_KEEP_SPAN
+    if (!RASTER_KEEP_SPAN(s)) {   // left to another dispatch (hair_raster.comp's depth split)
+        s.x1 = s.x0 - 1;
+        return false;
+    }
+#endif
 #if defined(RASTER_CULL) && RASTER_CULL_SPANS
     if (raster_span_culled(s, u_raster_size)) {   // none of its columns
         s.x1 = s.x0 - 1;
