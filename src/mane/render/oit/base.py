@@ -28,6 +28,7 @@ from ...gpu.buffers import check_allocation
 from ...gpu.glsl import compute_shader, program
 from ...gpu.uniforms import write_uniform
 from ..bindings import B_CLEAR, IMG_CLEAR
+from ..coverage_lod import box_corners
 from ..passes.base import HERE as PASSES_DIR
 from ..passes.base import PASS_SHADE, RENDER_DIR, Frame, bind_lighting, draw_hair, hair_program, set_uniform
 
@@ -198,8 +199,7 @@ class OitMethod:
         r = self.r
         lo, hi = r.strands.bbox()
         pad = r.strand_pad() + float(self.settings.width)
-        lo, hi = np.asarray(lo, float) - pad, np.asarray(hi, float) + pad
-        corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+        corners = box_corners(np.asarray(lo, float) - pad, np.asarray(hi, float) + pad)
         z = (corners - frame.view.eye) @ np.asarray(frame.view.forward, float)
         near = max(float(z.min()), 1e-4)
         return near, max(float(z.max()), near + 1e-3)

@@ -84,6 +84,14 @@ class DepthTiles:
     def update(self, depth, grid: int = 1) -> None:
         """Reduce ``depth`` (a single-sample depth texture, a pixel ``grid`` x ``grid`` samples
         of the rasteriser) into the map (one dispatch)."""
+        cs = self._programs.get("tiles", (), lambda: compute_shader(self.ctx, shader_path("depth_tiles.comp")))
+        tiles = self._begin(cs, depth, grid)
+        cs.run(math.ceil(tiles[0] / 8), math.ceil(tiles[1] / 8))
+        self.ctx.memory_barrier()
+
+    def _begin(self, cs, depth, grid: int) -> tuple:
+        """Size the map for ``depth`` at ``grid`` samples a pixel side and set ``cs``'s common
+        uniforms (the depth texture, the tile counts and shift); the tile counts."""
         w, h = depth.size
         shift = tile_shift(grid)
         side = 1 << shift
@@ -93,15 +101,13 @@ class DepthTiles:
             self.buffer = self.ctx.buffer(reserve=4 * tiles[0] * tiles[1])
             self.tiles = tiles
         self.shift = shift
-        cs = self._programs.get("tiles", (), lambda: compute_shader(self.ctx, shader_path("depth_tiles.comp")))
         depth.use(TEX_SCENE_DEPTH)
         set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
         set_uniform(cs, "u_depth_tiles", tiles)
         set_uniform(cs, "u_tile_shift", shift)
         set_uniform(cs, "u_grid", int(grid))
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        cs.run(math.ceil(tiles[0] / 8), math.ceil(tiles[1] / 8))
-        self.ctx.memory_barrier()
+        return tiles
 
     def bind(self, cs) -> None:
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)

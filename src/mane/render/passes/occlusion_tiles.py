@@ -34,10 +34,11 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...gpu.glsl import ProgramMemo, compute_shader
-from ..bindings import B_COVER, B_DEPTH_TILES, B_VIS, TEX_SCENE_DEPTH
+from ...gpu.glsl import compute_shader
+from ..bindings import B_COVER, B_VIS
+from ..coverage_lod import box_corners
 from .base import RENDER_DIR, set_uniform, shader_path
-from .depth_tiles import tile_shift
+from .depth_tiles import DepthTiles
 from .raster_segment import balance_for
 
 SPLIT = 0.35        # where the first dispatch ends, of the way from the hair's nearest depth to its furthest
@@ -59,8 +60,7 @@ def split_depth(renderer, view) -> float:
     depth range (its box padded as the OIT methods pad it: oit/base.py), projected by ``view``."""
     lo, hi = renderer.hair_bbox()
     pad = renderer.strand_pad() + float(renderer.settings.width)
-    lo, hi = np.asarray(lo, float) - pad, np.asarray(hi, float) + pad
-    corners = np.array([[x, y, z] for x in (lo[0], hi[0]) for y in (lo[1], hi[1]) for z in (lo[2], hi[2])])
+    corners = box_corners(np.asarray(lo, float) - pad, np.asarray(hi, float) + pad)
     fwd = np.asarray(view.forward, float)
     d = (corners - np.asarray(view.eye, float)) @ fwd
     dist = float(d.min()) + SPLIT * float(d.max() - d.min())
@@ -70,55 +70,20 @@ def split_depth(renderer, view) -> float:
     return float(c[2] / c[3] * 0.5 + 0.5)
 
 
-class OcclusionTiles:
+class OcclusionTiles(DepthTiles):
     """The map's buffer: ``update`` fills it from the head's depth and the per-sample buffers,
     ``bind`` hands it to a kernel that includes depth_tiles.glsl (in the head map's place)."""
-
-    def __init__(self, ctx):
-        self.ctx = ctx
-        self.buffer = None
-        self.tiles = (0, 0)
-        self.shift = 0
-        self._programs = ProgramMemo()
 
     def update(self, depth, grid: int, vis, cover, vis64: bool) -> None:
         """One dispatch over the tiles: ``depth`` the head's texture (pixels), ``vis`` and
         ``cover`` the per-sample buffers (hair_vis.glsl; with ``vis64`` the 64-bit words)."""
-        w, h = depth.size
-        shift = tile_shift(grid)
-        side = 1 << shift
-        tiles = (-(-w * grid // side), -(-h * grid // side))
-        if self.buffer is None or tiles != self.tiles:
-            self.release()
-            self.buffer = self.ctx.buffer(reserve=4 * tiles[0] * tiles[1])
-            self.tiles = tiles
-        self.shift = shift
         cs = self._programs.get(("occlusion", bool(vis64)), (), lambda: compute_shader(
             self.ctx, shader_path("occlusion_tiles.comp"), {"VIS64": int(bool(vis64))},
             include_dirs=[RENDER_DIR]))
-        depth.use(TEX_SCENE_DEPTH)
-        set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
-        set_uniform(cs, "u_depth_tiles", tiles)
-        set_uniform(cs, "u_tile_shift", shift)
-        set_uniform(cs, "u_grid", int(grid))
+        tiles = self._begin(cs, depth, grid)
+        w, h = depth.size
         set_uniform(cs, "u_raster_size", (w * grid, h * grid))
         vis.bind_to_storage_buffer(B_VIS)
         cover.bind_to_storage_buffer(B_COVER)
-        self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
         cs.run(tiles[0], tiles[1])   # a work group a tile
         self.ctx.memory_barrier()
-
-    def bind(self, cs) -> None:
-        self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        set_uniform(cs, "u_depth_tiles", self.tiles)
-        set_uniform(cs, "u_tile_shift", self.shift)
-
-    def read(self) -> np.ndarray:
-        """The map, (tiles down, tiles across) float32."""
-        return np.frombuffer(self.buffer.read(), np.float32).reshape(self.tiles[1], self.tiles[0]).copy()
-
-    def release(self) -> None:
-        if self.buffer is not None:
-            self.buffer.release()
-        self.buffer = None
-        self.tiles = (0, 0)
