@@ -36,9 +36,11 @@ from __future__ import annotations
 import ctypes
 import time
 from collections import OrderedDict, deque
-from contextlib import contextmanager
+from contextlib import contextmanager, nullcontext
 
 from ..errors import UsageError
+
+_OFF = nullcontext()   # a disabled profiler's section (nullcontext is reusable)
 
 GL_TIMESTAMP = 0x8E28
 GL_QUERY_RESULT = 0x8866
@@ -149,12 +151,15 @@ class GpuProfiler:
         return "gpu-timer", note or ("asked for" if forced else "GL_TIMESTAMP queries")
 
     # ------------------------------------------------------------------ sections
-    @contextmanager
     def section(self, name: str):
-        """Time the GL work issued inside the block under ``name``. Sections may nest."""
+        """Time the GL work issued inside the block under ``name``. Sections may nest. Off, one
+        shared do-nothing context (a frame enters a dozen: no generator made for each)."""
         if not self.enabled:
-            yield
-            return
+            return _OFF
+        return self._timed(name)
+
+    @contextmanager
+    def _timed(self, name: str):
         name = str(name)
         self._depth.setdefault(name, len(self._stack))
         self._samples.setdefault(name, deque(maxlen=self.history))

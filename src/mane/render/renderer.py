@@ -720,19 +720,12 @@ class Renderer(GpuOwner):
                 frame.shadow_views.append((lv, self._hair_depth_range(lv)))
         fbo = self.hdr_fbo()
         fbo.use()
-        profiling = self.profiler.enabled   # off: no section (a context manager a pass) at all
-        if profiling:
-            with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
-                self._clear_hdr(fbo)
-        else:
+        with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
             self._clear_hdr(fbo)
         on_pass = self.on_pass
         for p in self.passes:
             if p.enabled(frame):
-                if profiling:
-                    with self.profiler.section(p.name):
-                        p.run(frame)
-                else:
+                with self.profiler.section(p.name):
                     p.run(frame)
             if on_pass is not None:
                 on_pass(p.name)
