@@ -46,3 +46,30 @@ def forget_uniforms(program) -> None:
     """Forget what was written to ``program``'s uniforms (after something wrote them directly)."""
     for member in getattr(program, "_members", {}).values():
         member.__dict__.pop(_LAST, None)
+
+
+_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, its __dict__, packed value), ...))
+MAX_PLANS = 64
+
+
+def set_uniforms(prog, values: dict, pack=None) -> None:
+    """Write every uniform of ``values`` (name -> value; a dict not changed once made) that
+    ``prog`` has. The program's uniforms of the dict and their values (``pack(uniform, value)``
+    where given) are found once per (program, dict) and kept on the program; a uniform whose
+    last write was that very value object (write_uniform remembers it) is not looked at again."""
+    plans = prog.__dict__.get(_PLANS)
+    if plans is None:
+        plans = prog.__dict__[_PLANS] = {}
+    entry = plans.get(id(values))
+    if entry is None or entry[0] is not values:
+        pairs = []
+        for name, value in values.items():
+            u = prog.get(name, None)
+            if u is not None:
+                pairs.append((u, u.__dict__, pack(u, value) if pack is not None else value))
+        if len(plans) >= MAX_PLANS:
+            plans.clear()
+        entry = plans[id(values)] = (values, tuple(pairs))
+    for u, sent, v in entry[1]:
+        if sent.get(_LAST) is not v:
+            write_uniform(u, v)

@@ -11,7 +11,8 @@ import moderngl
 import numpy as np
 
 from ...gpu.glsl import program
-from ...gpu.uniforms import LAST_SENT, write_uniform
+from ...gpu import uniforms
+from ...gpu.uniforms import write_uniform
 from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST,
                         TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
@@ -118,31 +119,12 @@ def set_uniform(prog, name: str, value) -> bool:
     return True
 
 
-_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, its __dict__, packed value), ...))
-MAX_PLANS = 64
-
-
 def set_uniforms(prog, values: dict) -> None:
     """``set_uniform`` for every name of ``values`` (a dict not changed once made: a View's, a
-    frame's lighting). The program's uniforms of the dict and their packed values are found
-    once per (program, dict) and kept on the program; a uniform whose last write was that very
-    value object is not looked at again (write_uniform remembers the object it wrote)."""
-    plans = prog.__dict__.get(_PLANS)
-    if plans is None:
-        plans = prog.__dict__[_PLANS] = {}
-    entry = plans.get(id(values))
-    if entry is None or entry[0] is not values:
-        pairs = []
-        for name, value in values.items():
-            u = prog.get(name, None)
-            if u is not None:
-                pairs.append((u, u.__dict__, _packable(u, value)))
-        if len(plans) >= MAX_PLANS:
-            plans.clear()
-        entry = plans[id(values)] = (values, tuple(pairs))
-    for u, sent, v in entry[1]:
-        if sent.get(LAST_SENT) is not v:
-            write_uniform(u, v)
+    frame's lighting), through mane.gpu.uniforms.set_uniforms: the program's uniforms of the dict
+    and their packed values found once per (program, dict), a uniform last written that very
+    value object not looked at again."""
+    uniforms.set_uniforms(prog, values, _packable)
 
 
 def has_uniform(prog, name: str) -> bool:

@@ -170,9 +170,9 @@ bool raster_span_culled(RasterSpan s, ivec2 size) {
 // depth in metres); RASTER_SEGMENT(I), run with a segment's first point before its samples are
 // visited (per column in the balanced form: the state it sets is the visit's segment's).
 //
-// RASTER_BALANCE (set by the Python, raster_segment.py; TEMPORARY both forms for
-// issue 14's H200 A/B): 0, the invocation walks its own segment's columns (in close-ups a
-// segment crosses tens to hundreds of columns, so a warp waits on its longest segment); 1, the
+// RASTER_BALANCE (raster_segment.py: 1 on GPUs, 0 on CPU rasterisers): 0, the invocation
+// walks its own segment's columns (in close-ups a segment crosses tens to hundreds of columns,
+// so a warp waits on its longest segment); 1, the
 // work group (local_size_x, every thread calling this, none returning before it) sets up its
 // segments, stores them and their column counts in shared memory, prefix-sums the counts and
 // deals the group's columns round-robin to its threads (each finds its column's segment by

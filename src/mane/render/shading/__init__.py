@@ -48,7 +48,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ...gpu.uniforms import LAST_SENT, write_uniform
+from ...gpu.uniforms import set_uniforms, write_uniform
 from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from .melanin import (  # noqa: F401
@@ -371,7 +371,7 @@ class ShadingSettings:
         from moderngl import InvalidObject
 
         units = (prefix, unit_m, unit_n, unit_dual)
-        # kept on the program: (settings, units, ((uniform, value), ...), ((texture, unit), ...))
+        # kept on the program: (settings, units, the uniforms' values, ((texture, unit), ...))
         plan = program.__dict__.get("_mane_material")
         if (plan is None or plan[0] is not self or plan[1] != units
                 or any(isinstance(t.mglo, InvalidObject) for t, _ in plan[3])):   # a cache let one go
@@ -387,13 +387,8 @@ class ShadingSettings:
             if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
                 textures.append((dual_lut_texture(ctx, self), unit_dual))
                 values["hair_dual_lut"] = unit_dual
-            # ``name in program`` would walk every uniform of the program: get() looks one up
-            pairs = tuple((program.get(k, None), v) for k, v in values.items())
-            plan = program.__dict__["_mane_material"] = (self, units, tuple(p for p in pairs if p[0] is not None),
-                                                         tuple(textures))
-        for u, value in plan[2]:
-            if u.__dict__.get(LAST_SENT) is not value:   # the value object it was last written: skipped
-                write_uniform(u, value)
+            plan = program.__dict__["_mane_material"] = (self, units, values, tuple(textures))
+        set_uniforms(program, plan[2])   # kept dict: its uniforms looked up once, unchanged ones skipped
         for tex, unit in plan[3]:
             tex.use(unit)
 
