@@ -16,6 +16,7 @@ from __future__ import annotations
 import os
 
 from ...errors import UsageError
+from ...gpu.capabilities import get_capabilities   # cached per context
 
 
 def _balance_from_env() -> int | None:
@@ -34,8 +35,6 @@ def balance_for(ctx) -> int:
     """The scan-conversion form for ``ctx``'s GPU: FORCED when set, else 1 unless a CPU rasteriser."""
     if FORCED is not None:
         return int(bool(FORCED))
-    from ...gpu.capabilities import get_capabilities   # cached per context
-
     return 0 if get_capabilities(ctx).is_software else 1
 
 
