@@ -50,11 +50,12 @@ HEAD_CULL = None
 CULL_PARTS = {True: (1, 1), False: (0, 0), "segments": (1, 0), "columns": (0, 1)}
 
 
-def cull_defines(ctx) -> dict:
-    """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp)."""
+def cull_defines(ctx, balance: int | None = None) -> dict:
+    """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp);
+    ``balance`` the scan-conversion form they run (None: raster_segment.balance_for's)."""
     key = HEAD_CULL if HEAD_CULL is None or isinstance(HEAD_CULL, str) else bool(HEAD_CULL)
     if key is None:
-        spans, columns = 1, balance_for(ctx)
+        spans, columns = 1, int(bool(balance_for(ctx) if balance is None else balance))
     elif key in CULL_PARTS:
         spans, columns = CULL_PARTS[key]
     else:

@@ -145,9 +145,16 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        balance = raster_defines(ctx)
-        cull = depth_tiles.cull_defines(ctx)
-        hair_cull = occlusion_tiles.hair_cull(ctx)
+        # the form of this frame: the hair site's tuner's (scan_form.py), which times everything
+        # from the head's tile map to the last raster dispatch; a counting frame keeps its choice
+        site = r.scan_forms.hair
+        if stats is None:
+            form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
+        else:
+            form = site.current()
+        balance = raster_defines(ctx, form)
+        cull = depth_tiles.cull_defines(ctx, form)
+        hair_cull = occlusion_tiles.hair_cull(ctx, form)
         if hair_cull:   # both maps: segments and columns
             cull = {"RASTER_HEAD_CULL": 1, "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
         if cull["RASTER_HEAD_CULL"]:
@@ -187,6 +194,7 @@ class HairComputePass(Pass):
                     tiles.bind(cs)
                 expand.dispatch_segments(cs)
                 ctx.memory_barrier()
+        site.end()
         if stats is not None:
             self.raster_stats = self._read_stats(stats)
         if self.capture:

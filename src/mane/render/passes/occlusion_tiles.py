@@ -46,10 +46,11 @@ HAIR_CULL = None    # None: by the renderer; True: on; False: off
 PER_THREAD = False  # on by default in the per-thread scan conversion (CPU rasterisers) too
 
 
-def hair_cull(ctx) -> bool:
-    """Whether this frame splits the raster dispatch and culls the far part by the near hair."""
+def hair_cull(ctx, balance: int | None = None) -> bool:
+    """Whether this frame splits the raster dispatch and culls the far part by the near hair;
+    ``balance`` the scan-conversion form (None: raster_segment.balance_for's)."""
     if HAIR_CULL is None:
-        return bool(balance_for(ctx) or PER_THREAD)
+        return bool((balance_for(ctx) if balance is None else balance) or PER_THREAD)
     if isinstance(HAIR_CULL, (bool, np.bool_)):
         return bool(HAIR_CULL)
     raise ValueError(f"occlusion_tiles.HAIR_CULL must be None, True or False, not {HAIR_CULL!r}")

@@ -38,6 +38,7 @@ def balance_for(ctx) -> int:
     return 0 if get_capabilities(ctx).is_software else 1
 
 
-def raster_defines(ctx) -> dict:
-    """The defines of every kernel that includes raster_segment.glsl."""
-    return {"RASTER_BALANCE": balance_for(ctx)}
+def raster_defines(ctx, balance: int | None = None) -> dict:
+    """The defines of every kernel that includes raster_segment.glsl: ``balance`` the form (a
+    site's tuner's, scan_form.py), None the fixed rule (balance_for)."""
+    return {"RASTER_BALANCE": balance_for(ctx) if balance is None else int(bool(balance))}
