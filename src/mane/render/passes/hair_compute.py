@@ -15,7 +15,10 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
    per-sample buffers are bit-identical to one thread walking its own segment (the atomics
    commute). On the H200 this took a 100k-strand close-up's scan from 23.4 to 8.6 ms; CPU
-   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). Head culling
+   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). On GPUs the
+   form of a frame is the renderer's tuner's (scan_form.py, site ``hair``: the whole section
+   below timed in both forms, with the culls each form brings, and the faster kept), since
+   the per-thread form wins where segments are short and alike (a crowd of small heads). Head culling
    (depth_tiles.py; ``depth_tiles`` section, a few microseconds): first a tile map of the head's
    depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
    or behind the map at its nearest depth gets no columns, and a column (constant depth) at or

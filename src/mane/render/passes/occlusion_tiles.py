@@ -27,7 +27,8 @@ are left at 1.0 (no hair cull), so a GPU flushing denormals cannot cull a tie.
 (tests/test_render_compute_haircull.py.)
 
 ``HAIR_CULL`` (read each frame): None, by the renderer (with the balanced scan conversion, and
-in the per-thread form where ``PER_THREAD``); True, on; False, off. On, the head's map is used in
+in the per-thread form where ``PER_THREAD``; the frame's form is the hair site's tuner's,
+scan_form.py, which times each form with its culls); True, on; False, off. On, the head's map is used in
 dispatch 1 whatever depth_tiles.HEAD_CULL says (the A/B of the head cull alone: HAIR_CULL False).
 """
 from __future__ import annotations

@@ -219,14 +219,18 @@ class ScanFormSite:
         self._pending: deque = deque()   # (slot, ticket) stamped, not yet read
         self._open = None
         self._timer_ok = None
+        self._software = None    # a CPU rasteriser (asked once)
         self.form = None         # the form of the last frame's dispatches
 
     def tuning(self) -> bool:
         """Whether this frame's form is the tuner's (else the fixed rule's, balance_for)."""
         if raster_segment.FORCED is not None or TUNE is False:
             return False
-        if TUNE is None and get_capabilities(self.ctx).is_software:
-            return False
+        if TUNE is None:
+            if self._software is None:
+                self._software = bool(get_capabilities(self.ctx).is_software)
+            if self._software:
+                return False
         if self._timer_ok is None:
             if self.timer is None:
                 self.timer = QueryTimer(self.ctx)
