@@ -284,3 +284,26 @@ def test_alternating_forms_give_identical_frames(gl, monkeypatch):
         assert_cover_equal(f["bufs"]["cover"], first["bufs"]["cover"])
         np.testing.assert_array_equal(f["dom"], first["dom"])
         np.testing.assert_array_equal(f["image"], first["image"])
+
+
+def test_a_frame_that_raised_loses_its_time_only(gl, monkeypatch):
+    # begin() without end() (the frame raised between them): the next begin stops the open
+    # timing, drops its result and asks for that sample again
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    site = scan_form.ScanFormSite(gl, "dom")
+    site.timer = FakeTimer(site, {0: 2.0, 1: 1.0}, pool=4, lag=0)
+    for _ in range(2):   # the untimed first uses
+        site.begin(KEY, (100, 1))
+        site.end()
+    site.begin(KEY, (100, 1))          # timed, never ended
+    assert sum(site.chooser._out) == 1
+    site.begin(KEY, (100, 1))          # drops it, times another
+    site.end()
+    assert sum(site.chooser._out) == 1 and site.timer.reads == 1   # the dropped one read, not recorded
+    for _ in range(6):
+        site.begin(KEY, (100, 1))
+        site.end()
+    assert not site.chooser.probing and site.current() == 1
+    assert site.chooser.medians == [2.0, 1.0]

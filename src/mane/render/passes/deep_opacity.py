@@ -102,15 +102,22 @@ class DeepOpacityPass(LightDepthPass):
         layers.bind_to_storage_buffer(B_DOM_LAYERS)
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
-        site = r.scan_forms.dom   # the form by measurement (scan_form.py): both dispatches timed
-        expand = r.get_pass("expand")
-        expand.ensure()
-        form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
+        # the form by measurement (scan_form.py): both dispatches timed; the extra lights' maps
+        # (extra_shadows.py) take the main light's choice untimed
+        site = r.scan_forms.dom
+        main = r.get_pass("deep_opacity") is self
+        if main:
+            expand = r.get_pass("expand")
+            expand.ensure()
+            form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
+        else:
+            form = site.current()
         for dom_pass in (0, 1):
             scan_light_depths(r, frame.light_view, n, dom_pass,
                               layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
                               strand_opacity=float(r.settings.strand_opacity), balance=form)
-        site.end()
+        if main:
+            site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
                                                                     include_dirs=[RENDER_DIR]))
         set_uniforms(pack, _pack_uniforms(n))
