@@ -95,6 +95,9 @@ class _TimestampQueries:
         return int(v.value)
 
 
+TimestampQueries = _TimestampQueries   # public: the renderer's scan-form tuner (render/passes/scan_form.py)
+
+
 class GpuProfiler:
     """Times named sections (passes) on the GPU, or on the CPU where GPU timing is unreliable.
 

@@ -34,6 +34,7 @@ from .passes.expand import ExpandPass
 from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
+from .passes.scan_form import ScanForms
 from .settings import RenderSettings
 from .shading import ShadingSettings, hair_preset
 from .strand_buffers import StrandBuffers
@@ -108,6 +109,7 @@ class Renderer(GpuOwner):
         self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
                                       self.settings.shading_options)
         self.profiler = GpuProfiler(self.ctx, enabled=profile, source=profiler_source)
+        self.scan_forms = ScanForms(self.ctx)   # the compute rasteriser's scan form per site, by measurement
         self.strands: StrandBuffers | None = None
         self.head = None
         self.head_closed = False   # set_head: a closed, outward-wound head (its back faces culled)
@@ -799,6 +801,8 @@ class Renderer(GpuOwner):
             "points_per_guide": 0 if self.strands is None else self.strands.points_per_strand,
             "msaa": self.samples,
             "rasterizer": "compute" if self.compute_raster else "hardware",
+            "scan_form": self.scan_forms.stats(),
+            "scan_form_by": self.scan_forms.by(),
             "raster_samples": self.raster_grid ** 2 if self.compute_raster else self.samples,
             "supersample": self.settings.supersample,
             "shadows": self.settings.shadows,
@@ -848,6 +852,7 @@ class Renderer(GpuOwner):
             self.ctx.fbo = None
         for p in self.passes:
             p.release()
+        self.scan_forms.release()
         for v in self._targets.values():
             for o in v:
                 o.release()

@@ -102,10 +102,22 @@ class DeepOpacityPass(LightDepthPass):
         layers.bind_to_storage_buffer(B_DOM_LAYERS)
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
+        # the form by measurement (scan_form.py): both dispatches timed; the extra lights' maps
+        # (extra_shadows.py) take the main light's choice untimed
+        site = r.scan_forms.dom
+        main = r.get_pass("deep_opacity") is self
+        if main:
+            expand = r.get_pass("expand")
+            expand.ensure()
+            form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
+        else:
+            form = site.current()
         for dom_pass in (0, 1):
             scan_light_depths(r, frame.light_view, n, dom_pass,
                               layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
-                              strand_opacity=float(r.settings.strand_opacity))
+                              strand_opacity=float(r.settings.strand_opacity), balance=form)
+        if main:
+            site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
                                                                     include_dirs=[RENDER_DIR]))
         set_uniforms(pack, _pack_uniforms(n))
@@ -127,12 +139,13 @@ class DeepOpacityPass(LightDepthPass):
 
 
 def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
-                      strand_opacity: float = 0.0) -> None:
+                      strand_opacity: float = 0.0, balance: int | None = None) -> None:
     """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
-    nearest light depth bits per texel (atomic min), pass 1 the opacity layers."""
+    nearest light depth bits per texel (atomic min), pass 1 the opacity layers. ``balance``: the
+    scan-conversion form (None: raster_segment.balance_for's)."""
     ctx = renderer.ctx
-    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines(ctx)},
+    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines(ctx, balance)},
                         include_dirs=[RENDER_DIR])
     set_view(cs, view)
     set_uniforms(cs, _scan_uniforms(int(n), tuple(float(x) for x in layer_ends), float(strand_opacity)))

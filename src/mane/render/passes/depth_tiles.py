@@ -24,7 +24,8 @@ floats, 127 KB, in L2 all frame); a segment's box at the default framing (a few 
 1-4 tiles, and one touching more than 32 (depth_tiles.glsl) is left to its columns
 (``headcull.py --tile 16`` measures the other choice).
 
-Columns are culled with the balanced scan conversion (GPUs: raster_segment.py), where a warp's
+Columns are culled with the balanced scan conversion (GPUs: raster_segment.py; the frame's form
+is the hair site's tuner's, scan_form.py; the OIT fill keeps the fixed rule), where a warp's
 lanes take neighbouring columns and skip them together; in the per-thread form (CPU
 rasterisers) a lane's skipped column saves nothing while its neighbours walk their own
 segments', and the check made the scan 1.1-1.3x slower on llvmpipe (960x540, the scale
@@ -50,11 +51,12 @@ HEAD_CULL = None
 CULL_PARTS = {True: (1, 1), False: (0, 0), "segments": (1, 0), "columns": (0, 1)}
 
 
-def cull_defines(ctx) -> dict:
-    """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp)."""
+def cull_defines(ctx, balance: int | None = None) -> dict:
+    """The defines of the kernels that cull against the tile map (hair_raster.comp, oit_raster.comp);
+    ``balance`` the scan-conversion form they run (None: raster_segment.balance_for's)."""
     key = HEAD_CULL if HEAD_CULL is None or isinstance(HEAD_CULL, str) else bool(HEAD_CULL)
     if key is None:
-        spans, columns = 1, balance_for(ctx)
+        spans, columns = 1, int(bool(balance_for(ctx) if balance is None else balance))
     elif key in CULL_PARTS:
         spans, columns = CULL_PARTS[key]
     else:

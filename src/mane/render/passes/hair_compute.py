@@ -15,7 +15,10 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    segments (tens to hundreds of columns) do not leave a warp waiting on its longest one; the
    per-sample buffers are bit-identical to one thread walking its own segment (the atomics
    commute). On the H200 this took a 100k-strand close-up's scan from 23.4 to 8.6 ms; CPU
-   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). Head culling
+   rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). On GPUs the
+   form of a frame is the renderer's tuner's (scan_form.py, site ``hair``: the whole section
+   below timed in both forms, with the culls each form brings, and the faster kept), since
+   the per-thread form wins where segments are short and alike (a crowd of small heads). Head culling
    (depth_tiles.py; ``depth_tiles`` section, a few microseconds): first a tile map of the head's
    depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
    or behind the map at its nearest depth gets no columns, and a column (constant depth) at or
@@ -145,9 +148,16 @@ class HairComputePass(Pass):
         size = self.sample_size()
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
-        balance = raster_defines(ctx)
-        cull = depth_tiles.cull_defines(ctx)
-        hair_cull = occlusion_tiles.hair_cull(ctx)
+        # the form of this frame: the hair site's tuner's (scan_form.py), which times everything
+        # from the head's tile map to the last raster dispatch; a counting frame keeps its choice
+        site = r.scan_forms.hair
+        if stats is None:
+            form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
+        else:
+            form = site.current()
+        balance = raster_defines(ctx, form)
+        cull = depth_tiles.cull_defines(ctx, form)
+        hair_cull = occlusion_tiles.hair_cull(ctx, form)
         if hair_cull:   # both maps: segments and columns
             cull = {"RASTER_HEAD_CULL": 1, "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
         if cull["RASTER_HEAD_CULL"]:
@@ -187,6 +197,7 @@ class HairComputePass(Pass):
                     tiles.bind(cs)
                 expand.dispatch_segments(cs)
                 ctx.memory_barrier()
+        site.end()
         if stats is not None:
             self.raster_stats = self._read_stats(stats)
         if self.capture:

@@ -27,7 +27,8 @@ are left at 1.0 (no hair cull), so a GPU flushing denormals cannot cull a tie.
 (tests/test_render_compute_haircull.py.)
 
 ``HAIR_CULL`` (read each frame): None, by the renderer (with the balanced scan conversion, and
-in the per-thread form where ``PER_THREAD``); True, on; False, off. On, the head's map is used in
+in the per-thread form where ``PER_THREAD``; the frame's form is the hair site's tuner's,
+scan_form.py, which times each form with its culls); True, on; False, off. On, the head's map is used in
 dispatch 1 whatever depth_tiles.HEAD_CULL says (the A/B of the head cull alone: HAIR_CULL False).
 """
 from __future__ import annotations
@@ -46,10 +47,11 @@ HAIR_CULL = None    # None: by the renderer; True: on; False: off
 PER_THREAD = False  # on by default in the per-thread scan conversion (CPU rasterisers) too
 
 
-def hair_cull(ctx) -> bool:
-    """Whether this frame splits the raster dispatch and culls the far part by the near hair."""
+def hair_cull(ctx, balance: int | None = None) -> bool:
+    """Whether this frame splits the raster dispatch and culls the far part by the near hair;
+    ``balance`` the scan-conversion form (None: raster_segment.balance_for's)."""
     if HAIR_CULL is None:
-        return bool(balance_for(ctx) or PER_THREAD)
+        return bool((balance_for(ctx) if balance is None else balance) or PER_THREAD)
     if isinstance(HAIR_CULL, (bool, np.bool_)):
         return bool(HAIR_CULL)
     raise ValueError(f"occlusion_tiles.HAIR_CULL must be None, True or False, not {HAIR_CULL!r}")

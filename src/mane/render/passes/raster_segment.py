@@ -3,13 +3,20 @@ included by hair_raster.comp, dom_raster.comp and oit/oit_raster.comp): the defi
 those kernels is compiled with.
 
 ``RASTER_BALANCE`` picks the form: 1, the load-balanced one (a work group prefix-sums its
-segments' sample columns in shared memory and deals them to its threads), on GPUs: on the H200
-it took the 100k-strand close-up's scan conversion from 23.4 to 8.6 ms and 1M strands' from 11.8
-to 7.0 (docs/performance.md); 0, one thread walking every column of its segment, on CPU
-rasterisers (llvmpipe runs a work group as SIMD loops: no warp imbalance to win back, and the
-barriers and searches made the scan 3-4x slower there). Both visit the same samples with the same
-values (tests/test_render_compute_balance.py). ``MANE_RASTER_BALANCE=0/1`` overrides the choice
-(read at import); a script may also set ``FORCED`` between frames.
+segments' sample columns in shared memory and deals them to its threads): on the H200 it took
+the 100k-strand close-up's scan conversion from 23.4 to 8.6 ms and 1M strands' from 11.8 to 7.0
+(docs/performance.md), but the crowd of 100 small heads is faster in the other (10.22 against
+14.28 ms a frame); 0, one thread walking every column of its segment, on CPU rasterisers
+(llvmpipe runs a work group as SIMD loops: no warp imbalance to win back, and the barriers and
+searches made the scan 3-4x slower there). Both visit the same samples with the same values
+(tests/test_render_compute_balance.py), so the form may change from frame to frame.
+
+``balance_for`` is the fixed rule (balanced unless a CPU rasteriser). On GPUs the hair raster and
+the deep opacity raster take their form from the renderer's tuner instead (scan_form.py: each
+site times both forms and keeps the faster), and pass it to ``raster_defines``; the OIT fill and
+the shadow map's hair depths keep the fixed rule. ``MANE_RASTER_BALANCE=0/1`` forces a form
+everywhere, the tuner off (read at import); a script may also set ``FORCED`` between frames
+(scan_form.TUNE = False keeps the fixed rule without forcing).
 """
 from __future__ import annotations
 
@@ -38,6 +45,7 @@ def balance_for(ctx) -> int:
     return 0 if get_capabilities(ctx).is_software else 1
 
 
-def raster_defines(ctx) -> dict:
-    """The defines of every kernel that includes raster_segment.glsl."""
-    return {"RASTER_BALANCE": balance_for(ctx)}
+def raster_defines(ctx, balance: int | None = None) -> dict:
+    """The defines of every kernel that includes raster_segment.glsl: ``balance`` the form (a
+    site's tuner's, scan_form.py), None the fixed rule (balance_for)."""
+    return {"RASTER_BALANCE": balance_for(ctx) if balance is None else int(bool(balance))}

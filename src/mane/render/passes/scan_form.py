@@ -1,0 +1,319 @@
+"""The scan-conversion form chosen per dispatch site by measurement (an autotuner, on GPUs).
+
+raster_segment.glsl has two forms (raster_segment.py, ``RASTER_BALANCE``) that leave the same
+buffers bit for bit: 1, load-balanced, 2-3x faster on the H200's close-ups and 1M strands; 0, a
+thread a segment, faster on the crowd of small alike heads (no imbalance to win back). No
+simple geometric rule told those apart, so each site times both forms and keeps the faster:
+
+``hair``
+    hair_compute.py's whole raster section: the head's tile map, the dispatches and, in the
+    balanced form, the hair cull's split and occlusion map (occlusion_tiles.py) and the column
+    cull (depth_tiles.py), which follow the form.
+``dom``
+    deep_opacity.py's two dom_raster.comp dispatches (the pack is the same in both forms).
+
+The OIT fill and the shadow map's hair depths keep the fixed rule (raster_segment.balance_for).
+
+The protocol (``FormChooser``, pure Python): a probe first uses each form once untimed (its
+program compiles), then times them alternately until each has ``SAMPLES`` results, and keeps
+the faster median, switching from the form in use only when the other is ``MARGIN`` faster
+(the first probe starts from the fixed rule's form). Settled, it times the chosen form every
+``WATCH`` frames and probes again after ``REPROBE`` frames, at once when the site's segment or
+instance count moves by more than ``RESCALE`` x from the probe's, when the settings object
+changes, or when a watched frame's time moves by more than ``RESCALE`` x from the chosen
+median (a camera move from the crowd to a close-up). Times are pairs of GL_TIMESTAMP queries
+from a fixed pool per site (``QueryTimer``), read only once available, a few frames late: the
+CPU never waits, and a frame that finds the pool in use runs untimed.
+
+Off (the fixed rule, raster_segment.balance_for) where ``raster_segment.FORCED`` (or
+``MANE_RASTER_BALANCE``) forces a form, on CPU rasterisers (llvmpipe: the per-thread form, and
+its timer queries are unreliable), where the GL timer queries cannot be loaded, and while
+``TUNE`` is False (benchmarks pinning a form). ``TUNE`` True tunes there too (tests, with a
+fake timer on llvmpipe).
+"""
+from __future__ import annotations
+
+import math
+from collections import deque
+
+from ...gpu.capabilities import get_capabilities   # cached per context
+from . import raster_segment
+
+SAMPLES = 5       # timed frames per form a probe, compared by their medians
+MARGIN = 0.05     # the other form must be this much faster (of the form in use's median) to switch
+REPROBE = 300     # frames a choice is kept before both forms are timed again
+RESCALE = 2.0     # segment / instance count or watched time ratio that probes again at once
+WATCH = 30        # frames between timings of the chosen form while settled (0: none)
+POOL = 8          # timestamp query pairs per site (the GPU may be this many timed frames behind)
+TUNE = None       # None: on GPUs with timer queries; True: everywhere (tests); False: off
+
+FORM_NAMES = ("per_thread", "balanced")
+SITES = ("hair", "dom")
+
+
+def _median(xs) -> float:
+    s = sorted(xs)
+    n = len(s)
+    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
+
+
+class FormChooser:
+    """The choice of one site from the timings fed back to it (no GL). Each frame ``next(key,
+    sizes)`` gives the form to dispatch and a ticket when that frame is to be timed; the time, when
+    it arrives, goes back with ``record(ticket, ms)`` (None: lost). ``key`` is compared by
+    identity, then equality (the settings); ``sizes`` (segments, instances) by ratio."""
+
+    def __init__(self, default: int, *, samples: int = None, margin: float = None, reprobe: int = None,
+                 rescale: float = None, watch: int = None):
+        self.samples = max(1, int(SAMPLES if samples is None else samples))
+        self.margin = float(MARGIN if margin is None else margin)
+        self.reprobe = max(1, int(REPROBE if reprobe is None else reprobe))
+        self.rescale = float(RESCALE if rescale is None else rescale)
+        self.watch = int(WATCH if watch is None else watch)
+        self.choice = int(bool(default))
+        self.medians = [None, None]   # the last probe's, ms
+        self.probes = 0               # probes decided
+        self.epoch = 0
+        self.probing = True
+        self._key = self._sizes = None
+        self._warm = [False, False]
+        self._got = ([], [])
+        self._out = [0, 0]            # timed frames in flight this probe
+        self._last = self.choice      # the form last timed (the probe alternates)
+        self._since = 0               # frames since the last decision
+
+    # ------------------------------------------------------------------ a frame
+    def next(self, key, sizes, can_time: bool = True) -> tuple[int, tuple | None]:
+        """(form, ticket or None) for this frame; ``can_time`` False: no timer free, so untimed."""
+        if self._key is None:
+            self._key, self._sizes = key, tuple(sizes)
+        elif key is not self._key and key != self._key:
+            self._key = key
+            self._warm = [False, False]   # new settings may compile new programs
+            self._probe(sizes)
+        elif self._moved(sizes):
+            self._probe(sizes)
+        if not self.probing:
+            self._since += 1
+            if self._since >= self.reprobe:
+                self._probe(sizes)
+            else:
+                if can_time and self.watch > 0 and self._since % self.watch == 0:
+                    return self.choice, (self.epoch, self.choice, True)
+                return self.choice, None
+        for f in (self.choice, 1 - self.choice):   # first uses compile: untimed
+            if not self._warm[f]:
+                self._warm[f] = True
+                return f, None
+        if not can_time:
+            return self.choice, None
+        have = [len(self._got[f]) + self._out[f] for f in (0, 1)]
+        need = [f for f in (0, 1) if have[f] < self.samples]
+        if not need:   # all issued: wait for the results
+            return self.choice, None
+        if len(need) == 2 and have[0] == have[1]:
+            f = 1 - self._last
+        else:
+            f = min(need, key=lambda g: have[g])
+        self._out[f] += 1
+        self._last = f
+        return f, (self.epoch, f, False)
+
+    def record(self, ticket, ms) -> None:
+        """A timed frame's GPU milliseconds (None or not finite: lost, asked for again)."""
+        epoch, form, watched = ticket
+        if epoch != self.epoch:   # from before the probe now running
+            return
+        ok = ms is not None and math.isfinite(ms) and ms >= 0.0
+        if watched:
+            m = self.medians[form]
+            if ok and not self.probing and m and form == self.choice and not (
+                    m / self.rescale <= ms <= m * self.rescale):
+                self._probe(self._sizes)
+            return
+        self._out[form] -= 1
+        if not ok:
+            return
+        self._got[form].append(float(ms))
+        if self.probing and all(len(g) >= self.samples for g in self._got):
+            self._decide()
+
+    # ------------------------------------------------------------------ inside
+    def _moved(self, sizes) -> bool:
+        if sizes == self._sizes:
+            return False
+        for a, b in zip(sizes, self._sizes):
+            a, b = max(float(a), 1.0), max(float(b), 1.0)
+            if max(a / b, b / a) > self.rescale:
+                return True
+        return len(sizes) != len(self._sizes)
+
+    def _probe(self, sizes) -> None:
+        self.epoch += 1
+        self.probing = True
+        self._sizes = tuple(sizes)
+        self._got = ([], [])
+        self._out = [0, 0]
+        self._since = 0
+
+    def _decide(self) -> None:
+        m = [_median(g) for g in self._got]
+        other = 1 - self.choice
+        if m[other] < m[self.choice] * (1.0 - self.margin):
+            self.choice = other
+        self.medians = m
+        self.probes += 1
+        self.probing = False
+        self._since = 0
+
+
+class QueryTimer:
+    """``pool`` pairs of GL_TIMESTAMP queries made once: ``start()`` a free pair's slot (None:
+    all in flight), ``stop(slot)``, ``ready(slot)`` without waiting, ``read(slot)`` the ms
+    between the stamps (frees the slot; only once ready, so it does not wait)."""
+
+    def __init__(self, ctx, pool: int = POOL):
+        from ...gpu.profiler import TimestampQueries
+
+        self._q = TimestampQueries(ctx)
+        self.ok = bool(self._q.ok)
+        self._pairs = [self._q.new_pair() for _ in range(int(pool))] if self.ok else []
+        self._free = list(range(len(self._pairs)))
+
+    def free(self) -> bool:
+        return bool(self._free)
+
+    def start(self):
+        if not self._free:
+            return None
+        slot = self._free.pop()
+        self._q.stamp(self._pairs[slot][0])
+        return slot
+
+    def stop(self, slot) -> None:
+        self._q.stamp(self._pairs[slot][1])
+
+    def ready(self, slot) -> bool:
+        return self._q.available(self._pairs[slot][1])
+
+    def read(self, slot) -> float:
+        a, b = self._pairs[slot]
+        ms = (self._q.result(b) - self._q.result(a)) / 1e6
+        self._free.append(slot)
+        return ms
+
+    def release(self) -> None:
+        self._q.release(self._pairs)
+        self._pairs, self._free = [], []
+
+
+class ScanFormSite:
+    """One dispatch site: ``begin(key, sizes)`` the form for this frame's dispatches (timing
+    them when the chooser asks), ``end()`` after them; ``current()`` the form without a frame."""
+
+    def __init__(self, ctx, name: str):
+        self.ctx = ctx
+        self.name = name
+        self.timer = None        # made on first use (tests put a fake one here)
+        self.chooser = None      # FormChooser, made on the first tuned frame
+        self._pending: deque = deque()   # (slot, ticket) stamped, not yet read
+        self._open = None
+        self._timer_ok = None
+        self._software = None    # a CPU rasteriser (asked once)
+        self.form = None         # the form of the last frame's dispatches
+
+    def tuning(self) -> bool:
+        """Whether this frame's form is the tuner's (else the fixed rule's, balance_for)."""
+        if raster_segment.FORCED is not None or TUNE is False:
+            return False
+        if TUNE is None:
+            if self._software is None:
+                self._software = bool(get_capabilities(self.ctx).is_software)
+            if self._software:
+                return False
+        if self._timer_ok is None:
+            if self.timer is None:
+                self.timer = QueryTimer(self.ctx)
+            self._timer_ok = bool(getattr(self.timer, "ok", True))
+        return self._timer_ok
+
+    def current(self) -> int:
+        if self.tuning() and self.chooser is not None:
+            return self.chooser.choice
+        return raster_segment.balance_for(self.ctx)
+
+    def begin(self, key, sizes) -> int:
+        if not self.tuning():
+            self.form = raster_segment.balance_for(self.ctx)
+            return self.form
+        chooser = self.chooser
+        if chooser is None:
+            chooser = self.chooser = FormChooser(raster_segment.balance_for(self.ctx))
+        timer, pending = self.timer, self._pending
+        if self._open is not None:   # the last frame raised before end(): its time is lost
+            slot, ticket = self._open
+            self._open = None
+            timer.stop(slot)
+            pending.append((slot, None))
+            chooser.record(ticket, None)
+        while pending and timer.ready(pending[0][0]):   # results in issue order; never waits
+            slot, ticket = pending.popleft()
+            ms = timer.read(slot)
+            if ticket is not None:
+                chooser.record(ticket, ms)
+        form, ticket = chooser.next(key, sizes, timer.free())
+        self.form = form
+        if ticket is not None:
+            slot = timer.start()
+            if slot is None:
+                chooser.record(ticket, None)
+            else:
+                self._open = (slot, ticket)
+        return form
+
+    def end(self) -> None:
+        if self._open is not None:
+            self.timer.stop(self._open[0])
+            self._pending.append(self._open)
+            self._open = None
+
+    def stats(self) -> dict:
+        c = self.chooser if self.tuning() else None
+        out = {"form": FORM_NAMES[self.current()]}
+        if c is not None:
+            out["probing"] = c.probing
+            out["probes"] = c.probes
+            out["ms"] = {FORM_NAMES[f]: (None if c.medians[f] is None else round(c.medians[f], 4)) for f in (0, 1)}
+        return out
+
+    def release(self) -> None:
+        if self.timer is not None and hasattr(self.timer, "release"):
+            self.timer.release()
+        self.timer, self.chooser, self._timer_ok, self._open = None, None, None, None
+        self._pending.clear()
+
+
+class ScanForms:
+    """The renderer's sites (``hair``, ``dom``)."""
+
+    def __init__(self, ctx):
+        self.hair = ScanFormSite(ctx, "hair")
+        self.dom = ScanFormSite(ctx, "dom")
+
+    def by(self) -> str:
+        """Who picks the forms now: "forced" (FORCED), "tuner" or "fixed" (balance_for's rule)."""
+        if raster_segment.FORCED is not None:
+            return "forced"
+        return "tuner" if self.hair.tuning() else "fixed"
+
+    def stats(self) -> dict:
+        """{"hair": "balanced", "dom": "per_thread"}: each site's form now."""
+        return {name: FORM_NAMES[getattr(self, name).current()] for name in SITES}
+
+    def details(self) -> dict:
+        """Per site: its form, and with the tuner its last probe's medians (ms) and probe count."""
+        return {name: getattr(self, name).stats() for name in SITES}
+
+    def release(self) -> None:
+        for name in SITES:
+            getattr(self, name).release()

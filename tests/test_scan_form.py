@@ -1,0 +1,309 @@
+"""The scan-conversion form's tuner (render/passes/scan_form.py): FormChooser fed with made-up
+timings (it picks the faster median, keeps the form in use unless the other beats it by MARGIN,
+probes again after REPROBE frames, at once on a scene or settings change or a watched frame
+far off its median, and never waits on a result), the site's glue with a fake timer (results
+read only once ready), and on a renderer frames whose forms alternate under the tuner: the
+per-sample buffers, the deep opacity maps and the images identical from frame to frame."""
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+import mane.render.passes.raster_segment as raster_segment
+import mane.render.passes.scan_form as scan_form
+from mane.render.passes.scan_form import FormChooser
+
+KEY = object()   # stands for the settings object
+
+
+def run(chooser, ms, frames, sizes=(1000, 1), key=KEY, lag=0):
+    """Drive ``chooser`` for ``frames`` frames, each timed frame's result (``ms[form]``, or
+    ms(form, frame) when callable) delivered ``lag`` frames later; the forms used, in order."""
+    forms, pending = [], []
+    for i in range(frames):
+        while pending and pending[0][0] <= i:
+            _, ticket, t = pending.pop(0)
+            chooser.record(ticket, t)
+        form, ticket = chooser.next(key, sizes)
+        forms.append(form)
+        if ticket is not None:
+            assert ticket[1] == form
+            t = ms(form, i) if callable(ms) else ms[form]
+            pending.append((i + 1 + lag, ticket, t))
+    return forms
+
+
+def settle_frames(samples):
+    # two untimed first uses, 2 x samples timed frames, one frame for the last result
+    return 2 + 2 * samples + 1
+
+
+def test_picks_the_faster_form_by_median():
+    c = FormChooser(1, samples=3)
+    forms = run(c, {0: 2.0, 1: 3.0}, settle_frames(3))
+    assert forms[:2] == [1, 0]            # each form's first (compiling) use, untimed
+    assert forms[2:8] in ([0, 1] * 3, [1, 0] * 3)   # then alternately timed, 3 each
+    assert not c.probing and c.choice == 0 and c.medians == [2.0, 3.0]
+    c = FormChooser(0, samples=3)
+    run(c, {0: 2.0, 1: 1.0}, settle_frames(3))
+    assert c.choice == 1 and c.probes == 1
+
+
+def test_median_ignores_one_outlier():
+    # per-thread faster but for one hitch of 50 ms among its samples
+    c = FormChooser(1, samples=5)
+    run(c, lambda f, i: (50.0 if i == 4 else 2.0) if f == 0 else 2.5, settle_frames(5))
+    assert c.choice == 0 and c.medians[0] == 2.0
+
+
+@pytest.mark.parametrize("faster, switch", [(0.97, False), (0.951, False), (0.94, True), (0.5, True)])
+def test_hysteresis_keeps_the_form_in_use(faster, switch):
+    c = FormChooser(1, samples=3, margin=0.05)
+    run(c, {0: 10.0 * faster, 1: 10.0}, settle_frames(3))
+    assert not c.probing
+    assert c.choice == (0 if switch else 1)
+
+
+def test_probes_again_after_reprobe_frames():
+    c = FormChooser(1, samples=2, reprobe=50, watch=0)
+    run(c, {0: 1.0, 1: 2.0}, settle_frames(2))
+    assert c.choice == 0 and c.probes == 1
+    # settled: no timing (watch 0) for reprobe - 1 frames, the choice used
+    forms = []
+    for _ in range(48):
+        f, ticket = c.next(KEY, (1000, 1))
+        assert ticket is None
+        forms.append(f)
+    assert set(forms) == {0} and not c.probing
+    # then both are timed again (no compiling frames: both warm) and the times have turned
+    f, ticket = c.next(KEY, (1000, 1))   # the 50th: timed again at once (both warm)
+    assert ticket is not None and c.probing
+    c.record(ticket, {0: 3.0, 1: 2.0}[f])
+    forms = run(c, {0: 3.0, 1: 2.0}, 2 * 2 + 2)
+    assert {0, 1} <= set(forms)
+    assert c.probes == 2 and c.choice == 1 and not c.probing
+
+
+@pytest.mark.parametrize("sizes, probes", [((2500, 1), True), ((400, 1), True), ((1000, 3), True),
+                                           ((1900, 1), False), ((600, 2), False), ((1000, 1), False)])
+def test_a_scene_change_probes_at_once(sizes, probes):
+    c = FormChooser(1, samples=2, watch=0)
+    run(c, {0: 1.0, 1: 2.0}, settle_frames(2))
+    epoch = c.epoch
+    form, ticket = c.next(KEY, sizes)
+    assert c.probing == probes
+    assert (c.epoch != epoch) == probes
+    if probes:   # both warm: timed at once
+        assert ticket is not None
+    else:
+        assert ticket is None and form == 0
+
+
+def test_new_settings_probe_with_first_uses_again():
+    c = FormChooser(1, samples=2, watch=0)
+    run(c, {0: 1.0, 1: 2.0}, settle_frames(2))
+    same = type("S", (), {"__eq__": lambda a, b: True, "__hash__": lambda a: 0})()
+    c.next(same, (1000, 1))    # an equal settings object: nothing changes
+    assert not c.probing
+    forms = run(c, {0: 2.0, 1: 1.0}, settle_frames(2), key=object())
+    assert forms[:2] == [0, 1]   # the form in use first, each untimed (new programs may compile)
+    assert c.choice == 1
+
+
+def test_never_blocks_on_late_results():
+    # results 6 frames late: once every sample is in flight the chooser runs its form untimed
+    # (never waits), and decides when they come
+    c = FormChooser(1, samples=3)
+    forms = run(c, {0: 1.0, 1: 2.0}, 16, lag=6)
+    assert forms[8:14] == [1] * 6    # every sample in flight: the form in use, untimed
+    assert forms[14:] == [0, 0]      # the last result (frame 7's) read at frame 14
+    assert not c.probing and c.choice == 0
+
+
+def test_no_free_timer_runs_untimed():
+    c = FormChooser(1, samples=2)
+    run(c, {0: 1.0, 1: 2.0}, 2)
+    for _ in range(10):
+        assert c.next(KEY, (1000, 1), can_time=False) == (1, None)
+    assert c.probing
+
+
+def test_lost_and_stale_results():
+    c = FormChooser(1, samples=2, watch=0)
+    run(c, {0: 1.0, 1: 2.0}, 2)
+    _, t0 = c.next(KEY, (1000, 1))
+    c.record(t0, None)          # lost: asked for again
+    f, t1 = c.next(KEY, (1000, 1))
+    assert t1 is not None and c._out == [0, 1]   # the lost one no longer in flight: asked for again
+    f, t2 = c.next(KEY, (1000, 1))
+    assert t2[1] == t0[1]
+    c.next(KEY, (5000, 1))      # a scene change: a new probe
+    c.record(t1, 0.001)         # from the old probe: ignored
+    assert c.probing and all(len(g) == 0 for g in c._got)
+
+
+def test_watched_frame_far_off_probes_again():
+    c = FormChooser(1, samples=2, watch=10, reprobe=1000)
+    run(c, {0: 1.0, 1: 2.0}, settle_frames(2))
+    tickets = []
+    for _ in range(30):
+        f, t = c.next(KEY, (1000, 1))
+        if t is not None:
+            tickets.append(t)
+            assert t[1] == 0 == f and t[2]   # the chosen form, watched
+    assert len(tickets) == 3
+    c.record(tickets[0], 1.5)   # within RESCALE of its median: kept
+    assert not c.probing
+    c.record(tickets[1], 2.5)   # 2.5x: the scene changed under it
+    assert c.probing
+    run(c, {0: 3.0, 1: 2.0}, 2 * 2 + 1)
+    assert c.choice == 1
+
+
+# --------------------------------------------------------------------------- the site, on GL
+class FakeTimer:
+    """Stands for QueryTimer: ``ms[form]`` for the site's timed form, ready ``lag`` polls
+    after it stopped (``lag`` None: never)."""
+    ok = True
+
+    def __init__(self, site, ms, pool=4, lag=0):
+        self.site, self.ms, self.lag = site, ms, lag
+        self.slots = {}
+        self.pool = pool
+        self.reads = 0
+
+    def free(self):
+        return len(self.slots) < self.pool
+
+    def start(self):
+        slot = next(i for i in range(self.pool) if i not in self.slots)
+        self.slots[slot] = [self.ms[self.site.form], None]
+        return slot
+
+    def stop(self, slot):
+        self.slots[slot][1] = 0
+
+    def ready(self, slot):
+        if self.lag is None:
+            return False
+        self.slots[slot][1] += 1
+        return self.slots[slot][1] > self.lag
+
+    def read(self, slot):
+        assert self.ready(slot)
+        self.reads += 1
+        return self.slots.pop(slot)[0]
+
+
+def test_site_never_waits_and_is_off_when_forced(gl, monkeypatch):
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    site = scan_form.ScanFormSite(gl, "hair")
+    site.timer = FakeTimer(site, {0: 2.0, 1: 1.0}, pool=3, lag=None)   # results never come
+    forms = []
+    for _ in range(12):
+        forms.append(site.begin(KEY, (100, 1)))
+        site.end()
+    assert site.timer.reads == 0 and site.chooser.probing
+    assert len(site.timer.slots) == 3          # the pool full, the rest untimed
+    assert set(forms[5:]) == {site.chooser.choice}
+    site.timer.lag = 1   # now ready two polls after
+    for _ in range(20):
+        site.begin(KEY, (100, 1))
+        site.end()
+        if not site.chooser.probing:
+            break
+    assert not site.chooser.probing and site.current() == 1 and site.stats()["form"] == "balanced"
+    assert site.stats()["ms"] == {"per_thread": 2.0, "balanced": 1.0}
+    monkeypatch.setattr(raster_segment, "FORCED", 1)     # forced: no tuning
+    assert not site.tuning() and site.begin(KEY, (100, 1)) == 1 and site.current() == 1
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    monkeypatch.setattr(scan_form, "TUNE", False)        # off: the fixed rule
+    assert site.begin(KEY, (100, 1)) == raster_segment.balance_for(gl)
+
+
+def test_tuner_off_on_cpu_rasterisers_unless_asked(gl, monkeypatch):
+    from mane.gpu.context import is_software_renderer
+
+    if not is_software_renderer(gl):
+        pytest.skip("a CPU rasteriser's rule")
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    monkeypatch.setattr(scan_form, "TUNE", None)
+    site = scan_form.ScanFormSite(gl, "hair")
+    assert not site.tuning() and site.begin(KEY, (100, 1)) == 0 and site.timer is None
+
+
+def _frames_alternating(gl, monkeypatch, ms_hair, ms_dom, frames=9, **kw):
+    """Render ``frames`` frames with the tuner on (fake timers, 2 samples a form): each frame's
+    forms, per-sample buffers, deep opacity maps, images, and the final stats."""
+    from mane.grooming.scene import default_scene
+    from mane.render import Renderer, RenderSettings
+
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    groom, head = default_scene(num_guides=120, points=10, subdivisions=3)
+    r = Renderer(RenderSettings(**{"size": (120, 90), "msaa": 4, "rasterizer": "compute", "shadows": "deep_opacity",
+                                   "shadow_map_size": 128, "strands_per_guide": 3, "width": 0.004, **kw}),
+                 ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        cam = r.default_camera(25.0, distance_scale=0.3, points=None)
+        sites = r.scan_forms
+        sites.hair.timer = FakeTimer(sites.hair, ms_hair)
+        sites.dom.timer = FakeTimer(sites.dom, ms_dom)
+        hc = r.get_pass("hair_compute")
+        hc.capture = True
+        out = []
+        for _ in range(frames):
+            img = r.render_image(cam)
+            out.append(dict(forms=(sites.hair.form, sites.dom.form), bufs={k: v.copy() for k, v in hc.captured.items()},
+                            dom=r.get_pass("deep_opacity").read(), image=img))
+        return out, r.stats()
+    finally:
+        r.release()
+
+
+def test_alternating_forms_give_identical_frames(gl, monkeypatch):
+    from test_render_compute_balance import assert_cover_equal
+
+    # per-thread faster at the hair site, balanced at the deep opacity maps'
+    frames, stats = _frames_alternating(gl, monkeypatch, {0: 1.0, 1: 2.0}, {0: 3.0, 1: 1.0})
+    hair_forms = [f["forms"][0] for f in frames]
+    dom_forms = [f["forms"][1] for f in frames]
+    assert {0, 1} <= set(hair_forms[:6]) and {0, 1} <= set(dom_forms[:6])   # the probe switched forms
+    assert any(a != b for a, b in zip(hair_forms, hair_forms[1:]))
+    assert hair_forms[-1] == 0 and dom_forms[-1] == 1
+    assert stats["scan_form"] == {"hair": "per_thread", "dom": "balanced"} and stats["scan_form_by"] == "tuner"
+    first = frames[0]
+    assert (first["bufs"]["ids"] >= 0).sum() > 100 and (first["dom"][..., 3] < 1e8).sum() > 300
+    for f in frames[1:]:
+        np.testing.assert_array_equal(f["bufs"]["ids"], first["bufs"]["ids"])
+        assert_cover_equal(f["bufs"]["cover"], first["bufs"]["cover"])
+        np.testing.assert_array_equal(f["dom"], first["dom"])
+        np.testing.assert_array_equal(f["image"], first["image"])
+
+
+def test_a_frame_that_raised_loses_its_time_only(gl, monkeypatch):
+    # begin() without end() (the frame raised between them): the next begin stops the open
+    # timing, drops its result and asks for that sample again
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    site = scan_form.ScanFormSite(gl, "dom")
+    site.timer = FakeTimer(site, {0: 2.0, 1: 1.0}, pool=4, lag=0)
+    for _ in range(2):   # the untimed first uses
+        site.begin(KEY, (100, 1))
+        site.end()
+    site.begin(KEY, (100, 1))          # timed, never ended
+    assert sum(site.chooser._out) == 1
+    site.begin(KEY, (100, 1))          # drops it, times another
+    site.end()
+    assert sum(site.chooser._out) == 1 and site.timer.reads == 1   # the dropped one read, not recorded
+    for _ in range(6):
+        site.begin(KEY, (100, 1))
+        site.end()
+    assert not site.chooser.probing and site.current() == 1
+    assert site.chooser.medians == [2.0, 1.0]
