@@ -191,6 +191,67 @@ def test_poisson_forward_transmittance_from_the_count_distribution():
             assert abs((poisson.pmf(k, n) * a**k).sum() - math.exp(-n * (1 - a))) <= 1e-12
 
 
+def test_direct_and_diffuse_split_from_the_count_distribution():
+    """Each fibre met TT-scatters the light with probability c a_f / a_f: the light that kept
+    the beam's direction is E[(c a_f)^k] = exp(-n (1 - c a_f)) (k ~ Poisson(n)), the diffuse
+    rest E[a_f^k] - E[(c a_f)^k]: summed term by term."""
+    from scipy.stats import poisson
+
+    k = np.arange(200)
+    for n in (0.3, 1.0, 4.0, 12.0):
+        for a, c in ((0.58, 0.93), (0.17, 0.77), (1.0, 0.5), (0.6, 0.0)):
+            kept = (poisson.pmf(k, n) * (c * a) ** k).sum()
+            total = (poisson.pmf(k, n) * a**k).sum()
+            assert abs(kept - math.exp(-n * (1 - c * a))) <= 1e-12
+            assert abs((total - kept) - (math.exp(-n * (1 - a)) - math.exp(-n * (1 - c * a)))) <= 1e-12
+
+
+def test_forward_tt_share_row():
+    """Row 3's alpha: TT's luminance share of the forward-scattered energy (Chiang's tables; 0
+    for Marschner's), from made-up lobe energies and from the blond fibre's own."""
+    from mane.render.shading.dual_scattering import DualTables, build_dual_lut, forward_tt_share
+
+    n = 8
+    lobe_f = np.zeros((n, 4, 3))
+    lobe_f[:, :, 0] = [0.1, 0.6, 0.2, 0.1]           # red: TT 0.6 of a_f 1.0
+    lobe_f[:, :, 1] = [0.1, 0.2, 0.0, 0.1]           # green: 0.2 of 0.4
+    lobe_f[:, :, 2] = [0.0, 0.0, 0.0, 0.0]
+    z = np.zeros((n, 3))
+    tb = DualTables(theta=np.linspace(-1, 1, n), a_f=lobe_f.sum(axis=1), a_b=z, alpha_f=z, alpha_b=z,
+                    beta_f2=z, beta_b2=z, A_b=z, delta_b=z, sigma_b2=z, theta_d=np.linspace(0, 1, n),
+                    ng_r=np.zeros(n), ng_tt=z, ng_trt=z, lobe_f=lobe_f, lobe_b=lobe_f, ng_trrt=z)
+    want = (0.2126 * 0.6 + 0.7152 * 0.2) / (0.2126 * 1.0 + 0.7152 * 0.4)
+    assert np.allclose(forward_tt_share(tb), want, rtol=1e-12)
+    assert np.allclose(build_dual_lut(tb)[3, :, 3], want, rtol=1e-6)
+    blond = _settings("blond", "chiang", dual_size=16)
+    c = blond.dual_lut()[3, :, 3]
+    assert ((c >= 0) & (c <= 1)).all() and c[8] > 0.8    # TT carries most of blond's a_f
+    assert (_settings("blond", dual_size=16).dual_lut()[3, :, 3] == 0).all()
+
+
+def test_diffuse_part_is_isotropic_with_the_fibre_albedo():
+    """With c = 0 every scattered photon is diffuse: the global term is then d_f T_f (T_f - t)
+    times the fibre's albedo at theta_o (a_f + a_b of the tables, the white-furnace split) over
+    4 pi (isotropic radiance of the same fluence), whatever the light's direction."""
+    s = _settings("blond", "chiang", dual_size=64)
+    lut = s.dual_lut()
+    lut[3, :, 3] = 0.0
+    tb = s.dual_tables()
+    rng = np.random.default_rng(12)
+    T, V, L = _unit(rng, 256), _unit(rng, 256), _unit(rng, 256)
+    t = rng.uniform(0.01, 0.9, 256)
+    kw = dict(d_b=s.dual_density_back, max_hairs=s.dual_max_hairs, model="chiang")
+    m = R.material(s)
+    part = R.ms_dual(T, V, L, m, t, lut, d_f=1.0, **kw) - R.ms_dual(T, V, L, m, t, lut, d_f=0.0, **kw)
+    a = R.angles(T, V, L)
+    xi = np.clip((a["theta_i"] + math.pi / 2) / math.pi, 0, 1) * 63
+    a_f = np.stack([np.interp(xi, np.arange(64), lut[3, :, ch].astype(float)) for ch in range(3)], axis=1)
+    T_f = np.exp(np.log(t)[:, None] * (1 - a_f))
+    albedo = np.stack([np.interp(np.abs(a["theta_o"]), tb.theta, (tb.a_f + tb.a_b)[:, ch]) for ch in range(3)], axis=1)
+    want = T_f * (T_f - t[:, None]) * albedo / (4 * math.pi)
+    assert np.abs(part - want).max() <= 0.02 * want.max(), np.abs(part - want).max() / want.max()
+
+
 def test_chiang_tables_are_the_white_furnace_split():
     """Chiang's a_f + a_b is pbrt's white-furnace integral: 1 without absorption at every
     theta (to the h and phi quadrature), split ~ evenly only for the R lobe."""

@@ -238,7 +238,8 @@ def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, max_hairs=64.0,
     A_b = dual_sample(lut, 0, xi)[:, :3]
     delta_b = dual_sample(lut, 1, xi)[:, :3]
     sigma_b2 = dual_sample(lut, 2, xi)[:, :3]
-    a_f = dual_sample(lut, 3, xi)[:, :3]
+    a_f4 = dual_sample(lut, 3, xi)
+    a_f = a_f4[:, :3]
     beta_f2 = dual_sample(lut, 4, xi)[:, :3]
     ng0 = dual_sample(lut, 5, xd)
     ng_trt = dual_sample(lut, 6, xd)[:, :3]
@@ -255,6 +256,18 @@ def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, max_hairs=64.0,
     f_scatter_s = (m["specular"] * ng0[:, 3:4] * mg[0] + ng0[:, :3] * mg[1] + ng_trt * mg[2]
                    + ng_trrt * mg[3]) * inv_cd2[:, None]
     f_scatter_back = back_norm * A_b * _g_var(sigma_b2 + sigma_f2, th[:, None] - delta_b)
-    scattered = np.maximum(T_f - t[:, None], 0.0) * (t < 1)[:, None]
+    inside = (t < 1)[:, None]
+    if chiang:
+        # Poisson count k of fibres met, each TT-scattered with probability c (row 3's alpha):
+        # the light still in the beam's direction is E[(c a_f)^k] - t = exp(-n (1 - c a_f)) - t;
+        # the rest of T_f is diffuse, attenuated once more (twice the path) and isotropic
+        T_dir = np.exp(-n[:, None] * (1.0 - a_f4[:, 3:4] * np.clip(a_f, 0.0, 1.0)))
+        scattered = np.maximum(T_dir - t[:, None], 0.0) * inside
+        diffuse = np.maximum(T_f - T_dir, 0.0) * T_f * inside
+        albedo_o = 2 * math.pi * (m["specular"] * ng0[:, 3:4] + ng0[:, :3] + ng_trt + ng_trrt)
+        f_diffuse = d_f * diffuse * albedo_o / (4 * math.pi)
+    else:
+        scattered = np.maximum(T_f - t[:, None], 0.0) * inside
+        f_diffuse = 0.0
     f = t[:, None] * d_b * f_direct_back + scattered * d_f * (f_scatter_s + d_b * f_scatter_back)
-    return np.maximum(f * a["cos_i"][:, None], 0.0)
+    return np.maximum(f * a["cos_i"][:, None] + f_diffuse, 0.0)

@@ -23,6 +23,10 @@
 //   f_scatter_s = (specular M^G_R N^G_R + M^G_TT N^G_TT + M^G_TRT N^G_TRT) / cos^2 theta_d
 //   result = cos theta_i [ t d_b f_direct_back
 //                          + max(T_f - t, 0) d_f (f_scatter_s + d_b f_scatter_back) ]
+// Chiang's fibre: only TT keeps the beam's direction (c = I_f^TT / a_f, row 3's alpha), so the
+// directional part is max(T_dir - t, 0), T_dir = exp(-n (1 - c a_f)), and the rest of T_f is
+// diffuse: + d_f (T_f - T_dir) T_f albedo(theta_o) / 4 pi (isotropic at the same fluence, the
+// extra T_f for its doubled path; albedo = 2 pi sum_p N^G_p), docs/quality.md item (6).
 //
 // G(x, v) = exp(-x^2 / 2v) / sqrt(2 pi v) (unit integral over theta_h). Normalisation follows
 // hair_bsdf (luts.py), not the paper's BCSDF: 1/2 G is unit-integral over theta_o and the
@@ -107,12 +111,22 @@ vec3 hair_ms_dual(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
     float t = clamp(transmittance, 0.0, 1.0);
     // local back-scattering of the light that arrives unscattered
     vec3 f = (t * HAIR_DUAL_DB * back_norm) * A_b * hair_dual_gauss(sigma_b2, vec3(theta_h) - delta_b);
+    vec3 f_diffuse = vec3(0.0);
     if (t < 1.0) {
         float n = min(-log(max(t, 1e-30)), HAIR_DUAL_MAX_HAIRS);
-        vec3 a_f = hair_dual_fetch(xi, 3.0, size).rgb;
+        vec4 a_f4 = hair_dual_fetch(xi, 3.0, size);
+        vec3 a_f = clamp(a_f4.rgb, 0.0, 1.0);
         vec3 sigma_f2 = n * hair_dual_fetch(xi, 4.0, size).rgb;
-        vec3 T_f = exp(-n * (1.0 - clamp(a_f, 0.0, 1.0)));
+        vec3 T_f = exp(-n * (1.0 - a_f));
+#if HAIR_MODEL == HAIR_MODEL_CHIANG
+        // the light that kept the beam's direction (TT at every fibre met: c = a_f4.a) and the
+        // diffuse rest, which crosses the fibres at random angles (twice the path: * T_f)
+        vec3 T_dir = exp(-n * (1.0 - a_f4.a * a_f));
+        vec3 scattered = max(T_dir - vec3(t), vec3(0.0));
+        vec3 diffuse = max(T_f - T_dir, vec3(0.0)) * T_f;
+#else
         vec3 scattered = max(T_f - vec3(t), vec3(0.0));
+#endif
 #if HAIR_MODEL == HAIR_MODEL_CHIANG
         float xd = clamp(abs(a.theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size - 1.0);
         vec3 alpha = m.shift * vec3(1.0, -0.5, -2.0);
@@ -133,8 +147,13 @@ vec3 hair_ms_dual(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
                            * inv_cd2;
         vec3 f_scatter_back = back_norm * A_b * hair_dual_gauss(sigma_b2 + sigma_f2, vec3(theta_h) - delta_b);
         f += scattered * HAIR_DUAL_DF * (f_scatter_s + HAIR_DUAL_DB * f_scatter_back);
+#if HAIR_MODEL == HAIR_MODEL_CHIANG
+        // isotropic radiance diffuse / 4 pi (fluence kept) times the fibre's albedo at theta_o,
+        // sum_p Abar_p = 2 pi sum_p N^G_p (rows 5-7, already fetched): diffuse sum N^G / 2
+        f_diffuse = (0.5 * HAIR_DUAL_DF) * diffuse * (m.specular * ng0.a + ng0.rgb + ng_trt + ng_trrt);
+#endif
     }
-    return max(f * a.cos_i, vec3(0.0));
+    return max(f * a.cos_i + f_diffuse, vec3(0.0));
 }
 
 #else

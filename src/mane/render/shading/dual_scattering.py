@@ -78,7 +78,8 @@ centres (v = (row + 0.5) / 7, no filtering across rows):
       2  sigma_b^2.rgb
     rows over |theta_d| in [0, pi/2] (grid pi/2 j / (size - 1)):
       5  N^G_TT.rgb, N^G_R in a  6  N^G_TRT.rgb  7  N^G_TRRT+.rgb (Chiang; 0 for Marschner)
-    (Chiang: rows 5-7 over |theta_o| in [0, pi/2].) alpha = 0 elsewhere.
+    (Chiang: rows 5-7 over |theta_o| in [0, pi/2]; row 3's alpha the TT share of a_f,
+    forward_tt_share, for the diffuse part of the scattered light.) alpha = 0 elsewhere.
 
 Integration: midpoint rule, ``n_theta_o`` x ``n_phi`` points per theta_i (default 192 x 96;
 against 512 x 256: a_f, a_b within 1.4e-3 absolute, A_b within 0.3 % of its peak, worst at
@@ -265,6 +266,20 @@ def _precompute_dual_chiang(sigma_a, n, *, eta, roughness, shift, beta_n, specul
                       ng_trrt=ng[:, 3])
 
 
+LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
+
+
+def forward_tt_share(tables: DualTables) -> np.ndarray:
+    """(size,): c = I_f^TT / a_f, the share of the forward-scattered energy that TT carries
+    (luminance-weighted, Rec. 709), the light whose direction one scattering keeps: TT leaves
+    the fibre at theta_o = -theta_i within beta_n of straight through, while R, TRT and TRRT+
+    scattered into the forward half leave at any azimuth of it. Row 3's alpha (Chiang's tables;
+    module docstring, "Diffuse part")."""
+    tt = tables.lobe_f[:, 1, :] @ LUMINANCE
+    af = np.clip(tables.a_f, 0.0, 1.0) @ LUMINANCE
+    return np.clip(np.where(af > 1e-12, tt / np.maximum(af, 1e-12), 0.0), 0.0, 1.0)
+
+
 def build_dual_lut(tables: DualTables) -> np.ndarray:
     """(8, size, 4) float32 texture data (row layout in the module docstring); a_f is
     clamped to [0, 1] (T_f = a_f^n then never grows with n)."""
@@ -274,6 +289,8 @@ def build_dual_lut(tables: DualTables) -> np.ndarray:
     lut[ROW_DELTA_B, :, :3] = tables.delta_b
     lut[ROW_SIGMA_B2, :, :3] = tables.sigma_b2
     lut[ROW_AF, :, :3] = np.clip(tables.a_f, 0.0, 1.0)
+    if tables.lobe_f.shape[1] == 4:                 # Chiang's four lobes: the TT share, c
+        lut[ROW_AF, :, 3] = forward_tt_share(tables)
     lut[ROW_BETA_F2, :, :3] = tables.beta_f2
     lut[ROW_NG0, :, :3] = tables.ng_tt
     lut[ROW_NG0, :, 3] = tables.ng_r
