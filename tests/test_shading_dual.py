@@ -151,9 +151,9 @@ def test_back_scattering_formulas_limits():
 def test_lut_layout_and_integration_converged():
     s = _settings("blond", dual_size=16)
     lut = s.dual_lut()
-    assert lut.shape == (8, 16, 4) and lut.dtype == np.float32
+    assert lut.shape == (9, 16, 4) and lut.dtype == np.float32
     assert (lut[:5, :, 3] == 0).all() and (lut[6:, :, 3] == 0).all()
-    assert (lut[7] == 0).all()                       # Marschner has no TRRT+ lobe
+    assert (lut[7] == 0).all() and (lut[8] == 0).all()   # Marschner: no TRRT+ lobe, no diffuse split
     assert (lut[3, :, :3] <= 1).all()
     tb = s.dual_tables()
     fine = precompute_dual(s.resolved_sigma_a(), beta_r=s.roughness, alpha_r=s.shift, size=8,
@@ -206,10 +206,10 @@ def test_direct_and_diffuse_split_from_the_count_distribution():
             assert abs((total - kept) - (math.exp(-n * (1 - a)) - math.exp(-n * (1 - c * a)))) <= 1e-12
 
 
-def test_forward_tt_share_row():
-    """Row 3's alpha: TT's luminance share of the forward-scattered energy (Chiang's tables; 0
-    for Marschner's), from made-up lobe energies and from the blond fibre's own."""
-    from mane.render.shading.dual_scattering import DualTables, build_dual_lut, forward_tt_share
+def test_forward_tt_row():
+    """Row 8: the forward-scattered energy TT carries, per channel, at most a_f (Chiang's
+    tables; 0 for Marschner's), from made-up lobe energies and from the blond fibre's own."""
+    from mane.render.shading.dual_scattering import ROW_TT, DualTables, build_dual_lut, forward_tt
 
     n = 8
     lobe_f = np.zeros((n, 4, 3))
@@ -220,22 +220,25 @@ def test_forward_tt_share_row():
     tb = DualTables(theta=np.linspace(-1, 1, n), a_f=lobe_f.sum(axis=1), a_b=z, alpha_f=z, alpha_b=z,
                     beta_f2=z, beta_b2=z, A_b=z, delta_b=z, sigma_b2=z, theta_d=np.linspace(0, 1, n),
                     ng_r=np.zeros(n), ng_tt=z, ng_trt=z, lobe_f=lobe_f, lobe_b=lobe_f, ng_trrt=z)
-    want = (0.2126 * 0.6 + 0.7152 * 0.2) / (0.2126 * 1.0 + 0.7152 * 0.4)
-    assert np.allclose(forward_tt_share(tb), want, rtol=1e-12)
-    assert np.allclose(build_dual_lut(tb)[3, :, 3], want, rtol=1e-6)
-    blond = _settings("blond", "chiang", dual_size=16)
-    c = blond.dual_lut()[3, :, 3]
-    assert ((c >= 0) & (c <= 1)).all() and c[8] > 0.8    # TT carries most of blond's a_f
-    assert (_settings("blond", dual_size=16).dual_lut()[3, :, 3] == 0).all()
+    assert ROW_TT == 8
+    assert np.allclose(forward_tt(tb), [0.6, 0.2, 0.0], rtol=1e-12)
+    assert np.allclose(build_dual_lut(tb)[8, :, :3], [0.6, 0.2, 0.0], rtol=1e-6)
+    assert (build_dual_lut(tb)[:, :, 3][[0, 1, 2, 3, 4, 6, 7, 8]] == 0).all()   # alpha: N^G_R only
+    lobe_f[:, 1, 0] = 1.3                             # past a_f (clamped to 1): clamped to it
+    assert np.allclose(forward_tt(DualTables(**{**tb.__dict__, "lobe_f": lobe_f}))[:, 0], 1.0)
+    blond = _settings("blond", "chiang", dual_size=16).dual_lut()
+    share = blond[8, :, :3] / np.maximum(blond[3, :, :3], 1e-9)
+    assert ((share >= 0) & (share <= 1 + 1e-6)).all() and (share[8] > 0.8).all()   # TT carries most of blond's a_f
+    assert (_settings("blond", dual_size=16).dual_lut()[8] == 0).all()
 
 
 def test_diffuse_part_is_isotropic_with_the_fibre_albedo():
-    """With c = 0 every scattered photon is diffuse: the global term is then d_f T_f (T_f - t)
+    """With no TT (row 8 zero) every scattered photon is diffuse: the global term is then d_f T_f (T_f - t)
     times the fibre's albedo at theta_o (a_f + a_b of the tables, the white-furnace split) over
     4 pi (isotropic radiance of the same fluence), whatever the light's direction."""
     s = _settings("blond", "chiang", dual_size=64)
     lut = s.dual_lut()
-    lut[3, :, 3] = 0.0
+    lut[8] = 0.0
     tb = s.dual_tables()
     rng = np.random.default_rng(12)
     T, V, L = _unit(rng, 256), _unit(rng, 256), _unit(rng, 256)

@@ -205,7 +205,7 @@ def karis(T, V, L, m):
 # ------------------------------------------------------------------------------ Zinke 2008 dual scattering
 
 def dual_sample(lut, row, x):
-    """GL_LINEAR sampling of row ``row`` of the (8, size, 4) dual table at texel coordinate
+    """GL_LINEAR sampling of row ``row`` of the (9, size, 4) dual table at texel coordinate
     x in [0, size - 1] (grid point j at x = j; texel centres), float64 weights."""
     n = lut.shape[1]
     x = np.clip(x, 0.0, n - 1)
@@ -238,8 +238,7 @@ def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, max_hairs=64.0,
     A_b = dual_sample(lut, 0, xi)[:, :3]
     delta_b = dual_sample(lut, 1, xi)[:, :3]
     sigma_b2 = dual_sample(lut, 2, xi)[:, :3]
-    a_f4 = dual_sample(lut, 3, xi)
-    a_f = a_f4[:, :3]
+    a_f = dual_sample(lut, 3, xi)[:, :3]
     beta_f2 = dual_sample(lut, 4, xi)[:, :3]
     ng0 = dual_sample(lut, 5, xd)
     ng_trt = dual_sample(lut, 6, xd)[:, :3]
@@ -258,10 +257,10 @@ def ms_dual(T, V, L, m, transmittance, lut, *, d_f=0.7, d_b=0.7, max_hairs=64.0,
     f_scatter_back = back_norm * A_b * _g_var(sigma_b2 + sigma_f2, th[:, None] - delta_b)
     inside = (t < 1)[:, None]
     if chiang:
-        # Poisson count k of fibres met, each TT-scattered with probability c (row 3's alpha):
-        # the light still in the beam's direction is E[(c a_f)^k] - t = exp(-n (1 - c a_f)) - t;
+        # Poisson count k of fibres met, the light passing each by TT with probability I_f^TT
+        # (row 8): what is still in the beam's direction is E[I_tt^k] - t = exp(-n (1 - I_tt)) - t;
         # the rest of T_f is diffuse, attenuated once more (twice the path) and isotropic
-        T_dir = np.exp(-n[:, None] * (1.0 - a_f4[:, 3:4] * np.clip(a_f, 0.0, 1.0)))
+        T_dir = np.exp(-n[:, None] * (1.0 - dual_sample(lut, 8, xi)[:, :3]))
         scattered = np.maximum(T_dir - t[:, None], 0.0) * inside
         diffuse = np.maximum(T_f - T_dir, 0.0) * T_f * inside
         albedo_o = 2 * math.pi * (m["specular"] * ng0[:, 3:4] + ng0[:, :3] + ng_trt + ng_trrt)

@@ -351,7 +351,7 @@ class ShadingSettings:
         return _dual_tables(self.dual_key())
 
     def dual_lut(self) -> np.ndarray:
-        """(8, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
+        """(9, dual_size, 4) float32 data of the ``hair_dual_lut`` texture (dual_scattering.py)."""
         from .dual_scattering import build_dual_lut
 
         key = self.dual_key()

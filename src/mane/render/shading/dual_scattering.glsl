@@ -23,8 +23,8 @@
 //   f_scatter_s = (specular M^G_R N^G_R + M^G_TT N^G_TT + M^G_TRT N^G_TRT) / cos^2 theta_d
 //   result = cos theta_i [ t d_b f_direct_back
 //                          + max(T_f - t, 0) d_f (f_scatter_s + d_b f_scatter_back) ]
-// Chiang's fibre: only TT keeps the beam's direction (c = I_f^TT / a_f, row 3's alpha), so the
-// directional part is max(T_dir - t, 0), T_dir = exp(-n (1 - c a_f)), and the rest of T_f is
+// Chiang's fibre: only TT keeps the beam's direction (I_f^TT, row 8, per channel), so the
+// directional part is max(T_dir - t, 0), T_dir = exp(-n (1 - I_f^TT)), and the rest of T_f is
 // diffuse: + d_f (T_f - T_dir) T_f albedo(theta_o) / 4 pi (isotropic at the same fluence, the
 // extra T_f for its doubled path; albedo = 2 pi sum_p N^G_p), docs/quality.md item (6).
 //
@@ -44,9 +44,10 @@
 // cos theta_i / cos^2 theta_d is Chiang's M_p normalisation near the specular cone too.
 //
 // Tables (dual_scattering.py, ShadingSettings.dual_lut()): uniform sampler2D hair_dual_lut,
-// RGBA32F, 8 rows x size (64) texels, linear in x (interpolated in the shader from two
+// RGBA32F, 9 rows x size (64) texels, linear in x (interpolated in the shader from two
 // texelFetch, hair_dual_fetch), read at row centres:
-//   over theta_i in [-pi/2, pi/2]: 0 A_b, 1 Delta_b, 2 sigma_b^2, 3 a_f, 4 beta_f^2 (rgb)
+//   over theta_i in [-pi/2, pi/2]: 0 A_b, 1 Delta_b, 2 sigma_b^2, 3 a_f, 4 beta_f^2,
+//                                  8 I_f^TT (Chiang) (rgb)
 //   over |theta_d| in [0, pi/2]:  5 N^G_TT (rgb) + N^G_R (a), 6 N^G_TRT (rgb), 7 N^G_TRRT+ (rgb)
 //   (Chiang: rows 5-7 over |theta_o|)
 // Defines (ShadingSettings.defines()): HAIR_DUAL_DF d_f, HAIR_DUAL_DB d_b, HAIR_DUAL_MAX_HAIRS.
@@ -71,8 +72,6 @@
 #if HAIR_MULTIPLE_SCATTERING == HAIR_MS_DUAL
 
 uniform sampler2D hair_dual_lut;
-
-const float HAIR_DUAL_ROWS = 8.0;
 
 // Row `row` at texel coordinate x in [0, size - 1] (grid point j at x = j), linear in x.
 // Two texelFetch and a float32 mix rather than the sampler's linear filter: GPUs interpolate
@@ -114,14 +113,13 @@ vec3 hair_ms_dual(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
     vec3 f_diffuse = vec3(0.0);
     if (t < 1.0) {
         float n = min(-log(max(t, 1e-30)), HAIR_DUAL_MAX_HAIRS);
-        vec4 a_f4 = hair_dual_fetch(xi, 3.0, size);
-        vec3 a_f = clamp(a_f4.rgb, 0.0, 1.0);
+        vec3 a_f = clamp(hair_dual_fetch(xi, 3.0, size).rgb, 0.0, 1.0);
         vec3 sigma_f2 = n * hair_dual_fetch(xi, 4.0, size).rgb;
         vec3 T_f = exp(-n * (1.0 - a_f));
 #if HAIR_MODEL == HAIR_MODEL_CHIANG
-        // the light that kept the beam's direction (TT at every fibre met: c = a_f4.a) and the
+        // the light that kept the beam's direction (TT at every fibre met: row 8) and the
         // diffuse rest, which crosses the fibres at random angles (twice the path: * T_f)
-        vec3 T_dir = exp(-n * (1.0 - a_f4.a * a_f));
+        vec3 T_dir = exp(-n * (1.0 - hair_dual_fetch(xi, 8.0, size).rgb));
         vec3 scattered = max(T_dir - vec3(t), vec3(0.0));
         vec3 diffuse = max(T_f - T_dir, vec3(0.0)) * T_f;
 #else

@@ -67,19 +67,20 @@ Guards (not in the paper): a_f and a_b are clamped to [0, 1] before use, 1 - a_f
 the denominator of sigma_b to >= 1e-12 (a_b = 0 gives sigma_b = 0 there; A_b is 0 too), and
 Delta_b to [-pi/2, pi/2].
 
-Lookup texture (``build_dual_lut``): a (8, size) RGBA32F 2D texture, 8 rows, ``size`` texels
+Lookup texture (``build_dual_lut``): a (9, size) RGBA32F 2D texture, 9 rows, ``size`` texels
 per row (default 64, 7 KiB), linear filtering in x, sampled at texel centres with the grid
 point j of n at x = (j + 0.5) / n so that the table ends are exact, and rows fetched at their
-centres (v = (row + 0.5) / 7, no filtering across rows):
+centres (texelFetch of the row, no filtering across rows):
 
     rows over theta_i in [-pi/2, pi/2] (grid theta_j = -pi/2 + pi j / (size - 1)):
       0  A_b.rgb                 3  a_f.rgb
       1  Delta_b.rgb             4  beta_f^2.rgb
-      2  sigma_b^2.rgb
+      2  sigma_b^2.rgb            8  I_f^TT.rgb (Chiang; 0 for Marschner)
     rows over |theta_d| in [0, pi/2] (grid pi/2 j / (size - 1)):
       5  N^G_TT.rgb, N^G_R in a  6  N^G_TRT.rgb  7  N^G_TRRT+.rgb (Chiang; 0 for Marschner)
-    (Chiang: rows 5-7 over |theta_o| in [0, pi/2]; row 3's alpha the TT share of a_f,
-    forward_tt_share, for the diffuse part of the scattered light.) alpha = 0 elsewhere.
+    (Chiang: rows 5-7 over |theta_o| in [0, pi/2].) Row 8: the forward-scattered energy TT
+    carries (``forward_tt``), per channel, the part of a_f that keeps the beam's direction, for
+    the diffuse part of the scattered light. alpha = 0 elsewhere.
 
 Integration: midpoint rule, ``n_theta_o`` x ``n_phi`` points per theta_i (default 192 x 96;
 against 512 x 256: a_f, a_b within 1.4e-3 absolute, A_b within 0.3 % of its peak, worst at
@@ -98,8 +99,8 @@ from .luts import lobe_params, marschner_lobes, marschner_n
 
 PI = math.pi
 HALF_PI = 0.5 * math.pi
-LUT_ROWS = 8
-ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1, ROW_NG3 = range(LUT_ROWS)
+LUT_ROWS = 9
+ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1, ROW_NG3, ROW_TT = range(LUT_ROWS)
 
 # Zinke 2008 sec. 4: density factors d_f, d_b of human hair are ~0.6-0.8; 0.7 in the paper.
 DENSITY_FRONT = 1.0   # mane's default (ShadingSettings.dual_density_front says why)
@@ -266,22 +267,19 @@ def _precompute_dual_chiang(sigma_a, n, *, eta, roughness, shift, beta_n, specul
                       ng_trrt=ng[:, 3])
 
 
-LUMINANCE = np.array([0.2126, 0.7152, 0.0722])
-
-
-def forward_tt_share(tables: DualTables) -> np.ndarray:
-    """(size,): c = I_f^TT / a_f, the share of the forward-scattered energy that TT carries
-    (luminance-weighted, Rec. 709), the light whose direction one scattering keeps: TT leaves
-    the fibre at theta_o = -theta_i within beta_n of straight through, while R, TRT and TRRT+
-    scattered into the forward half leave at any azimuth of it. Row 3's alpha (Chiang's tables;
-    module docstring, "Diffuse part")."""
-    tt = tables.lobe_f[:, 1, :] @ LUMINANCE
-    af = np.clip(tables.a_f, 0.0, 1.0) @ LUMINANCE
-    return np.clip(np.where(af > 1e-12, tt / np.maximum(af, 1e-12), 0.0), 0.0, 1.0)
+def forward_tt(tables: DualTables) -> np.ndarray:
+    """(size, 3): I_f^TT, the forward-scattered energy that TT carries, per channel, at most
+    a_f (clamped as a_f is): the light whose direction one scattering keeps. TT leaves the fibre
+    at theta_o = -theta_i within beta_n of straight through, while R, TRT and TRRT+ scattered
+    into the forward half leave at any azimuth of it. Row 8 (Chiang's four lobes; zero for
+    Marschner's, whose global term stays Zinke's)."""
+    if tables.lobe_f.shape[1] != 4:
+        return np.zeros_like(tables.a_f)
+    return np.clip(tables.lobe_f[:, 1, :], 0.0, np.clip(tables.a_f, 0.0, 1.0))
 
 
 def build_dual_lut(tables: DualTables) -> np.ndarray:
-    """(8, size, 4) float32 texture data (row layout in the module docstring); a_f is
+    """(9, size, 4) float32 texture data (row layout in the module docstring); a_f is
     clamped to [0, 1] (T_f = a_f^n then never grows with n)."""
     n = tables.theta.size
     lut = np.zeros((LUT_ROWS, n, 4), np.float64)
@@ -289,14 +287,13 @@ def build_dual_lut(tables: DualTables) -> np.ndarray:
     lut[ROW_DELTA_B, :, :3] = tables.delta_b
     lut[ROW_SIGMA_B2, :, :3] = tables.sigma_b2
     lut[ROW_AF, :, :3] = np.clip(tables.a_f, 0.0, 1.0)
-    if tables.lobe_f.shape[1] == 4:                 # Chiang's four lobes: the TT share, c
-        lut[ROW_AF, :, 3] = forward_tt_share(tables)
     lut[ROW_BETA_F2, :, :3] = tables.beta_f2
     lut[ROW_NG0, :, :3] = tables.ng_tt
     lut[ROW_NG0, :, 3] = tables.ng_r
     lut[ROW_NG1, :, :3] = tables.ng_trt
     if tables.ng_trrt is not None:
         lut[ROW_NG3, :, :3] = tables.ng_trrt
+    lut[ROW_TT, :, :3] = forward_tt(tables)
     if not np.isfinite(lut).all():
         raise FloatingPointError("non-finite dual-scattering table")
     return lut.astype(np.float32)
