@@ -32,6 +32,7 @@ import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, GroomError, UsageError
+from ..gpu.buffers import check_allocation, settle_placement
 from . import bindings
 
 MAX_POINTS_PER_STRAND = 64
@@ -66,13 +67,8 @@ def check_fits(ctx, num_strands: int, points_per_strand: int, num_colliders: int
     """Raise GPUMemoryError unless a state of this size fits; return its total bytes."""
     sizes = estimate_bytes(num_strands, points_per_strand, num_colliders)
     total = sum(sizes.values())
-    try:
-        from ..gpu.buffers import check_allocation  # written by helper-gpu; optional
-    except ImportError:
-        check_allocation = None
-    if check_allocation is not None:
-        check_allocation(ctx, total, f"the simulation state of {num_strands} strands x "
-                                     f"{points_per_strand} points", ssbo=False)
+    check_allocation(ctx, total, f"the simulation state of {num_strands} strands x "
+                                 f"{points_per_strand} points", ssbo=False)
     limit = _buffer_limit(ctx)
     largest = max(sizes, key=sizes.get)
     if sizes[largest] > limit:
@@ -312,6 +308,8 @@ class SimState:
                     np.ones(S))
         buffers["velocities"].before_read = state.settle
         state.reset(state.upload_rest())
+        for name in PARTICLE_BUFFERS:   # read back once: the GPU's reads of them faster (NVIDIA)
+            settle_placement(buffers[name])
         return state
 
     # ---- a deferred friction gather
