@@ -70,24 +70,32 @@ def triangle_frames(tris):
 
 def triangle_distance2(u, v, w, B, Cx, Cy, closest: bool = False):
     """Squared distance from local points (u, v, w) to the triangle (0,0), (B,0), (Cx,Cy) of the
-    plane w = 0 (broadcast arrays, Cy >= 0; Cy = 0: a degenerate triangle, its edges only);
-    ``closest``: also the closest point's (u, v)."""
-    zero, one, tiny = (u.dtype.type(x) for x in (0.0, 1.0, 1e-30))
+    plane w = 0 (broadcast arrays, Cy >= 0; Cy = 0: a degenerate triangle, its edges only):
+    zero in-plane inside it, else the least of its three edges'; plus w^2. ``closest``: also
+    the closest point's (u, v)."""
+    tiny = u.dtype.type(1e-30)
+    ex = Cx - B
 
-    def segment(pu, pv, eu, ev):        # from (pu, pv) to the segment 0 -> (eu, ev)
-        t = np.minimum(np.maximum((pu * eu + pv * ev) / np.maximum(eu * eu + ev * ev, tiny), zero), one)
-        du, dv = pu - t * eu, pv - t * ev
-        return du * du + dv * dv, t
+    def clamp01(x):
+        return np.minimum(np.maximum(x, 0.0, out=x), 1.0, out=x)
 
-    d, t = segment(u, v, B, zero)                       # A -> B
-    e, s = segment(u, v, Cx, Cy)                        # A -> C
+    t = clamp01(u * (B / np.maximum(B * B, tiny)))                                   # A -> B
+    du = u - t * B
+    d = du * du + v * v
+    s = clamp01(u * (Cx / np.maximum(Cx * Cx + Cy * Cy, tiny)) + v * (Cy / np.maximum(Cx * Cx + Cy * Cy, tiny)))
+    du, dv = u - s * Cx, v - s * Cy                                                   # A -> C
+    e = du * du + dv * dv
     ub = u - B
-    f, r = segment(ub, v, Cx - B, Cy)                   # B -> C
-    inside = (Cy > 0) & (v >= 0) & ((Cx - B) * v >= Cy * ub) & (Cx * (v - Cy) <= Cy * (u - Cx))
-    best = np.where(inside, zero, np.minimum(np.minimum(d, e), f)) + w * w
+    r = clamp01(ub * (ex / np.maximum(ex * ex + Cy * Cy, tiny)) + v * (Cy / np.maximum(ex * ex + Cy * Cy, tiny)))
+    du, dv = ub - r * ex, v - r * Cy                                                  # B -> C
+    f = du * du + dv * dv
+    inside = (v >= 0) & (ex * v >= Cy * ub) & (Cx * (v - Cy) <= Cy * (u - Cx)) & (Cy > 0)
+    edge = np.minimum(np.minimum(d, e), f)
+    best = np.where(inside, 0.0, edge).astype(u.dtype, copy=False)
+    best += w * w
     if not closest:
         return best
-    cu = np.where(f < np.minimum(d, e), B + r * (Cx - B), np.where(e < d, s * Cx, t * B))
+    cu = np.where(f < np.minimum(d, e), B + r * ex, np.where(e < d, s * Cx, t * B))
     cv = np.where(f < np.minimum(d, e), r * Cy, np.where(e < d, s * Cy, 0.0))
     return best, np.where(inside, u, cu), np.where(inside, v, cv)
 
@@ -107,12 +115,13 @@ def band_distances(tris, lo, h, shape, reach):
     f32 = np.float32
     corner = np.einsum("fij,fj->fi", R, lo + i0 * h - tris[:, 0]).astype(f32)   # window corner, local
     Rh, B32, Cx32, Cy32 = (R * h).astype(f32), B.astype(f32), Cx.astype(f32), Cy.astype(f32)
-    best = np.full(int(np.prod(shape)), np.inf, f32)
+    # per node the least (squared distance, triangle) as one int64: a float32 >= 0's bits order
+    # as the float does, so a single np.minimum.at keeps both
+    best = np.full(int(np.prod(shape)), np.iinfo(np.int64).max, np.int64)
     stride = np.array([shape[1] * shape[2], shape[2], 1])
     key = (n[:, 0] * 1024 + n[:, 1]) * 1024 + n[:, 2]          # triangles by window shape
     order = np.argsort(key, kind="stable")
     keys, starts = np.unique(key[order], return_index=True)
-    visited = []
     for start, end in zip(starts, list(starts[1:]) + [len(order)]):
         nx, ny, nz = n[order[start]]
         if nx * ny * nz == 0:
@@ -124,14 +133,11 @@ def band_distances(tris, lo, h, shape, reach):
             f = order[s:min(end, s + step)]
             loc = [corner[f, a:a + 1] + Rh[f, a] @ off32 for a in range(3)]   # u, v, w (F, W)
             d = triangle_distance2(*loc, B32[f, None], Cx32[f, None], Cy32[f, None])
+            packed = (d.view(np.int32).astype(np.int64) << 32) | f[:, None]
             node = (i0[f] @ stride)[:, None] + (stride @ off)[None, :]
-            np.minimum.at(best, node.ravel(), d.ravel())
-            visited.append((f, node, d))
-    lim = f32(reach * reach * (1.0 + 1e-4))
-    owner = np.full(best.size, -1, np.int64)
-    for f, node, d in visited:
-        win = (d == best[node]) & (d <= lim)
-        owner[node[win]] = np.broadcast_to(f[:, None], node.shape)[win]
+            np.minimum.at(best, node.ravel(), packed.ravel())
+    lim = np.int64(np.array(reach * reach * (1.0 + 1e-4), f32).view(np.int32)) << 32
+    owner = np.where(best < lim, best & 0xFFFFFFFF, -1)
     idx = np.nonzero(owner >= 0)[0]
     t = owner[idx]
     p = lo + np.stack(np.unravel_index(idx, shape), axis=1) * h - tris[t, 0]
@@ -177,8 +183,9 @@ def nearest_marked(mark: np.ndarray) -> np.ndarray:
     ix = _line_pass(np.ascontiguousarray(g2.transpose(2, 1, 0)))          # (j, k, i)
     ii = ix.transpose(2, 0, 1)                                              # (i, j, k): x of the nearest
     kk = k[None, None, :]
-    jj = jy[ii, kk, j[None, :, None]]                                       # its y (pass 2 at that x)
-    return (ii * ny + jj) * nz + kz[ii, jj, kk]
+    jj = jy.reshape(-1).take((ii * nz + kk) * ny + j[None, :, None])        # its y (pass 2 at that x)
+    flat = (ii * ny + jj) * nz
+    return flat + kz.reshape(-1).take(flat + kk)
 
 
 def parity_inside(tris, lo, h, shape, axis):
@@ -236,15 +243,15 @@ def bake_sdf(vertices, faces, resolution: int = 64, padding: float = 0.05):
         raise GroomError("the SDF band is empty (is the mesh degenerate?)")
     mark = np.zeros(int(np.prod(shape)), bool)
     mark[idx] = True
-    dist = np.empty(mark.size)
+    cp = np.empty((mark.size, 3))
+    cp[idx] = band_cp
+    near = cp.take(nearest_marked(mark.reshape(shape)).reshape(-1), axis=0).reshape(shape + (3,))
+    dist2 = np.zeros(shape)
+    for a in range(3):        # the far nodes' distance to the closest point of their nearest band node
+        x = (lo[a] + h * np.arange(shape[a])).reshape([-1 if b == a else 1 for b in range(3)])
+        dist2 += (x - near[..., a]) ** 2
+    dist = np.sqrt(dist2).reshape(-1)
     dist[idx] = band_d
-    far = np.nonzero(~mark)[0]
-    if len(far):
-        slot = np.zeros(mark.size, np.int64)
-        slot[idx] = np.arange(len(idx))
-        nearest = nearest_marked(mark.reshape(shape)).reshape(-1)[far]
-        nodes = lo + np.stack(np.unravel_index(far, shape), axis=1) * h
-        dist[far] = np.sqrt(((nodes - band_cp[slot[nearest]]) ** 2).sum(axis=1))
     votes = sum(parity_inside(tris, lo, h, shape, a).astype(np.int8) for a in range(3))
     inside = votes.reshape(-1) >= 2
     return np.where(inside, -dist, dist).reshape(shape).astype(np.float32), lo, h
