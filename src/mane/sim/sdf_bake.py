@@ -149,10 +149,10 @@ def band_distances(tris, lo, h, shape, reach):
 
 def _line_pass(g: np.ndarray) -> np.ndarray:
     """For (slices, lines, n) float32 g: the j' of min_j' g[..., j'] + (j - j')^2 for every j
-    (ties: the lowest j'), (slices, lines, n) int64."""
+    (ties: the lowest j'), (slices, lines, n) int32."""
     n = g.shape[2]
     sq = ((np.arange(n)[:, None] - np.arange(n)[None, :]) ** 2).astype(np.float32)
-    out = np.empty(g.shape, np.int64)
+    out = np.empty(g.shape, np.int32)
     step = max(1, _CHUNK_LINES // (n * n))
     buf = np.empty((min(step, g.shape[1]), n, n), np.float32)
     for i in range(g.shape[0]):
@@ -170,7 +170,7 @@ def nearest_marked(mark: np.ndarray) -> np.ndarray:
     transform, pass 1 by running maxima / minima along z, passes 2 (y) and 3 (x) the exact
     minimum of g(j') + (j - j')^2 over each line."""
     nx, ny, nz = mark.shape
-    k = np.arange(nz)
+    k = np.arange(nz, dtype=np.int32)
     below = np.maximum.accumulate(np.where(mark, k, -(1 << 30)), axis=2)
     above = np.minimum.accumulate(np.where(mark, k, 1 << 30)[:, :, ::-1], axis=2)[:, :, ::-1]
     kz = np.where(k - below <= above - k, below, above)                     # (i, j, k)
@@ -178,7 +178,7 @@ def nearest_marked(mark: np.ndarray) -> np.ndarray:
     kz = np.clip(kz, 0, nz - 1)
     g = np.ascontiguousarray(g.transpose(0, 2, 1))                          # (i, k, j')
     jy = _line_pass(g)                                                      # (i, k, j)
-    j = np.arange(ny)
+    j = np.arange(ny, dtype=np.int32)
     g2 = np.take_along_axis(g, jy, axis=2) + (j - jy).astype(np.float32) ** 2
     ix = _line_pass(np.ascontiguousarray(g2.transpose(2, 1, 0)))          # (j, k, i)
     ii = ix.transpose(2, 0, 1)                                              # (i, j, k): x of the nearest
@@ -243,14 +243,14 @@ def bake_sdf(vertices, faces, resolution: int = 64, padding: float = 0.05):
         raise GroomError("the SDF band is empty (is the mesh degenerate?)")
     mark = np.zeros(int(np.prod(shape)), bool)
     mark[idx] = True
-    cp = np.empty((mark.size, 3))
-    cp[idx] = band_cp
-    near = cp.take(nearest_marked(mark.reshape(shape)).reshape(-1), axis=0).reshape(shape + (3,))
+    slot = np.zeros(mark.size, np.int32)
+    slot[idx] = np.arange(len(idx))
+    nearest = slot.take(nearest_marked(mark.reshape(shape)).reshape(-1)).reshape(shape)
     dist2 = np.zeros(shape)
     for a in range(3):        # the far nodes' distance to the closest point of their nearest band node
         x = (lo[a] + h * np.arange(shape[a])).reshape([-1 if b == a else 1 for b in range(3)])
-        dist2 += (x - near[..., a]) ** 2
-    dist = np.sqrt(dist2).reshape(-1)
+        dist2 += (x - band_cp[:, a].take(nearest)) ** 2
+    dist = np.sqrt(dist2, out=dist2).reshape(-1)
     dist[idx] = band_d
     votes = sum(parity_inside(tris, lo, h, shape, a).astype(np.int8) for a in range(3))
     inside = votes.reshape(-1) >= 2
