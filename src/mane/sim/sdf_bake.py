@@ -76,28 +76,37 @@ def triangle_distance2(u, v, w, B, Cx, Cy, closest: bool = False):
     tiny = u.dtype.type(1e-30)
     ex = Cx - B
 
-    def clamp01(x):
-        return np.minimum(np.maximum(x, 0.0, out=x), 1.0, out=x)
+    def edge(pu, pv, eu, ev):
+        """(squared distance to the segment 0 -> (eu, ev), its parameter t)."""
+        inv = 1.0 / np.maximum(eu * eu + ev * ev, tiny)
+        t = pu * (eu * inv)
+        t += pv * (ev * inv)
+        np.clip(t, 0.0, 1.0, out=t)
+        du = pu - t * eu
+        dv = pv - t * ev
+        du *= du
+        dv *= dv
+        du += dv
+        return du, t
 
-    t = clamp01(u * (B / np.maximum(B * B, tiny)))                                   # A -> B
-    du = u - t * B
-    d = du * du + v * v
-    s = clamp01(u * (Cx / np.maximum(Cx * Cx + Cy * Cy, tiny)) + v * (Cy / np.maximum(Cx * Cx + Cy * Cy, tiny)))
-    du, dv = u - s * Cx, v - s * Cy                                                   # A -> C
-    e = du * du + dv * dv
+    t = np.clip(u * (B / np.maximum(B * B, tiny)), 0.0, 1.0)                        # A -> B
+    d = u - t * B
+    d *= d
+    d += v * v
+    e, s = edge(u, v, Cx, Cy)                                                         # A -> C
     ub = u - B
-    r = clamp01(ub * (ex / np.maximum(ex * ex + Cy * Cy, tiny)) + v * (Cy / np.maximum(ex * ex + Cy * Cy, tiny)))
-    du, dv = ub - r * ex, v - r * Cy                                                  # B -> C
-    f = du * du + dv * dv
+    f, r = edge(ub, v, ex, Cy)                                                        # B -> C
     inside = (v >= 0) & (ex * v >= Cy * ub) & (Cx * (v - Cy) <= Cy * (u - Cx)) & (Cy > 0)
-    edge = np.minimum(np.minimum(d, e), f)
-    best = np.where(inside, 0.0, edge).astype(u.dtype, copy=False)
-    best += w * w
+    if closest:
+        cu = np.where(f < np.minimum(d, e), B + r * ex, np.where(e < d, s * Cx, t * B))
+        cv = np.where(f < np.minimum(d, e), r * Cy, np.where(e < d, s * Cy, 0.0))
+    np.minimum(d, e, out=d)
+    np.minimum(d, f, out=d)
+    d[np.broadcast_to(inside, d.shape)] = 0.0
+    d += w * w
     if not closest:
-        return best
-    cu = np.where(f < np.minimum(d, e), B + r * ex, np.where(e < d, s * Cx, t * B))
-    cv = np.where(f < np.minimum(d, e), r * Cy, np.where(e < d, s * Cy, 0.0))
-    return best, np.where(inside, u, cu), np.where(inside, v, cv)
+        return d
+    return d, np.where(inside, u, cu), np.where(inside, v, cv)
 
 
 def band_distances(tris, lo, h, shape, reach):
