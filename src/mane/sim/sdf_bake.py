@@ -211,7 +211,7 @@ def parity_inside(tris, lo, h, shape, axis):
     ni = np.maximum(i1 - i0 + 1, 0)
     nj = np.maximum(j1 - j0 + 1, 0)
     counts = ni * nj
-    crossings = np.zeros(nb * nc * (na + 1), np.int64)
+    odd = np.zeros(nb * nc * (na + 1), np.uint8)     # crossings at each node's level, mod 2
     tri = np.repeat(np.arange(len(tris)), counts)
     if len(tri):
         local = np.arange(len(tri)) - np.repeat(np.cumsum(counts) - counts, counts)
@@ -228,9 +228,9 @@ def parity_inside(tris, lo, h, shape, axis):
         At = A[tri[hit]]
         depth = (w0[hit] * At[:, 0] + w1[hit] * At[:, 1] + w2[hit] * At[:, 2]) / area[hit]
         k = np.clip(np.ceil(depth), 0, na).astype(np.int64)
-        crossings += np.bincount((ci[hit] * nc + cj[hit]) * (na + 1) + k, minlength=crossings.size)
-    below = np.cumsum(crossings.reshape(nb * nc, na + 1), axis=1)[:, :na]     # crossings below node k
-    inside = (below % 2 == 1).reshape(nb, nc, na)
+        odd = (np.bincount((ci[hit] * nc + cj[hit]) * (na + 1) + k, minlength=odd.size) & 1).astype(np.uint8)
+    below = np.bitwise_xor.accumulate(odd.reshape(nb * nc, na + 1)[:, :na], axis=1)   # crossings below node k, mod 2
+    inside = below.view(bool).reshape(nb, nc, na)
     return inside.transpose(np.argsort([b_ax, c_ax, axis]))
 
 
