@@ -261,6 +261,7 @@ def bake_sdf(vertices, faces, resolution: int = 64, padding: float = 0.05):
         dist2 += (x - band_cp[:, a].take(nearest)) ** 2
     dist = np.sqrt(dist2, out=dist2).reshape(-1)
     dist[idx] = band_d
-    votes = sum(parity_inside(tris, lo, h, shape, a).astype(np.int8) for a in range(3))
-    inside = votes.reshape(-1) >= 2
-    return np.where(inside, -dist, dist).reshape(shape).astype(np.float32), lo, h
+    values = dist.astype(np.float32).reshape(shape)
+    x, y, z = (parity_inside(tris, lo, h, shape, a) for a in range(3))
+    values[(x & y) | (z & (x | y))] *= -1.0            # inside: at least two of the three votes
+    return values, lo, h
