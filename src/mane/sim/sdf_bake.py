@@ -9,8 +9,11 @@ head at 64^3 takes ~0.1 s on one CPU core.
   ``padding`` metres being added on every side of the mesh's box; the other axes get as many
   nodes as they need (<= resolution). Node (i, j, k) sits at lo + (i, j, k) h in the mesh's
   own frame.
-- the band, exact: every node within ``BAND`` = 2 h of the surface gets its exact unsigned
-  distance. Each triangle visits the nodes of its bounding box grown by 2 h (so the nearest
+- the band, exact: every node within ``BAND`` = 3 h of the surface gets its exact unsigned
+  distance (every node a collision within the margin reads: the trilinear cell of a point
+  within ~h of the surface and the gradient's h / 2 steps; the earlier bake's band was 2 h, and
+  its tie-broken distance transform just beyond it made the field bumpier there). Each triangle
+  visits the nodes of its bounding box grown by 3 h (so the nearest
   triangle of a band node always visits it) and measures the point-triangle distance in the
   triangle's own frame (u along its first edge, v across it in its plane, w along its normal:
   d^2 = w^2 + the 2D distance of (u, v) to the triangle, zero inside it, else the least of its
@@ -32,7 +35,7 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 
-BAND = 2.0                      # the exact band's half-width, in voxels
+BAND = 3.0                      # the exact band's half-width, in voxels
 MAX_PAIRS = 60_000_000          # triangle-node pairs a bake may measure (~70 ns each on one core)
 _CHUNK_PAIRS = 1 << 20          # pairs measured at once
 _CHUNK_LINES = 1 << 18          # line x line candidates of a distance-transform pass at once
