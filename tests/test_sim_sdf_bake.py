@@ -144,3 +144,13 @@ def test_too_many_pairs_is_a_usage_error(monkeypatch):
     monkeypatch.setattr(sdf_bake, "MAX_PAIRS", 100)
     with pytest.raises(UsageError, match="triangle-node pairs"):
         bake_sdf(box.vertices, box.faces, resolution=16)
+
+
+def test_chunking_does_not_change_the_field(monkeypatch):
+    """The band's windows and the distance transform's lines in many small chunks (as a big mesh
+    or grid would take them) give the same field bit for bit."""
+    m = trimesh.creation.torus(0.3, 0.1, major_sections=24, minor_sections=12)
+    want = bake_sdf(m.vertices, m.faces, 20, 0.05)[0]
+    monkeypatch.setattr(sdf_bake, "_CHUNK_PAIRS", 300)
+    monkeypatch.setattr(sdf_bake, "_CHUNK_LINES", 500)
+    np.testing.assert_array_equal(bake_sdf(m.vertices, m.faces, 20, 0.05)[0], want)

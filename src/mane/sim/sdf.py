@@ -6,7 +6,7 @@
     sdf.collide(state, head_to_world, 0.003, 0.2)          # the same with a SimState
 
 **Baking** (CPU, NumPy, ``sdf_bake.bake_sdf``; 64^3 of the sim bench's 2208-triangle head in
-~0.13 s of one core): cubic voxels of size h = (largest side of the padded box) /
+~0.12 s of one core): cubic voxels of size h = (largest side of the padded box) /
 (resolution - 1), node (i, j, k) at lo + (i, j, k) h in the mesh's own frame; the exact
 unsigned distance within 3 h of the surface, farther out the distance to the closest surface
 point of the nearest band node (never too small); the sign by a majority of three ray-parity

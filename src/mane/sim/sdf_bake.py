@@ -115,7 +115,7 @@ def triangle_distance2(u, v, w, B, Cx, Cy, closest: bool = False):
 class _BandScratch:
     """The band's float32 point-triangle distances (``triangle_distance2``'s arithmetic, in place)
     in buffers kept for the whole bake: a fresh process pays page faults for every new block of
-    memory, and per-window temporaries made them a third of the bake."""
+    memory, and per-window temporaries cost the bench head's first bake ~0.02 s of its ~0.15 s."""
 
     def __init__(self, size: int):
         self.f = np.empty((9, size), np.float32)
