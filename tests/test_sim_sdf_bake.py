@@ -148,9 +148,13 @@ def test_too_many_pairs_is_a_usage_error(monkeypatch):
 
 def test_chunking_does_not_change_the_field(monkeypatch):
     """The band's windows and the distance transform's lines in many small chunks (as a big mesh
-    or grid would take them) give the same field bit for bit."""
+    or grid would take them) give the same field: the same sign, the same distances to float32
+    round-off (a different matrix size may round a local coordinate differently and pick another
+    of two triangles equally near in float32)."""
     m = trimesh.creation.torus(0.3, 0.1, major_sections=24, minor_sections=12)
     want = bake_sdf(m.vertices, m.faces, 20, 0.05)[0]
     monkeypatch.setattr(sdf_bake, "_CHUNK_PAIRS", 300)
     monkeypatch.setattr(sdf_bake, "_CHUNK_LINES", 500)
-    np.testing.assert_array_equal(bake_sdf(m.vertices, m.faces, 20, 0.05)[0], want)
+    got = bake_sdf(m.vertices, m.faces, 20, 0.05)[0]
+    np.testing.assert_array_equal(got < 0, want < 0)
+    np.testing.assert_allclose(got, want, rtol=0, atol=TOL)
