@@ -7,7 +7,8 @@ import trimesh
 
 from mane.errors import UsageError
 from mane.mesh import Mesh
-from mane.sim.sdf import MeshSDF, bake_sdf, closest_points_on_triangles, near_samples
+from mane.sim.sdf import MeshSDF, bake_sdf
+from sdf_bake_v1 import closest_points_on_triangles, near_samples
 
 pytestmark = pytest.mark.gpu
 
@@ -48,8 +49,9 @@ def test_closest_point_regions():
 
 
 def test_near_samples_covers_every_node_within_the_query_bound():
-    """The bake queries only the nodes ``near_samples`` marks: every node within 2.5 h of a
-    sample (brute force) must be among them, and the mark must not be the whole grid."""
+    """The earlier bake (tests/sdf_bake_v1.py, the reference of test_sim_sdf_bake.py) queried
+    only the nodes ``near_samples`` marks: every node within 2.5 h of a sample (brute force) must
+    be among them, and the mark must not be the whole grid."""
     rng = np.random.default_rng(2)
     shape, lo, h = (23, 17, 20), np.array([-0.3, 0.1, 0.2]), 0.05
     pts = lo + rng.uniform(0.0, 1.0, (40, 3)) * (np.array(shape) - 1) * h

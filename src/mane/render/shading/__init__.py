@@ -396,7 +396,8 @@ class ShadingSettings:
 def _stored(kind: str, key, build) -> tuple:
     """``build()``'s arrays from the disk cache (``mane.disk_cache``, ``~/.cache/mane/KIND``),
     keyed by ``key`` (every input of the build) and the tables' code (``table_family.CODE``):
-    a material's tables cost 0.5-1 s of NumPy, which every start of a viewer or a render paid."""
+    a material's tables cost up to a few seconds of NumPy (Chiang's: ~0.06 s), which every start of
+    a viewer or a render paid."""
     from ... import disk_cache
     from .table_family import CODE
 

@@ -85,8 +85,10 @@ centres (texelFetch of the row, no filtering across rows):
 Integration: midpoint rule, ``n_theta_o`` x ``n_phi`` points per theta_i (default 192 x 96;
 against 512 x 256: a_f, a_b within 1.4e-3 absolute, A_b within 0.3 % of its peak, worst at
 grazing theta_i), ``n_phi_g`` points for N^G. a_f + a_b equals hair_bsdf's directional albedo
-(checked against an independent integration). Building the default tables takes 1-2 s on
-one CPU core (cached per material by ShadingSettings.dual_tables()).
+(checked against an independent integration). Cached per material by
+ShadingSettings.dual_tables(). Chiang's tables take ~0.03 s on one CPU core (one
+``chiang.azimuthal_grid`` for both theta grids: |theta_i| of the linspace over [-pi/2, pi/2] lies
+on the one over [0, pi/2]); Marschner's 1-2 s (the lobes of luts.py per theta_i).
 """
 from __future__ import annotations
 
@@ -188,17 +190,21 @@ def azimuthal_forward_average(cos_d, sigma_a, *, n_phi=256, eta=1.55, glint=0.5,
 
 def chiang_hemisphere_integrals(theta, sigma_a, *, eta=1.55, beta_n=0.3, specular=1.0, n_phi=128, n_h=128):
     """(I_f, I_b), each (len(theta), 4 lobes, 3 colours), for Chiang's fibre with the eye at
-    ``theta`` (module docstring)."""
-    from .chiang import azimuthal_average
+    ``theta`` (module docstring); the azimuthal table once per distinct |theta| (to 1e-12 rad)."""
+    from .chiang import azimuthal_grid
 
     theta = np.atleast_1d(np.asarray(theta, np.float64))
     ph = (np.arange(n_phi) + 0.5) / n_phi * PI
-    TH, PH = np.meshgrid(np.abs(theta), ph, indexing="ij")
-    n_r, n_tt, n_trt, n_3 = azimuthal_average(PH, TH, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h)
-    lobes = np.stack([np.repeat(specular * n_r[..., None], 3, axis=-1), n_tt, n_trt, n_3], axis=-2)
+    u, inv = np.unique(np.round(np.abs(theta), 12), return_inverse=True)
+    n_r, n_tt, n_trt, n_3 = azimuthal_grid(ph, u, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h)
     w = 2.0 * PI / n_phi                                  # phi and -phi
     back = ph < HALF_PI
-    return lobes[:, ~back].sum(axis=1) * w, lobes[:, back].sum(axis=1) * w
+    out = []
+    for half in (~back, back):
+        lobes = [np.repeat(specular * n_r[:, half].sum(axis=1)[:, None], 3, axis=1),
+                 n_tt[:, half].sum(axis=1), n_trt[:, half].sum(axis=1), half.sum() * n_3]
+        out.append((np.stack(lobes, axis=1) * w)[inv.reshape(-1)])
+    return out[0], out[1]
 
 
 def precompute_dual(sigma_a, *, eta=1.55, beta_r=math.radians(7.5), alpha_r=math.radians(-5.0),
@@ -254,12 +260,16 @@ def _precompute_dual_chiang(sigma_a, n, *, eta, roughness, shift, beta_n, specul
     from .chiang import lobe_shifts, lobe_widths
 
     theta = np.linspace(-HALF_PI, HALF_PI, n)
-    I_f, I_b = chiang_hemisphere_integrals(theta, sigma_a, eta=eta, beta_n=beta_n, specular=specular)
+    theta_o = np.linspace(0.0, HALF_PI, n)
+    # one set of integrals for both grids: |theta_i| = pi (n - 1 - 2i) / (2 (n - 1)) lies on theta_o's
+    I_f, I_b = chiang_hemisphere_integrals(np.concatenate([theta, theta_o]), sigma_a, eta=eta, beta_n=beta_n)
+    G_f, G_b = I_f[n:], I_b[n:]
+    I_f, I_b = I_f[:n].copy(), I_b[:n].copy()
+    I_f[:, 0] *= specular
+    I_b[:, 0] *= specular
     a_f, a_b, alpha_f, alpha_b, beta_f2, beta_b2 = _lobe_averages(I_f, I_b, lobe_shifts(shift),
                                                                   lobe_widths(roughness))
     A_b, delta_b, sigma_b2 = back_scattering(a_f, a_b, alpha_f, alpha_b, beta_f2, beta_b2, d_b)
-    theta_o = np.linspace(0.0, HALF_PI, n)
-    G_f, G_b = chiang_hemisphere_integrals(theta_o, sigma_a, eta=eta, beta_n=beta_n, specular=1.0)
     ng = (G_f + G_b) / (2.0 * PI)
     return DualTables(theta=theta, a_f=a_f, a_b=a_b, alpha_f=alpha_f, alpha_b=alpha_b, beta_f2=beta_f2,
                       beta_b2=beta_b2, A_b=A_b, delta_b=delta_b, sigma_b2=sigma_b2, theta_d=theta_o,

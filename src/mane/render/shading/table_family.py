@@ -3,8 +3,9 @@
 The Chiang azimuthal table and the dual-scattering table of a material are built per colour
 channel: channel c of the table (``[..., c]``, c < 3) depends on that channel's absorption
 sigma_a[c] alone (and on eta, beta_n, roughness... shared by the channels), and column 3 on none
-of them (the R lobe). Building one exactly costs ~0.5-1 s of NumPy, which a data set whose
-melanin is drawn per sample would pay every sample. ``tables="interpolated"`` builds instead,
+of them (the R lobe). Building one exactly costs ~0.06 s of NumPy for Chiang's fibre (1-2 s
+for Marschner's dual tables), which a data set whose melanin is drawn per sample would pay every
+sample. ``tables="interpolated"`` builds instead,
 once per process (and on disk), the tables at a fixed grid of absorptions, GRID_SIZE values
 spaced evenly in log(sigma_a + SIGMA_0) over [0, SIGMA_MAX], and gives a material's channel by
 interpolating log(table) (a signed or zero texel: the table itself) linearly in
@@ -12,8 +13,8 @@ log(sigma_a + SIGMA_0) between its two grid neighbours (a table is a sum of exp(
 terms: nearly linear in that form). Error against the
 exact table: tests/test_shading_table_family.py (within 2% where a texel is above 1e-3 of the
 table's peak, 0.5% of the peak anywhere; the dual table's signed backscatter shift within 0.1
-degree). The grid costs ~20 s of NumPy per model the first time on a machine (a few grid values
-per new material until the grid fills), then is read from the disk cache (mane.disk_cache: ~/.cache/mane/tables).
+degree). The grid costs ~1-2 s of NumPy for Chiang's fibre (~20 s for Marschner's) the first
+time on a machine (a few grid values per new material until the grid fills), then is read from the disk cache (mane.disk_cache: ~/.cache/mane/tables).
 """
 from __future__ import annotations
 
