@@ -174,17 +174,6 @@ def buffer(ctx, data_or_size, what: str = "buffer", *, dynamic: bool = False, ss
     return buf
 
 
-def settle_placement(buf) -> None:
-    """Read ``buf`` back once, whole. On the H200 (driver 580.159.04) compute shaders read a
-    buffer that had never been read back by the CPU 6-17x slower than one that had: the simulate
-    + render loop's guide frames took 0.41 ms and its strand expansion 3.25 ms (20k guides x 32,
-    440k strands x 63 points) reading the simulator's positions, 0.026 and 0.69 ms after one read
-    of them (a groom's freshly uploaded positions the same; docs/performance.md, "The buffers'
-    first read"). What the read changes is the driver's; mane pays it once per buffer that the
-    GPU reads heavily (the simulator's particle buffers, the renderer's guide positions)."""
-    buf.read()
-
-
 def _gl_error(ctx) -> str:
     try:
         return str(ctx.error)

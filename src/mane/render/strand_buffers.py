@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GroomError, UsageError
-from ..gpu.buffers import check_allocation, settle_placement
+from ..gpu.buffers import check_allocation
 from ..gpu.glsl import compute_shader
 from ..gpu.uniforms import write_uniform
 from .bindings import B_FRAMES, B_POSITIONS
@@ -57,7 +57,6 @@ class StrandBuffers:
         self.frames = ctx.buffer(reserve=self.num_points * 16)
         self._bbox = None if bbox is None else (np.asarray(bbox[0], float), np.asarray(bbox[1], float))
         self.guide_triangles = None   # (S, 3) int32 guides blended by multi-strand interpolation
-        settle_placement(positions)    # read back once: GPU reads of it 6-17x faster on the H200
         self.update_frames()
 
     # ------------------------------------------------------------------ construction

@@ -32,7 +32,7 @@ import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, GroomError, UsageError
-from ..gpu.buffers import check_allocation, settle_placement
+from ..gpu.buffers import check_allocation
 from . import bindings
 
 MAX_POINTS_PER_STRAND = 64
@@ -308,8 +308,6 @@ class SimState:
                     np.ones(S))
         buffers["velocities"].before_read = state.settle
         state.reset(state.upload_rest())
-        for name in PARTICLE_BUFFERS:   # read back once: the GPU's reads of them faster (NVIDIA)
-            settle_placement(buffers[name])
         return state
 
     # ---- a deferred friction gather
