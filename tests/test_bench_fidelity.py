@@ -247,3 +247,15 @@ def test_decompose_reference_noise_from_its_passes_by_hand():
     assert fd.pass_halves(reference, cache, None, {"spp": 64}, 0, mask) is None      # one pass
     del store[f"64-{pass_seed(0, 3)}"]
     assert fd.pass_halves(reference, cache, None, {"spp": 256}, 0, mask) is None     # a pass not cached
+
+
+def test_bench_scene_draws_the_scalp_as_the_skin_the_reference_draws():
+    """The reference's head is a Lambertian of skin_color everywhere; the renderer tints the
+    head's scalp toward the hair (``scalp_tint``, 0.8 by default). The bench's scene must draw the
+    scalp the reference draws: the tint alone was 0.16 of the curly head's 0.30 luminance deficit."""
+    from mane.bench import fidelity
+    from mane.render.passes.head_pass import scalp_albedo
+
+    settings = fidelity.base_settings(fidelity.SCENES["curly_head"], (32, 32))
+    hair = (0.1, 0.05, 0.02)
+    assert scalp_albedo(settings.skin_color, hair, settings.scalp_tint) == pytest.approx(settings.skin_color)

@@ -109,13 +109,15 @@ def base_settings(scene: Scene, size, **overrides):
     fibre direction is the curve's own, which is all the path tracer can draw (Mitsuba's hair
     BSDF takes it from the curve it hits; a per-strand tilt of the shading tangent alone is not
     a curve), so both sides shade the same fibres (docs/quality.md, "Where the per-pixel error
-    lives")."""
+    lives"); ``scalp_tint`` 0: the scalp is skin_color, as the reference's Lambertian head is
+    everywhere (the tint toward the hair cost the curly head 0.16 of its luminance; docs/quality.md,
+    item (7))."""
     from ..render import RenderSettings
 
     options = {**RenderSettings().shading_options, "melanin": tuple(scene.melanin)}   # the user's defaults + melanin
     kw = dict(size=tuple(size), strands_per_guide=16, hair_color=None, shading_options=options,
               ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none", exposure=1.0, supersample=1,
-              strand_spread=0.0)
+              strand_spread=0.0, scalp_tint=0.0)
     kw.update(overrides)
     return RenderSettings(**kw)
 

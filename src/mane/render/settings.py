@@ -179,6 +179,10 @@ class RenderSettings:
         help="Ambient light (linear radiance, white) added to the hair and the head.")
     skin_color: tuple[float, float, float] = setting((0.5, 0.32, 0.24), lo=0.0, hi=1000.0,
         help="Linear RGB albedo of the head mesh (Lambert).")
+    scalp_tint: float = setting(0.8, lo=0.0, hi=1.0, slider=(0.0, 1.0),
+        help="""How far the scalp's albedo (the head's "scalp" vertex weight) is tinted from skin_color
+        toward the hair's colour: the look of the undrawn hair covering a real scalp between the
+        drawn strands. 0: the scalp is skin (what a path tracer of the drawn strands sees).""")
     background: tuple[float, float, float] = setting((0.16, 0.17, 0.19), lo=0.0, hi=1000.0,
         help="sRGB background colour in [0, 1].")
     draw_head: bool = setting(True,

@@ -1,8 +1,14 @@
-"""The head mesh: Lambert skin, the scalp tinted toward the hair, shadowed by hair and head."""
+"""The head mesh: Lambert skin, the scalp tinted toward the hair (``scalp_tint``), shadowed by hair
+and head."""
 from __future__ import annotations
 
 from ...gpu.glsl import ProgramMemo, program
 from .base import shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
+
+
+def scalp_albedo(skin, hair, tint: float) -> tuple:
+    """The scalp's albedo: ``tint`` of the way from the skin's colour to the hair's."""
+    return tuple((1.0 - tint) * k + tint * c for k, c in zip(skin, hair))
 
 
 class HeadPass(Pass):
@@ -13,7 +19,7 @@ class HeadPass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self._programs = ProgramMemo()
-        self._colors = None   # (skin colour, hair colour, their uniforms)
+        self._colors = None   # ((skin colour, hair colour, scalp tint), their uniforms)
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.head is not None and self.renderer.settings.draw_head
@@ -37,9 +43,9 @@ class HeadPass(Pass):
     def _color_uniforms(self) -> dict:
         """The skin's and the scalp's colours (made again when the skin colour or the hair's changes)."""
         r = self.renderer
-        skin, hair = r.settings.skin_color, r.hair_color()
+        skin, hair, tint = r.settings.skin_color, r.hair_color(), float(r.settings.scalp_tint)
         memo = self._colors
-        if memo is None or memo[0] != skin or memo[1] != hair:
-            u = {"u_skin": tuple(skin), "u_scalp_color": tuple(0.8 * c + 0.2 * k for c, k in zip(hair, skin))}
-            memo = self._colors = (skin, hair, u)
-        return memo[2]
+        if memo is None or memo[0] != (skin, hair, tint):
+            u = {"u_skin": tuple(skin), "u_scalp_color": scalp_albedo(skin, hair, tint)}
+            memo = self._colors = ((skin, hair, tint), u)
+        return memo[1]
