@@ -22,7 +22,7 @@ from mane.render import Renderer, RenderSettings
 
 from test_oit_methods import CAM, LIGHTS, curtain_groom, sphere
 from test_render_compute_balance import assert_cover_equal
-from test_render_compute_headcull import max_pool, needles_groom
+from test_render_compute_headcull import max_pool, needles_groom, render_capture
 from test_render_compute_raster import saturated_cover
 
 pytestmark = pytest.mark.gpu
@@ -36,20 +36,8 @@ def _render(gl, monkeypatch, cull, groom, head=None, camera=None, form=None, **k
         monkeypatch.setattr(raster_segment, "FORCED", form)
     s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
                           "draw_head": head is not None, "strands_per_guide": 3, "width": 0.006, **kw})
-    r = Renderer(s, ctx=gl, profile=False)
-    try:
-        r.set_strands(groom)
-        r.set_head(head)
-        cam = camera or CAM
-        hc = r.get_pass("hair_compute")
-        assert r.compute_raster
-        hc.capture = True
-        r.render(cam, LIGHTS)
-        bufs = {k: v.copy() for k, v in hc.captured.items()}
-        stats = hc.count_samples(cam, LIGHTS)
-        return bufs, stats
-    finally:
-        r.release()
+    bufs, stats, _ = render_capture(gl, s, groom, head, camera or CAM)
+    return bufs, stats
 
 
 SCENES = {

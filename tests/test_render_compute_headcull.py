@@ -29,16 +29,11 @@ from test_render_compute_balance import assert_cover_equal, star_groom
 pytestmark = pytest.mark.gpu
 
 
-def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **kw):
-    """(captured buffers, count_samples' statistics, the tile map, the scene depth) with the cull
-    forced on or off."""
-    monkeypatch.setattr(depth_tiles, "HEAD_CULL", cull)
-    monkeypatch.setattr(occlusion_tiles, "HAIR_CULL", False)   # the head cull alone
-    if form is not None:
-        monkeypatch.setattr(raster_segment, "FORCED", form)
-    s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
-                          "draw_head": head is not None, "strands_per_guide": 2, "width": 0.002, **kw})
-    r = Renderer(s, ctx=gl, profile=False)
+def render_capture(gl, settings, groom, head, camera=None, extra=None):
+    """One compute-rasteriser frame: (its captured per-sample buffers, count_samples' statistics,
+    ``extra(renderer)`` read before those statistics or None); the camera by default the
+    renderer's default view."""
+    r = Renderer(settings, ctx=gl, profile=False)
     try:
         r.set_strands(groom)
         r.set_head(head)
@@ -48,13 +43,29 @@ def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **
         hc.capture = True
         r.render(cam, LIGHTS)
         bufs = {k: v.copy() for k, v in hc.captured.items()}
-        tiles = hc.tiles.read() if cull is not False else None
-        _, depth = r.hdr_textures()
-        z = np.frombuffer(depth.read(), np.float32).reshape(depth.size[1], depth.size[0]).copy()
-        stats = hc.count_samples(cam, LIGHTS)
-        return bufs, stats, tiles, z
+        more = extra(r) if extra is not None else None
+        return bufs, hc.count_samples(cam, LIGHTS), more
     finally:
         r.release()
+
+
+def _render(gl, monkeypatch, cull: bool, groom, head, camera=None, form=None, **kw):
+    """(captured buffers, count_samples' statistics, the tile map, the scene depth) with the cull
+    forced on or off."""
+    monkeypatch.setattr(depth_tiles, "HEAD_CULL", cull)
+    monkeypatch.setattr(occlusion_tiles, "HAIR_CULL", False)   # the head cull alone
+    if form is not None:
+        monkeypatch.setattr(raster_segment, "FORCED", form)
+    s = RenderSettings(**{"size": (96, 72), "msaa": 1, "shadows": "none", "rasterizer": "compute",
+                          "draw_head": head is not None, "strands_per_guide": 2, "width": 0.002, **kw})
+
+    def tiles_and_depth(r):
+        tiles = r.get_pass("hair_compute").tiles.read() if cull is not False else None
+        _, depth = r.hdr_textures()
+        return tiles, np.frombuffer(depth.read(), np.float32).reshape(depth.size[1], depth.size[0]).copy()
+
+    bufs, stats, (tiles, z) = render_capture(gl, s, groom, head, camera, tiles_and_depth)
+    return bufs, stats, tiles, z
 
 
 def max_pool(z: np.ndarray, t: int) -> np.ndarray:

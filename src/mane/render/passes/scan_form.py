@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import math
 from collections import deque
+from statistics import median
 
 from ...gpu.capabilities import get_capabilities   # cached per context
 from . import raster_segment
@@ -49,12 +50,6 @@ TUNE = None       # None: on GPUs with timer queries; True: everywhere (tests); 
 
 FORM_NAMES = ("per_thread", "balanced")
 SITES = ("hair", "dom")
-
-
-def _median(xs) -> float:
-    s = sorted(xs)
-    n = len(s)
-    return s[n // 2] if n % 2 else 0.5 * (s[n // 2 - 1] + s[n // 2])
 
 
 class FormChooser:
@@ -157,7 +152,7 @@ class FormChooser:
         self._since = 0
 
     def _decide(self) -> None:
-        m = [_median(g) for g in self._got]
+        m = [median(g) for g in self._got]
         other = 1 - self.choice
         if m[other] < m[self.choice] * (1.0 - self.margin):
             self.choice = other
