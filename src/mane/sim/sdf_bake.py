@@ -37,7 +37,7 @@ from ..errors import GroomError, UsageError
 
 BAND = 3.0                      # the exact band's half-width, in voxels
 MAX_PAIRS = 60_000_000          # triangle-node pairs a bake may measure (~70 ns each on one core)
-_CHUNK_PAIRS = 1 << 20          # pairs measured at once
+_CHUNK_PAIRS = 1 << 16          # pairs measured at once
 _CHUNK_LINES = 1 << 18          # line x line candidates of a distance-transform pass at once
 
 
@@ -112,80 +112,6 @@ def triangle_distance2(u, v, w, B, Cx, Cy, closest: bool = False):
     return d, np.where(inside, u, cu), np.where(inside, v, cv)
 
 
-class _BandScratch:
-    """The band's float32 point-triangle distances (``triangle_distance2``'s arithmetic, in place)
-    in buffers kept for the whole bake: a fresh process pays page faults for every new block of
-    memory, and per-window temporaries cost the bench head's first bake ~0.02 s of its ~0.15 s."""
-
-    def __init__(self, size: int):
-        self.f = np.empty((9, size), np.float32)
-        self.m = np.empty((2, size), bool)
-        self.i = np.empty((2, size), np.int64)
-
-    def distance2(self, corner, Rh, off, B, Cx, Cy):
-        F, W = len(corner), off.shape[1]
-        U, V, Wn, T1, T2, D, E, G = (x[:F * W].reshape(F, W) for x in self.f[:8])
-        M1, M2 = (x[:F * W].reshape(F, W) for x in self.m)
-        for a, X in enumerate((U, V, Wn)):                   # local coordinates of the window's nodes
-            np.matmul(Rh[:, a], off, out=X)
-            X += corner[:, a:a + 1]
-        tiny = np.float32(1e-30)
-        ex = Cx - B
-
-        def edge(pu, eu, ev, out):                           # squared distance to 0 -> (eu, ev), into out
-            inv = 1.0 / np.maximum(eu * eu + ev * ev, tiny)
-            np.multiply(pu, eu * inv, out=T1)
-            np.multiply(V, ev * inv, out=T2)
-            np.add(T1, T2, out=T1)
-            np.clip(T1, 0.0, 1.0, out=T1)                    # t
-            np.multiply(T1, eu, out=T2)
-            np.subtract(pu, T2, out=T2)
-            np.square(T2, out=out)
-            np.multiply(T1, ev, out=T1)
-            np.subtract(V, T1, out=T1)
-            np.square(T1, out=T1)
-            out += T1
-
-        np.multiply(U, B / np.maximum(B * B, tiny), out=T1)  # A -> B, along u
-        np.clip(T1, 0.0, 1.0, out=T1)
-        T1 *= B
-        np.subtract(U, T1, out=T1)
-        np.square(T1, out=D)
-        np.square(V, out=T1)
-        D += T1
-        edge(U, Cx, Cy, G)                                   # A -> C
-        np.minimum(D, G, out=D)
-        np.subtract(U, B, out=E)                             # B -> C, from u - B
-        edge(E, ex, Cy, G)
-        np.minimum(D, G, out=D)
-        np.greater_equal(V, 0.0, out=M1)                     # inside (triangle_distance2's test)
-        np.multiply(V, ex, out=T1)
-        np.multiply(E, Cy, out=T2)
-        np.greater_equal(T1, T2, out=M2)
-        M1 &= M2
-        np.subtract(V, Cy, out=T1)
-        T1 *= Cx
-        np.subtract(U, Cx, out=T2)
-        T2 *= Cy
-        np.less_equal(T1, T2, out=M2)
-        M1 &= M2
-        M1 &= Cy > 0
-        np.logical_not(M1, out=M1)
-        np.multiply(D, M1, out=D)                            # zero in-plane inside
-        np.square(Wn, out=T1)
-        D += T1
-        return D
-
-    def keys(self, d, f, corner_node, off_node):
-        """(packed (distance bits, triangle) keys, flat node indices), both raveled views."""
-        K, N = (x[:d.size].reshape(d.shape) for x in self.i)
-        np.copyto(K, d.view(np.int32))
-        np.left_shift(K, 32, out=K)
-        np.bitwise_or(K, f[:, None], out=K)
-        np.add(corner_node[:, None], off_node[None, :], out=N)
-        return K.reshape(-1), N.reshape(-1)
-
-
 def band_distances(tris, lo, h, shape, reach):
     """The nodes within ``reach`` of the triangles: (flat node indices, exact distances (float64),
     closest points (n, 3)) (module docstring)."""
@@ -211,8 +137,6 @@ def band_distances(tris, lo, h, shape, reach):
     ends = np.append(starts[1:], len(order))
     sizes = n[order[starts]].prod(axis=1)
     steps = np.maximum(1, _CHUNK_PAIRS // np.maximum(sizes, 1))
-    most = int((np.minimum(ends - starts, steps) * sizes).max())
-    scratch = _BandScratch(most)
     for start, end, size, step in zip(starts, ends, sizes, steps):
         if size == 0:
             continue
@@ -220,9 +144,10 @@ def band_distances(tris, lo, h, shape, reach):
         off32, off_node = off.astype(f32), stride @ off
         for s in range(start, end, step):
             f = order[s:min(end, s + step)]
-            d = scratch.distance2(corner[f], Rh[f], off32, B32[f, None], Cx32[f, None], Cy32[f, None])
-            packed, node = scratch.keys(d, f, i0[f] @ stride, off_node)
-            np.minimum.at(best, node, packed)
+            u, v, w = (Rh[f, a] @ off32 + corner[f, a:a + 1] for a in range(3))   # the window's nodes, local
+            d = triangle_distance2(u, v, w, B32[f, None], Cx32[f, None], Cy32[f, None])
+            packed = (d.view(np.int32).astype(np.int64) << 32) | f[:, None]
+            np.minimum.at(best, ((i0[f] @ stride)[:, None] + off_node).reshape(-1), packed.reshape(-1))
     lim = np.int64(np.array(reach * reach * (1.0 + 1e-4), f32).view(np.int32)) << 32
     owner = np.where(best < lim, best & 0xFFFFFFFF, -1)
     idx = np.nonzero(owner >= 0)[0]
