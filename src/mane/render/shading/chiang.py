@@ -207,13 +207,12 @@ def azimuthal_table(sigma_a, *, eta=1.55, beta_n=0.3, n_phi=128, n_theta=64, n_h
         raise ValueError("the Chiang table needs at least 4 x 4 texels")
     phi = np.linspace(0.0, PI, int(n_phi))
     theta = np.linspace(0.0, HALF_PI, int(n_theta))
-    TH, PH = np.meshgrid(theta, phi, indexing="ij")
-    n_r, n_tt, n_trt, n_3 = azimuthal_average(PH, TH, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h)
+    n_r, n_tt, n_trt, n_3 = azimuthal_grid(phi, theta, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h)
     out = np.zeros((int(n_theta), TILES * int(n_phi), 4))
     out[:, :n_phi, :3] = n_tt
     out[:, :n_phi, 3] = n_r
     out[:, n_phi:2 * n_phi, :3] = n_trt
-    out[:, 2 * n_phi:, :3] = n_3
+    out[:, 2 * n_phi:, :3] = n_3[:, None, :]          # constant along phi
     if not np.isfinite(out).all():
         raise FloatingPointError("non-finite Chiang table")
     return out.astype(np.float32)
