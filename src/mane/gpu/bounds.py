@@ -26,6 +26,7 @@ import numpy as np
 
 from ..errors import UsageError
 from .bindings import B_BOUNDS, B_POSITIONS
+from .buffers import as_device
 
 HERE = Path(__file__).resolve().parent
 BOUNDS_BINDING = B_BOUNDS   # the binding every grid kernel reads the box from
@@ -86,7 +87,7 @@ class GridBounds:
         self.relative_margin = float(relative_margin)
         self.cubic = bool(cubic)
         self.min_extent = float(min_extent)
-        self.buffer = ctx.buffer(reserve=BOUNDS_BYTES)
+        self.buffer = as_device(ctx.buffer(reserve=BOUNDS_BYTES))
         self._reset_keys(lo=np.zeros(3), hi=np.full(3, self.min_extent))
         self._reduce = compute_shader(ctx, HERE / "bounds.comp",
                                       {"STAGE_REDUCE": 1, "PER_INVOCATION": PER_INVOCATION})

@@ -4,11 +4,17 @@ anything is allocated.
 
     check_allocation(ctx, nbytes, "the expanded strands")     # GPUMemoryError if it does not fit
     buf = buffer(ctx, array, what="particles")                 # checked, then allocated
+
+and the read-back of buffers the GPU works on: ``DeviceBuffer.read`` (what ``buffer`` returns,
+``as_device`` makes of any moderngl Buffer) goes through a GPU copy into a staging buffer, so
+that the driver keeps the buffer itself in video memory (``read_buffer``).
 """
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
+import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, UsageError
@@ -179,3 +185,94 @@ def _gl_error(ctx) -> str:
         return str(ctx.error)
     except Exception:
         return "GL_NO_ERROR"
+
+
+# --------------------------------------------------------------------------- read-back
+STAGING_BYTES = 64 << 20
+"""The largest piece ``read_buffer`` copies into its staging buffer at once (bytes)."""
+
+_staging: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # context -> its staging buffer
+
+
+def _staging_buffer(ctx, nbytes: int):
+    buf = _staging.get(ctx)
+    if buf is None or buf.size < nbytes:
+        if buf is not None:
+            buf.release()
+        size = 1 << max(12, (int(nbytes) - 1).bit_length())   # powers of two from 4 KiB: few regrowths
+        buf = _staging[ctx] = ctx.buffer(reserve=size)
+    return buf
+
+
+def read_buffer_into(buf, out, size: int = -1, offset: int = 0, write_offset: int = 0) -> None:
+    """Read ``size`` bytes of ``buf`` from ``offset`` (all of it after ``offset`` when negative)
+    into the writable buffer ``out`` at ``write_offset``, through a GPU copy.
+
+    NVIDIA's driver moves a buffer the CPU has read back to host memory ("DMA CACHED": its
+    GL debug output says so, with "usage indicates that CPU is consuming buffer object data")
+    and leaves it there, after which every shader that reads or writes the buffer goes over the
+    bus: the simulate + render loop's renderer read the simulator's positions 6-17x slower after
+    one ``read()`` of them. A GPU copy into a staging buffer of at most ``STAGING_BYTES``, read
+    in pieces, leaves the buffer where it is; the staging buffer (one per context, kept) is the
+    one that moves.
+    """
+    total = buf.size
+    offset, size = int(offset), int(size)
+    if size < 0:
+        size = total - offset
+    if offset < 0 or size < 0 or offset + size > total:
+        raise UsageError(f"cannot read {size} bytes at offset {offset} of a {total}-byte buffer")
+    if size == 0:
+        return
+    ctx = buf.ctx
+    step = min(size, STAGING_BYTES)
+    staging = _staging_buffer(ctx, step)
+    for start in range(0, size, step):
+        n = min(step, size - start)
+        ctx.copy_buffer(staging, buf, size=n, read_offset=offset + start, write_offset=0)
+        moderngl.Buffer.read_into(staging, out, size=n, offset=0, write_offset=int(write_offset) + start)
+
+
+def read_buffer(buf, size: int = -1, offset: int = 0) -> bytes:
+    """``buf.read(size, offset)`` through a GPU copy (``read_buffer_into``)."""
+    total = buf.size
+    n = total - int(offset) if int(size) < 0 else int(size)
+    out = bytearray(max(n, 0))
+    read_buffer_into(buf, out, size, offset)
+    return bytes(out)
+
+
+class DeviceBuffer(moderngl.Buffer):
+    """A moderngl Buffer the GPU reads and writes and the CPU only reads back now and then: its
+    ``read`` and ``read_into`` go through a GPU copy (``read_buffer_into``), so it stays in
+    video memory. Bind and write it as any Buffer."""
+
+    def read(self, size: int = -1, offset: int = 0) -> bytes:
+        return read_buffer(self, size, offset)
+
+    def read_into(self, buffer, size: int = -1, offset: int = 0, write_offset: int = 0) -> None:
+        read_buffer_into(self, buffer, size, offset, write_offset)
+
+    def clear(self, size: int = -1, offset: int = 0, chunk=None) -> None:
+        """Fill with zeros (or ``chunk`` repeated) by ``write``: moderngl's clear maps the buffer
+        for the CPU to write, which moves it to host memory like a read."""
+        offset, size = int(offset), int(size)
+        if size < 0:
+            size = self.size - offset
+        if offset < 0 or size < 0 or offset + size > self.size:
+            raise UsageError(f"cannot clear {size} bytes at offset {offset} of a {self.size}-byte buffer")
+        pattern = b"\0" if chunk is None else bytes(chunk)
+        if not pattern or size % len(pattern):
+            raise UsageError(f"a clear pattern of {len(pattern)} bytes does not divide {size} bytes")
+        piece = max(len(pattern), (min(size, STAGING_BYTES) // len(pattern)) * len(pattern))
+        block = pattern * (piece // len(pattern))
+        for start in range(0, size, piece):
+            n = min(piece, size - start)
+            self.write(block[:n] if n < piece else block, offset=offset + start)
+
+
+def as_device(buf):
+    """``buf`` (a moderngl Buffer) as a DeviceBuffer: its reads from now on through a GPU copy."""
+    if not isinstance(buf, DeviceBuffer):
+        buf.__class__ = DeviceBuffer
+    return buf

@@ -15,7 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GroomError, UsageError
-from ..gpu.buffers import check_allocation
+from ..gpu.buffers import as_device, check_allocation
 from ..gpu.glsl import compute_shader
 from ..gpu.uniforms import write_uniform
 from .bindings import B_FRAMES, B_POSITIONS
@@ -54,7 +54,7 @@ class StrandBuffers:
         self.source = source
         check_allocation(ctx, self.num_points * 16, f"the frames of {self.num_guides:,} guides x "
                          f"{self.points_per_strand} points", reduce="Use fewer guides or points per guide")
-        self.frames = ctx.buffer(reserve=self.num_points * 16)
+        self.frames = as_device(ctx.buffer(reserve=self.num_points * 16))
         self._bbox = None if bbox is None else (np.asarray(bbox[0], float), np.asarray(bbox[1], float))
         self.guide_triangles = None   # (S, 3) int32 guides blended by multi-strand interpolation
         self.update_frames()
@@ -65,15 +65,13 @@ class StrandBuffers:
         g = uniform_groom(groom, points_per_strand)
         pts = g.as_padded().astype(np.float32)
         S, N = pts.shape[:2]
-        from ..gpu.buffers import check_allocation
-
         # positions and frames: both before either is made
         check_allocation(ctx, S * N * 32, f"the positions and frames of {S:,} guides x {N} points",
                          reduce="Use fewer guides or points per guide")
         data = np.zeros((S * N, 4), np.float32)
         data[:, :3] = pts.reshape(-1, 3)
         data[:, 3] = 1.0
-        buf = ctx.buffer(data.tobytes())
+        buf = as_device(ctx.buffer(data.tobytes()))
         return cls(ctx, buf, S, N, bbox=g.bbox(), owns_positions=True, source=g)
 
     @classmethod

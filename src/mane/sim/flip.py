@@ -89,18 +89,18 @@ class FlipVolume:
                                       cubic=False)
         self.bounds: GridBounds = self._own_bounds
 
-        from ..gpu.buffers import check_allocation
+        from ..gpu.buffers import as_device, check_allocation
 
         check_allocation(ctx, (self.num_faces + self.num_cells) * 16 + self.num_faces * 8
                          + self.num_cells * CELL_FLOATS * 4 + self.num_partials * 16 + 64,
                          f"the FLIP volume's {resolution}^3 grid", ssbo=False,
                          reduce="Use a smaller flip grid resolution")
-        self.accumulator = ctx.buffer(reserve=(self.num_faces + self.num_cells) * 16)
+        self.accumulator = as_device(ctx.buffer(reserve=(self.num_faces + self.num_cells) * 16))
         self.accumulator.clear()
-        self.faces = ctx.buffer(reserve=self.num_faces * 8)               # vec2(u, u*)
-        self.cells = ctx.buffer(reserve=self.num_cells * CELL_FLOATS * 4)
-        self.partials = ctx.buffer(reserve=self.num_partials * 16)        # dvec2
-        self.scalars = ctx.buffer(reserve=64)                              # 8 doubles
+        self.faces = as_device(ctx.buffer(reserve=self.num_faces * 8))               # vec2(u, u*)
+        self.cells = as_device(ctx.buffer(reserve=self.num_cells * CELL_FLOATS * 4))
+        self.partials = as_device(ctx.buffer(reserve=self.num_partials * 16))        # dvec2
+        self.scalars = as_device(ctx.buffer(reserve=64))                              # 8 doubles
 
         d = {"GRID_RES": R, "BOUNDS_BINDING": BOUNDS_BINDING}
         k = lambda name, **extra: compute_shader(ctx, HERE / name, dict(d, **extra))  # noqa: E731

@@ -28,11 +28,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, GroomError, UsageError
-from ..gpu.buffers import check_allocation
+from ..gpu.buffers import DeviceBuffer, as_device, check_allocation
 from . import bindings
 
 MAX_POINTS_PER_STRAND = 64
@@ -226,8 +225,8 @@ def transform_points(m: np.ndarray, p: np.ndarray) -> np.ndarray:
 
 
 # ---------------------------------------------------------------------- the state
-class StateBuffer(moderngl.Buffer):
-    """A moderngl Buffer (bind it as is) that, called, reads its vec4s back as (n, 3) float32.
+class StateBuffer(DeviceBuffer):
+    """A DeviceBuffer (bind it as is) that, called, reads its vec4s back as (n, 3) float32.
 
     ``state.positions`` is the buffer the renderer binds; ``state.positions()`` is a copy of
     its xyz in NumPy. ``before_read`` (the velocities': ``SimState.settle``) runs first.
@@ -301,7 +300,7 @@ class SimState:
             raise GroomError(f"the simulator takes 2..{MAX_POINTS_PER_STRAND} points per strand, got {N}")
         check_fits(ctx, S, N, num_colliders)
         sizes = estimate_bytes(S, N, num_colliders)
-        buffers = {name: ctx.buffer(reserve=nbytes) for name, nbytes in sizes.items()}
+        buffers = {name: as_device(ctx.buffer(reserve=nbytes)) for name, nbytes in sizes.items()}
         for name in PARTICLE_BUFFERS:
             buffers[name].__class__ = StateBuffer
         state = cls(ctx, S, N, buffers, rest, np.ascontiguousarray(inv_mass, dtype=np.float32),

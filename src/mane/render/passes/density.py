@@ -84,14 +84,14 @@ class DensityPass(LightDepthPass):
         R = int(s.density_resolution)
         if self.texture is None or self.texture.size[0] != R:
             self._release_own()
-            from ...gpu.buffers import check_texture
+            from ...gpu.buffers import as_device, check_texture
 
             check_texture(ctx, (R, R, R), 1, 4, f"the {R}^3 density grid", extra_bytes=R ** 3 * 4,
                           reduce="Use a smaller density_resolution")
             self.texture = ctx.texture3d((R, R, R), 1, dtype="f4")
             self.texture.filter = (ctx.LINEAR, ctx.LINEAR)
             self.texture.repeat_x = self.texture.repeat_y = self.texture.repeat_z = False
-            self.accumulator = ctx.buffer(reserve=R ** 3 * 4)
+            self.accumulator = as_device(ctx.buffer(reserve=R ** 3 * 4))
             self.accumulator.clear()
             pad = float(s.clump_radius) * (1.0 + float(s.stray_amount)) + float(s.width)
             self.bounds = GridBounds(ctx, margin=pad, relative_margin=0.02, cubic=False)

@@ -39,6 +39,7 @@ import math
 
 import numpy as np
 
+from ...gpu.buffers import as_device
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
 from .base import set_uniform, shader_path
@@ -100,7 +101,7 @@ class DepthTiles:
         tiles = (-(-w * grid // side), -(-h * grid // side))
         if self.buffer is None or tiles != self.tiles:
             self.release()
-            self.buffer = self.ctx.buffer(reserve=4 * tiles[0] * tiles[1])
+            self.buffer = as_device(self.ctx.buffer(reserve=4 * tiles[0] * tiles[1]))
             self.tiles = tiles
         self.shift = shift
         depth.use(TEX_SCENE_DEPTH)

@@ -101,14 +101,14 @@ class ExpandPass(Pass):
         points = (N - 1) * sub + 1
         nbytes = max(strands * points * 32, 32)
         if self.buffer is None or self.buffer.size < nbytes:   # grown, never shrunk: the LOD moves with the camera
-            from ...gpu.buffers import check_allocation
+            from ...gpu.buffers import as_device, check_allocation
 
             check_allocation(ctx, nbytes, f"the expanded strands ({strands:,} rendered strands x {points} points, "
                              f"32 bytes each)", reduce="Render fewer strands (guides, strands_per_guide / "
                              "--strands-per-guide), fewer segments (--segments) or a smaller lod_depth")
             if self.buffer is not None:
                 self.buffer.release()
-            self.buffer = ctx.buffer(reserve=nbytes)
+            self.buffer = as_device(ctx.buffer(reserve=nbytes))
         _set(cs, "u_subdivisions", sub)
         st.bind()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)

@@ -47,7 +47,7 @@ import re
 
 import numpy as np
 
-from ...gpu.buffers import check_allocation
+from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
@@ -126,7 +126,7 @@ class HairComputePass(Pass):
         bufs = []
         for binding, size, fill in words:
             check_allocation(ctx, n * size, f"the compute rasteriser's per-sample buffer ({w}x{h} samples)")
-            buf = ctx.buffer(reserve=n * size)
+            buf = as_device(ctx.buffer(reserve=n * size))
             buf.write(np.full(n * size, fill, np.uint8).tobytes())   # the shading pass keeps it so
             bufs.append((binding, buf))
         self._buffers = tuple(bufs)
