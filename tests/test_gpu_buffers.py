@@ -162,3 +162,14 @@ def test_the_gpu_working_buffers_are_never_mapped(gl, monkeypatch):
     finally:
         r.release()
         sim.release()
+
+
+@pytest.mark.gpu
+def test_checked_buffers_are_device_buffers_unless_read_every_frame(gl):
+    dev, ring = buffer(gl, 64, "a working buffer"), buffer(gl, 64, "a counter read a frame late", host_read=True)
+    try:
+        assert isinstance(dev, bufmod.DeviceBuffer)
+        assert not isinstance(ring, bufmod.DeviceBuffer)   # its direct read waits for no later frame
+    finally:
+        dev.release()
+        ring.release()

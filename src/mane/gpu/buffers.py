@@ -142,10 +142,14 @@ def check_texture(ctx, size, components: int, itemsize: int, what: str, *, sampl
     return nbytes
 
 
-def buffer(ctx, data_or_size, what: str = "buffer", *, dynamic: bool = False, ssbo: bool = True):
-    """A moderngl Buffer from an array / bytes, or of ``size`` zeroed bytes, after ``check_allocation``.
+def buffer(ctx, data_or_size, what: str = "buffer", *, dynamic: bool = False, ssbo: bool = True,
+           host_read: bool = False):
+    """A DeviceBuffer from an array / bytes, or of ``size`` zeroed bytes, after ``check_allocation``.
 
-    A GL_OUT_OF_MEMORY from the driver becomes GPUMemoryError.
+    ``host_read``: a plain moderngl Buffer instead, for the few words the CPU reads every frame a
+    frame or more after the GPU wrote them (counters in a ring): its mapped read does not wait
+    for the frames issued since, as a DeviceBuffer's GPU copy would; the driver may keep it in
+    host memory, which suits a few words. A GL_OUT_OF_MEMORY from the driver becomes GPUMemoryError.
     """
     if isinstance(data_or_size, (int, np.integer)):
         nbytes, data = int(data_or_size), None
@@ -177,7 +181,7 @@ def buffer(ctx, data_or_size, what: str = "buffer", *, dynamic: bool = False, ss
             pass
         raise GPUMemoryError(f"{what}: the driver ran out of memory allocating {_fmt_bytes(nbytes)} "
                              f"(GL_OUT_OF_MEMORY). Use a smaller groom or free GPU memory.")
-    return buf
+    return buf if host_read else as_device(buf)
 
 
 def _gl_error(ctx) -> str:

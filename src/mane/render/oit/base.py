@@ -97,8 +97,9 @@ class OitMethod:
         entry = self._objects.get(key)
         return None if entry is None else entry[0]
 
-    def buffer(self, key: str, nbytes: int, what: str | None = None):
-        """An SSBO of ``nbytes`` (kept while the size stays), checked against GPU memory."""
+    def buffer(self, key: str, nbytes: int, what: str | None = None, host_read: bool = False):
+        """An SSBO of ``nbytes`` (kept while the size stays), checked against GPU memory
+        (``host_read``: gpu.buffers.buffer's)."""
         nbytes = max(16, int(nbytes))
         entry = self._objects.get(key)
         if entry is not None and entry[1] == nbytes:
@@ -106,7 +107,7 @@ class OitMethod:
         if entry is not None:
             entry[0].release()
             del self._objects[key]
-        buf = gpu_buffer(self.ctx, nbytes, what or f"OIT {self.name} {key}")
+        buf = gpu_buffer(self.ctx, nbytes, what or f"OIT {self.name} {key}", host_read=host_read)
         return self._keep(key, buf, nbytes)
 
     def texture(self, key: str, components: int, dtype: str, size=None):

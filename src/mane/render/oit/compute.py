@@ -431,7 +431,7 @@ class ComputeDBKBuffer(AutoShift, ComputeSlots):
         self.buffer("behind", 8 * P)
         self.buffer("behind_optical", 4 * P)
         for i in range(self.MEASURE_RING):
-            self.buffer(f"measure{i}", 4 * MEASURE_COPIES * MEASURE_STRIDE)
+            self.buffer(f"measure{i}", 4 * MEASURE_COPIES * MEASURE_STRIDE, host_read=True)   # read a frame late
         self._queue.clear()
         super().resize()
 
