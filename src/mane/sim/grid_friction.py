@@ -67,8 +67,9 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
-CHUNK = 1024          # binned splat: sorted particles per work group (the fastest measured:
-                      # docs/performance.md)
+CHUNK = 512           # binned splat: sorted particles per work group (H200, friction pass at
+                      # 100k / 1M / 2M guides x 32: 0.40 / 7.8-8.0 / 31.6-32.1 ms, against
+                      # 0.41 / 8.7-9.8 / 43.0-48.8 at 1024; docs/performance.md)
 
 
 def _extensions(ctx) -> frozenset:
