@@ -193,7 +193,8 @@ def _gl_error(ctx) -> str:
 
 # --------------------------------------------------------------------------- read-back
 STAGING_BYTES = 64 << 20
-"""The largest piece ``read_buffer`` copies into its staging buffer at once (bytes)."""
+"""The largest piece ``read_buffer`` copies into its staging buffer, and ``DeviceBuffer.clear``
+writes, at once (bytes)."""
 
 _staging: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # context -> its staging buffer
 
