@@ -31,6 +31,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     size.add_argument("--quick", action="store_true", help="small configurations, a few steps (seconds, any GPU)")
     size.add_argument("--full", action="store_true", help="more configurations and steps (minutes)")
     parser.add_argument("--quiet", action="store_true", help="no progress lines on stderr")
+    parser.add_argument("--driver-log", action="store_true",
+                        help="record the GL driver's debug messages during the run (errors, performance warnings, "
+                             "buffers NVIDIA moves to host memory) into meta.driver_log; the driver runs slower "
+                             "with them on, so the run's times are not comparable")
     parser.add_argument("--section", metavar="NAMES", default=None,
                         help="sim, render, limits: only these sections, comma-separated; 'scale' (issue 14's rows: "
                              "close-ups, 100k-2M strands, a crowd, simulate + render, 1M-2M guides, cold start) "
@@ -73,6 +77,9 @@ def run(args) -> int:
     if args.target == "fidelity" and getattr(args, "decompose", False):
         module = importlib.import_module("mane.bench.fidelity_decompose")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
+        if getattr(args, "driver_log", False):
+            raise UsageError(f"--driver-log is for the single benchmarks (sim, render, oit, limits, fidelity, "
+                             f"dataset), not {args.target}")
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of
 
@@ -92,8 +99,20 @@ def run(args) -> int:
     if getattr(args, "section", None):
         kwargs["sections"] = [s.strip() for s in args.section.split(",") if s.strip()]
     ctx = get_context()
+    from ..gpu.driver_log import DriverLog
+
+    log = DriverLog(ctx) if getattr(args, "driver_log", False) else None
     try:
-        result = sanitise(module.run(ctx, mode, progress=progress, **kwargs))
+        if log is not None:
+            log.start()
+        try:
+            result = module.run(ctx, mode, progress=progress, **kwargs)
+        finally:
+            if log is not None:
+                log.stop()
+        if log is not None and isinstance(result.get("meta"), dict):
+            result["meta"]["driver_log"] = log.summary()
+        result = sanitise(result)
     finally:
         if bar is not None:
             bar.close()
@@ -107,6 +126,8 @@ def run(args) -> int:
         print(text)
     else:
         print(module.format_text(result))
+        if log is not None:
+            print("\n" + log.text())
         if args.out:
             print(f"\nJSON written to {args.out}")
     return 0

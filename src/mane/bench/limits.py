@@ -219,6 +219,11 @@ class Bench(BenchRows):
         return renderer_name(self.ctx)
 
     def run_all(self, sections=None) -> None:
+        unknown = [s for s in sections or () if s not in SECTIONS]
+        if unknown:
+            from ..errors import UsageError
+
+            raise UsageError(f"unknown limits section {unknown[0]!r}; sections: {', '.join(SECTIONS)}")
         for s in sections or SECTIONS:
             getattr(self, s)()
 

@@ -9,6 +9,7 @@ refused with a message that says what to install.
 from __future__ import annotations
 
 import threading
+import weakref
 
 from ..errors import GLFeatureError, GPUError
 
@@ -16,6 +17,7 @@ MIN_GL_VERSION = 430
 
 _lock = threading.Lock()
 _headless = None
+_parking: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # context -> its 1x1 framebuffer
 
 HOW_TO_GET_GL = (
     "mane needs OpenGL 4.3 core through EGL. On Debian/Ubuntu without a GPU: "
@@ -46,6 +48,14 @@ def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
         version = ctx.info.get("GL_VERSION", "?")
         ctx.release()
         raise GLFeatureError(f"OpenGL {version} is too old. {HOW_TO_GET_GL}")
+    # A standalone moderngl context starts with no framebuffer of its own (ctx.fbo None) and
+    # binds the last one used again whenever it makes a framebuffer, even once that one is
+    # released: a GL_INVALID_OPERATION (glBindFramebuffer) each time, seen in the driver's debug
+    # output (gpu.driver_log). A 1x1 framebuffer of the context's own is what the renderer and
+    # the other users of framebuffers return to (they bind ctx.fbo again when done).
+    park = ctx.framebuffer([ctx.renderbuffer((1, 1), 4)])
+    park.use()
+    _parking[ctx] = park
     return ctx
 
 

@@ -38,6 +38,7 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
     buf.bind_to_storage_buffer(B_CAPTURE)
     set_uniform(prog, "u_capture_max", int(max_segments))
     tex = ctx.texture((1, 1), 1, dtype="f4")
+    previous = ctx.fbo
     fbo = ctx.framebuffer([tex])
     fbo.use()
     ctx.disable(ctx.DEPTH_TEST)
@@ -45,6 +46,7 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
     try:
         draw_hair(r, prog, view, lod_eye=view.eye)
     finally:
+        previous.use()   # not the released one left bound (renderer.render says why)
         fbo.release()
         tex.release()
     ctx.memory_barrier()
