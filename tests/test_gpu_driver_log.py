@@ -117,4 +117,4 @@ def test_bench_cli_refuses_the_log_for_folder_targets(capsys):
     from mane.app import cli
 
     assert cli.main(["bench", "quality", "--quick", "--driver-log"]) == 2
-    assert "--driver-log is for the single benchmarks" in capsys.readouterr().err
+    assert "--driver-log is not available for quality" in capsys.readouterr().err

@@ -78,8 +78,8 @@ def run(args) -> int:
         module = importlib.import_module("mane.bench.fidelity_decompose")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files
         if getattr(args, "driver_log", False):
-            raise UsageError(f"--driver-log is for the single benchmarks (sim, render, oit, limits, fidelity, "
-                             f"dataset), not {args.target}")
+            raise UsageError(f"--driver-log is not available for {args.target}, which writes a folder of results "
+                             f"(all, quality, fidelity); use it with sim, render, oit, limits or dataset")
         return int(module.run_cli(args) or 0)
     from ..progress import enabled, progress as bar_of
 
