@@ -46,7 +46,8 @@ def capture_segments(renderer, camera=None, *, max_segments: int | None = None, 
     try:
         draw_hair(r, prog, view, lod_eye=view.eye)
     finally:
-        previous.use()   # not the released one left bound (renderer.render says why)
+        if previous is not None:   # not the released one left bound (gpu.context says why)
+            previous.use()
         fbo.release()
         tex.release()
     ctx.memory_barrier()
