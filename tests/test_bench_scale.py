@@ -239,7 +239,7 @@ def test_crowd_instances_are_a_grid_of_transforms_and_one_merged_head():
 
 def test_unknown_section_is_refused(gl):
     rc, _, stderr = _cli(["bench", "render", "--section", "nope", "--quick", "--json"])
-    assert rc == 2 and "unknown render bench section nope" in stderr
+    assert rc == 2 and "unknown render bench section 'nope'" in stderr
     rc, _, stderr = _cli(["bench", "sim", "--section", "nope", "--quick", "--json"])
     assert rc == 2 and "unknown sim bench section 'nope'" in stderr
     rc, _, stderr = _cli(["bench", "oit", "--section", "scale", "--quick", "--json"])

@@ -308,3 +308,13 @@ def failures_table(rows: list[dict]) -> str | None:
         return None
     return table(bad, [("bench", "bench", "{}"), ("config", "name", "{}"), ("status", "status", "{}"),
                        ("reason", lambda r: str(r["reason"])[:140], "{}")], title="Skipped / failed")
+
+
+def check_sections(what: str, sections, allowed, listed=None) -> None:
+    """UsageError naming the first of ``sections`` not in ``allowed`` and the sections there are
+    (``listed``, default ``allowed``): before any section runs."""
+    for name in sections or ():
+        if name not in allowed:
+            from ..errors import UsageError
+
+            raise UsageError(f"unknown {what} section {name!r}; sections: {', '.join(listed or allowed)}")

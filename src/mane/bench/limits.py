@@ -38,7 +38,7 @@ from __future__ import annotations
 
 import time
 
-from .common import BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stats, table, title_line
+from .common import BenchRows, Skip, check_sections, envelope, failures_table, fmt, peak_bandwidth, stats, table, title_line
 
 SAMPLE_GRID_WORDS = 1920 * 1080 * 4        # the compute rasteriser's 4x sample grid at 1920x1080
 STRIP_SEGMENTS, SEG_PX, WIDTH_PX = 32, 4.0, 1.0   # a strip: 32 quads of 4 x 1 pixels (2 px triangles)
@@ -219,11 +219,7 @@ class Bench(BenchRows):
         return renderer_name(self.ctx)
 
     def run_all(self, sections=None) -> None:
-        unknown = [s for s in sections or () if s not in SECTIONS]
-        if unknown:
-            from ..errors import UsageError
-
-            raise UsageError(f"unknown limits section {unknown[0]!r}; sections: {', '.join(SECTIONS)}")
+        check_sections("limits", sections, SECTIONS)
         for s in sections or SECTIONS:
             getattr(self, s)()
 

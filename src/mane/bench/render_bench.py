@@ -74,7 +74,7 @@ import numpy as np
 
 from ..errors import UsageError
 from ..gpu import microbench
-from .common import title_line, BenchRows, Skip, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
+from .common import title_line, BenchRows, Skip, check_sections, envelope, failures_table, fmt, stat_of, stats, table, time_each, time_pipelined
 
 TARGET_MS = 4.0
 TARGET_GUIDES, TARGET_SPG, TARGET_POINTS, TARGET_SEGMENTS = 3125, 16, 17, 32
@@ -825,10 +825,7 @@ RUN_SECTIONS = {"target": "target", "target_rasterizer": "target", "hunz_shading
 
 def run_sections(bench, sections) -> None:
     """The named sections (``SECTIONS``, ``EXTRA_SECTIONS``) in order, each method once."""
-    unknown = [s for s in sections if s not in RUN_SECTIONS and s not in EXTRA_SECTIONS]
-    if unknown:
-        raise UsageError(f"unknown render bench section {', '.join(unknown)}; sections: "
-                         f"{', '.join(SECTIONS + EXTRA_SECTIONS)}")
+    check_sections("render bench", sections, {*RUN_SECTIONS, *EXTRA_SECTIONS}, SECTIONS + EXTRA_SECTIONS)
     done = set()
     for s in sections:
         method = RUN_SECTIONS.get(s, s)

@@ -55,8 +55,7 @@ import time
 
 import numpy as np
 
-from ..errors import UsageError
-from .common import (title_line, BenchRows, Skip, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
+from .common import (title_line, BenchRows, Skip, check_sections, envelope, failures_table, fmt, peak_bandwidth, stat_of, stats, table,
                      time_each, time_pipelined)
 
 HEAD_CENTER = np.array([0.0, 1.6, 0.0])
@@ -650,10 +649,8 @@ class Bench(BenchRows):
 
     def run_all(self, sections=None) -> None:
         """Every section, or those named (``full_solver`` includes ``grid_friction``)."""
+        check_sections("sim bench", sections, self.SECTIONS + self.EXTRA_SECTIONS)
         for name in sections or self.SECTIONS:
-            if name not in self.SECTIONS + self.EXTRA_SECTIONS:
-                raise UsageError(f"unknown sim bench section {name!r}; sections: "
-                                 f"{', '.join(self.SECTIONS + self.EXTRA_SECTIONS)}")
             getattr(self, name)()
 
 
