@@ -238,13 +238,15 @@ def read_buffer_into(buf, out, size: int = -1, offset: int = 0, write_offset: in
         moderngl.Buffer.read_into(staging, out, size=n, offset=0, write_offset=int(write_offset) + start)
 
 
-def read_buffer(buf, size: int = -1, offset: int = 0) -> bytes:
-    """``buf.read(size, offset)`` through a GPU copy (``read_buffer_into``)."""
+def read_buffer(buf, size: int = -1, offset: int = 0) -> bytearray:
+    """``buf.read(size, offset)`` through a GPU copy (``read_buffer_into``), as the bytearray it
+    was read into (bytes-like: not copied once more, which for a groom's positions is hundreds
+    of MB)."""
     total = buf.size
     n = total - int(offset) if int(size) < 0 else int(size)
     out = bytearray(max(n, 0))
     read_buffer_into(buf, out, size, offset)
-    return bytes(out)
+    return out
 
 
 class DeviceBuffer(moderngl.Buffer):
@@ -252,7 +254,7 @@ class DeviceBuffer(moderngl.Buffer):
     ``read`` and ``read_into`` go through a GPU copy (``read_buffer_into``), so it stays in
     video memory. Bind and write it as any Buffer."""
 
-    def read(self, size: int = -1, offset: int = 0) -> bytes:
+    def read(self, size: int = -1, offset: int = 0) -> bytearray:
         return read_buffer(self, size, offset)
 
     def read_into(self, buffer, size: int = -1, offset: int = 0, write_offset: int = 0) -> None:

@@ -234,7 +234,7 @@ class StateBuffer(DeviceBuffer):
 
     before_read = None
 
-    def read(self, *args, **kwargs) -> bytes:
+    def read(self, *args, **kwargs) -> bytearray:
         if self.before_read is not None:
             self.before_read()
         return super().read(*args, **kwargs)
