@@ -49,8 +49,9 @@ GL_QUERY_RESULT_AVAILABLE = 0x8867
 SOURCES = ("gpu-timer", "cpu")
 
 
-class _TimestampQueries:
-    """Raw GL query objects, for glQueryCounter(GL_TIMESTAMP) pairs."""
+class TimestampQueries:
+    """Raw GL query objects, for glQueryCounter(GL_TIMESTAMP) pairs (the profiler's and the scan-form
+    tuner's, render/passes/scan_form.py)."""
 
     def __init__(self, ctx):
         from .capabilities import gl_function
@@ -95,9 +96,6 @@ class _TimestampQueries:
         return int(v.value)
 
 
-TimestampQueries = _TimestampQueries   # public: the renderer's scan-form tuner (render/passes/scan_form.py)
-
-
 class GpuProfiler:
     """Times named sections (passes) on the GPU, or on the CPU where GPU timing is unreliable.
 
@@ -120,7 +118,7 @@ class GpuProfiler:
         self._frames = 0
         self._frame_start: float | None = None
         self._frame_ms: deque = deque(maxlen=self.history)
-        self._queries: _TimestampQueries | None = None
+        self._queries: TimestampQueries | None = None
         self._free: dict[str, list[tuple[int, int]]] = {}
         self._pending: "deque[tuple[str, tuple[int, int]]]" = deque()
         self._pending_per_name: dict[str, int] = {}
@@ -145,7 +143,7 @@ class GpuProfiler:
             if caps.version_code < 330 and "GL_ARB_timer_query" not in caps.extensions:
                 return "cpu", "no timer queries (GL_ARB_timer_query)"
         try:
-            queries = _TimestampQueries(self.ctx)
+            queries = TimestampQueries(self.ctx)
         except Exception as exc:  # pragma: no cover - ctypes trouble
             return "cpu", f"cannot load GL query functions ({exc})"
         if not queries.ok:
