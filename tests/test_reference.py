@@ -98,6 +98,23 @@ def test_missing_mitsuba_is_one_clear_error(monkeypatch):
     assert not ref.available()
 
 
+def test_variant_comes_from_the_argument_then_the_environment_then_scalar(monkeypatch):
+    monkeypatch.delenv(ref.VARIANT_ENV, raising=False)
+    assert ref.resolve_variant() == "scalar_rgb" == ref.MITSUBA_VARIANT
+    monkeypatch.setenv(ref.VARIANT_ENV, "cuda_ad_rgb")
+    assert ref.resolve_variant() == "cuda_ad_rgb"
+    assert ref.resolve_variant("llvm_ad_rgb") == "llvm_ad_rgb"          # the argument wins
+    # a pass is a process start and (JIT variants) a kernel compile: more samples per pass there
+    assert ref.default_pass_spp("scalar_rgb") == ref.DEFAULT_PASS_SPP == 64
+    assert ref.default_pass_spp("cuda_ad_rgb") == ref.default_pass_spp() == 512
+    with pytest.raises(UsageError, match="scalar_rgb, cuda_ad_rgb, llvm_ad_rgb") as info:
+        ref.resolve_variant("cuda_rgb")
+    assert "\n" not in str(info.value)
+    monkeypatch.setenv(ref.VARIANT_ENV, "spectral")
+    with pytest.raises(UsageError, match=r"\$MANE_REFERENCE_VARIANT"):
+        ref.render(strands=_strand([[0, 0, 0], [0, 1, 0]], 1e-3), camera=Camera(), spp=1)
+
+
 # ---------------------------------------------------------------- with Mitsuba
 def _strand(points, width):
     P = np.asarray(points, np.float32)[None]
@@ -209,6 +226,22 @@ def test_melanin_darkens_and_the_image_is_deterministic_and_cached(mi, tmp_path)
     k2 = ref.cache_key(material=HairMaterial(eumelanin=8.0), **{**{k: v for k, v in kw.items() if k != "cache_dir"},
                                                                "spp": 9})
     assert k != k2
+    # another variant is another estimator (other random numbers): another key; None is the default
+    plain = {k: v for k, v in kw.items() if k != "cache_dir"}
+    assert ref.cache_key(material=HairMaterial(eumelanin=8.0), variant="scalar_rgb", **plain) == k
+    assert ref.cache_key(material=HairMaterial(eumelanin=8.0), variant="cuda_ad_rgb", **plain) != k
+
+
+def test_a_variant_this_machine_lacks_is_one_clear_error(mi, tmp_path):
+    if ref.available("cuda_ad_rgb"):
+        pytest.skip("this machine renders with CUDA")
+    st = _strand(_line((0, 0.05, 0), (0, -0.05, 0)), 8e-4)
+    with pytest.raises(ref.ReferenceUnavailableError, match="cuda_ad_rgb") as info:
+        ref.render(strands=st, camera=Camera(eye=(0, 0, 0.3), target=(0, 0, 0)), spp=1, variant="cuda_ad_rgb",
+                   cache_dir=tmp_path)
+    assert "\n" not in str(info.value)
+    assert not list(tmp_path.iterdir())
+    assert ref.mitsuba().variant() == "scalar_rgb"
 
 
 def test_reference_hair_matches_the_compute_rasterisers_coverage(mi, gl, tmp_path):

@@ -22,6 +22,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_scene_arguments(parser, "reference.png", "output .png (sRGB) or .npy (linear float32)")
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     parser.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
+    parser.add_argument("--variant", default=None, help="Mitsuba variant: scalar_rgb (default, or "
+                        "$MANE_REFERENCE_VARIANT), cuda_ad_rgb (an NVIDIA GPU), llvm_ad_rgb (every CPU core)")
     parser.add_argument("--max-depth", type=int, default=64, help="longest light path (default 64)")
     parser.add_argument("--exposure", type=float, default=1.0, help="multiply the radiance before sRGB (default 1)")
     parser.add_argument("--camera", default="", help="AZ,EL[,DIST_SCALE[,FOV]] degrees around the scene's "
@@ -113,7 +115,8 @@ def run(args) -> int:
         raise UsageError(f"--out must end in .png or .npy, got {out.name}")
     if args.spp < 1:
         raise UsageError("--spp must be >= 1")
-    reference.mitsuba()                      # the one-line message before any work when it is missing
+    variant = reference.resolve_variant(args.variant)
+    reference.mitsuba(variant)               # the one-line message before any work when it is missing
     settings = settings_from_args(args)
     lights = [parse_light(t) for t in args.light] if args.light else default_lights()
     t0 = time.perf_counter()
@@ -130,14 +133,14 @@ def run(args) -> int:
         r.release()
     image = reference.render(strands=strands, head=head, camera=camera, lights=lights, settings=settings,
                              spp=args.spp, seed=args.seed, max_depth=args.max_depth, cache=not args.no_cache,
-                             cache_dir=args.cache)
+                             cache_dir=args.cache, variant=variant)
     out.parent.mkdir(parents=True, exist_ok=True)
     if out.suffix.lower() == ".npy":
         np.save(out, image)
     else:
         reference.save_png(image, out, args.exposure)
     material = reference.HairMaterial.from_settings(settings)
-    print(f"{out}: {w}x{h}, {args.spp} spp, {strands.count} strands, Mitsuba {reference.mitsuba().__version__} "
+    print(f"{out}: {w}x{h}, {args.spp} spp, {strands.count} strands, Mitsuba {reference.mitsuba(variant).__version__} {variant} "
           f"hair BSDF ({', '.join(f'{k}={v}' for k, v in material.key().items() if v is not None)}), "
           f"{time.perf_counter() - t0:.1f} s")
     return 0

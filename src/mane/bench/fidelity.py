@@ -278,7 +278,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
                                                                            LIGHT[3]],
                               "rasterizer": rasterizer, "seed": seed,
                               "mitsuba": _mitsuba_version(),
-                              "reference_variant": reference.MITSUBA_VARIANT})
+                              "reference_variant": reference.resolve_variant()})
     return {"meta": meta, "scenes": scene_meta, "results": rows}
 
 

@@ -45,6 +45,9 @@ VARIANTS = {
         {"shadow_map_size": 2048, "strand_opacity": 1.0, "ms_shadow_footprint": 8, "msaa": 16},
     "opacity map 2048, strand_opacity 1, one transmittance, msaa 16":
         {"shadow_map_size": 2048, "strand_opacity": 1.0, "ms_shadow_footprint": 0, "msaa": 16},
+    "opacity map 2048, ms_shadow_footprint 4, msaa 8": {"shadow_map_size": 2048, "ms_shadow_footprint": 4, "msaa": 8},
+    "opacity map 4096, strand_opacity 1, ms_shadow_footprint 16, msaa 16":
+        {"shadow_map_size": 4096, "strand_opacity": 1.0, "ms_shadow_footprint": 16, "msaa": 16},
     "hard shadow map 2048, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "shadow_bias": 1.0, "msaa": 16},
     "no shadows": {"shadows": "none"},
 }
@@ -85,9 +88,9 @@ def pass_halves(reference, cache, folder, common: dict, seed: int, mask) -> dict
     MAE per pixel; the whole reference's noise from the converged image is about half of that
     (each half sqrt(2) times the whole's, the difference sqrt(2) times a half's). None when the
     reference is one pass or a pass is not in the cache."""
-    from ..reference.passes import DEFAULT_PASS_SPP, pass_seed, split
+    from ..reference.passes import pass_seed, split
 
-    counts = split(common["spp"], DEFAULT_PASS_SPP)
+    counts = split(common["spp"], reference.default_pass_spp())
     if len(counts) < 2 or len(counts) % 2:
         return None
     images = []

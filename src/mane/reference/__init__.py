@@ -6,7 +6,8 @@
     strands = reference.expanded_strands(groom, s)       # what the GPU expand pass draws
     mat = reference.HairMaterial.from_settings(s)        # Chiang 2016 parameters of s
 
-Samples above 64 are rendered as independent passes in child processes and averaged
+Mitsuba's variant: ``variant=`` or ``$MANE_REFERENCE_VARIANT`` (scalar_rgb; cuda_ad_rgb on an
+NVIDIA GPU). Samples above a pass (64; 512 for the GPU) are rendered as independent passes in child processes and averaged
 (passes.py): a Mitsuba crash fails one pass (retried with another seed), not the caller.
 Needs the optional extra ``pip install mane[reference]`` (Mitsuba 3.9, FLIP); without it
 ``render`` raises ``ReferenceUnavailableError`` (a ManeError) saying so. See render.py for
@@ -18,12 +19,14 @@ from __future__ import annotations
 from .scene import (ExpandedStrands, HairMaterial, beta_m_to_lobe_width, bspline_control_points, bspline_eval,
                     expanded_strands, lobe_width_to_beta_m, renderer_strands)
 from .passes import DEFAULT_PASS_SPP, ReferencePassError
-from .render import (INSTALL_HINT, MITSUBA_VARIANT, ReferenceUnavailableError, available, cache_key,
-                     hair_coverage, mitsuba, render, render_png, save_png, to_srgb8)
+from .render import (INSTALL_HINT, MITSUBA_VARIANT, VARIANT_ENV, VARIANTS, ReferenceUnavailableError, available,
+                     cache_key, default_pass_spp, hair_coverage, mitsuba, render, render_png, resolve_variant,
+                     save_png, to_srgb8)
 
 __all__ = [
     "render", "render_png", "save_png", "hair_coverage", "cache_key", "available", "mitsuba", "to_srgb8",
     "ExpandedStrands", "HairMaterial", "expanded_strands", "renderer_strands", "bspline_control_points",
     "bspline_eval", "lobe_width_to_beta_m", "beta_m_to_lobe_width", "ReferenceUnavailableError",
-    "MITSUBA_VARIANT", "INSTALL_HINT", "ReferencePassError", "DEFAULT_PASS_SPP",
+    "MITSUBA_VARIANT", "VARIANTS", "VARIANT_ENV", "resolve_variant", "default_pass_spp", "INSTALL_HINT",
+    "ReferencePassError", "DEFAULT_PASS_SPP",
 ]

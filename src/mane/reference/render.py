@@ -19,11 +19,15 @@ point light is Mitsuba's ``point`` emitter of radiant intensity c * I (W/sr, fal
 1/d^2, as mane's). There is no ambient term: compare with ``RenderSettings(ambient=0)``.
 Mitsuba's diffuse head reflects albedo / pi (mane's head shader reflects the albedo itself).
 
-Mitsuba is an optional extra (``pip install mane[reference]``); the ``scalar_rgb`` variant
-is used (no LLVM needed). Above ``pass_spp`` (64) samples the image is the mean of independent
-passes, each rendered in a child process (``passes.py``). Images are cached on disk by a hash
-of the strands, camera, lights, material, head, size, samples (and passes), seed, depth and
-Mitsuba's version (``cache.py``), and so is each pass.
+Mitsuba is an optional extra (``pip install mane[reference]``). Its variant (``variant=``, else
+``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``) is one of ``VARIANTS``: ``scalar_rgb`` needs
+nothing more; ``cuda_ad_rgb`` renders on an NVIDIA GPU (the driver's CUDA and OptiX) and
+``llvm_ad_rgb`` on every CPU core (a recent libLLVM), both the same estimator of the same image
+with other random numbers. Above ``pass_spp`` samples (64, or 512 for the two JIT variants,
+``default_pass_spp``) the image is the mean of independent passes, each rendered in a child
+process (``passes.py``). Images are cached on disk by a hash of the strands, camera, lights,
+material, head, size, samples (and passes), seed, depth, Mitsuba's version and variant
+(``cache.py``), and so is each pass.
 """
 from __future__ import annotations
 
@@ -38,7 +42,10 @@ from . import cache as _cache
 from . import passes as _passes
 from .scene import ExpandedStrands, HairMaterial, bspline_control_points, renderer_strands
 
-MITSUBA_VARIANT = "scalar_rgb"
+MITSUBA_VARIANT = "scalar_rgb"           # the default variant
+VARIANTS = ("scalar_rgb", "cuda_ad_rgb", "llvm_ad_rgb")
+VARIANT_ENV = "MANE_REFERENCE_VARIANT"
+JIT_PASS_SPP = 512                      # samples per pass of the JIT variants (a pass is one kernel launch)
 INSTALL_HINT = "pip install mane[reference]"
 
 
@@ -46,31 +53,53 @@ class ReferenceUnavailableError(ManeError):
     """Mitsuba 3 (the reference renderer's optional extra) is not installed."""
 
 
-def mitsuba():
-    """The ``mitsuba`` module with the scalar_rgb variant set, or a one-line ManeError."""
+def resolve_variant(variant: str | None = None) -> str:
+    """``variant``, else ``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``; one of ``VARIANTS``."""
+    import os
+
+    name = variant if variant is not None else (os.environ.get(VARIANT_ENV) or MITSUBA_VARIANT)
+    if name not in VARIANTS:
+        where = "" if variant is not None else f" (from ${VARIANT_ENV})"
+        raise UsageError(f"unknown Mitsuba variant {name!r}{where}: use one of {', '.join(VARIANTS)}")
+    return name
+
+
+def default_pass_spp(variant: str | None = None) -> int:
+    """Samples per pass: 64 for scalar_rgb (its curves crashed above that on Sintel blond), 512
+    for the JIT variants (each pass costs a process start and a kernel compile)."""
+    return _passes.DEFAULT_PASS_SPP if resolve_variant(variant) == "scalar_rgb" else JIT_PASS_SPP
+
+
+def mitsuba(variant: str | None = None):
+    """The ``mitsuba`` module with ``variant`` (``resolve_variant``) set, or a one-line ManeError."""
+    name = resolve_variant(variant)
     try:
         import mitsuba as mi
     except ImportError:
         raise ReferenceUnavailableError(f"the reference renderer needs Mitsuba 3: {INSTALL_HINT}") from None
     try:
-        if mi.variant() != MITSUBA_VARIANT:
-            mi.set_variant(MITSUBA_VARIANT)
-    except (AttributeError, ImportError) as exc:
-        raise ReferenceUnavailableError(f"Mitsuba's {MITSUBA_VARIANT} variant is unavailable ({exc}); "
-                                        f"{INSTALL_HINT}") from None
+        if mi.variant() != name:
+            mi.set_variant(name)
+    except (AttributeError, ImportError, RuntimeError) as exc:
+        hint = {"cuda_ad_rgb": "it needs an NVIDIA driver with CUDA and OptiX",
+                "llvm_ad_rgb": "it needs libLLVM (DRJIT_LIBLLVM_PATH)"}.get(name, INSTALL_HINT)
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise ReferenceUnavailableError(f"Mitsuba's {name} variant is unavailable ({first}); {hint}") from None
     return mi
 
 
-def available() -> bool:
+def available(variant: str | None = None) -> bool:
     try:
-        mitsuba()
+        mitsuba(variant)
         return True
     except ReferenceUnavailableError:
         return False
 
 
 def mitsuba_version() -> str:
-    return str(mitsuba().__version__)
+    import mitsuba as mi    # the version alone: no variant needed
+
+    return str(mi.__version__)
 
 
 # ---------------------------------------------------------------- the scene
@@ -162,7 +191,8 @@ def _sensor(mi, sensor: dict, spp: int) -> dict:
             "sampler": {"type": "independent", "sample_count": int(spp)}}
 
 
-def scene_job(folder: Path, strands, head, camera, lights, settings, material, max_depth) -> dict:
+def scene_job(folder: Path, strands, head, camera, lights, settings, material, max_depth,
+              variant: str = MITSUBA_VARIANT) -> dict:
     """Write the curves (and the head's PLY) into ``folder`` and describe the rest of the scene
     as plain JSON-able data: what ``scene_from_job`` (here or in a child process) loads."""
     folder = Path(folder)
@@ -175,7 +205,8 @@ def scene_job(folder: Path, strands, head, camera, lights, settings, material, m
                        "near": float(max(camera.near, 1e-4)), "far": float(camera.far),
                        "eye": list(map(float, camera.eye)), "target": list(map(float, camera.target)),
                        "up": list(map(float, camera.up))},
-            "emitters": [_emitter(lt) for lt in lights], "bsdf": _hair_bsdf(material), "max_depth": int(max_depth)}
+            "emitters": [_emitter(lt) for lt in lights], "bsdf": _hair_bsdf(material), "max_depth": int(max_depth),
+            "variant": str(variant)}
 
 
 def scene_from_job(mi, job: dict, spp: int | None = None, integrator=None, order=("hair", "head")) -> dict:
@@ -202,23 +233,25 @@ def scene_from_job(mi, job: dict, spp: int | None = None, integrator=None, order
     return scene
 
 
-def _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, kind) -> dict:
+def _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, kind,
+                variant=MITSUBA_VARIANT) -> dict:
     parts = {"kind": kind, "points": strands.points, "widths": strands.widths,
              "camera": [list(map(float, camera.eye)), list(map(float, camera.target)), list(map(float, camera.up)),
                         float(camera.fov_y), float(camera.near), float(camera.far)],
              "lights": [[lt.kind, list(lt.vector), list(lt.color), float(lt.intensity)] for lt in lights],
              "size": list(settings.size), "material": material.key(), "spp": int(spp), "seed": int(seed),
-             "max_depth": int(max_depth), "mitsuba": mitsuba_version(), "variant": MITSUBA_VARIANT}
+             "max_depth": int(max_depth), "mitsuba": mitsuba_version(), "variant": str(variant)}
     if head is not None:
         parts.update(head_vertices=np.asarray(head.vertices, np.float32), head_faces=np.asarray(head.faces, np.int32),
                      head_normals=np.asarray(head.normals, np.float32), skin=list(map(float, settings.skin_color)))
     return parts
 
 
-def _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp) -> dict:
+def _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp,
+                    variant=MITSUBA_VARIANT) -> dict:
     """The cache parts of a radiance render: one pass is keyed as it always was (spp, seed);
     several passes add their sample counts (their seeds follow from ``seed``)."""
-    parts = _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, "radiance")
+    parts = _hash_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, "radiance", variant)
     counts = _passes.split(spp, pass_spp if pass_spp else spp)
     if len(counts) > 1:
         parts["passes"] = counts
@@ -246,19 +279,22 @@ def _cached_render(parts, cache, cache_dir, make) -> np.ndarray:
 
 def cache_key(groom=None, *, head=None, camera=None, lights=None, settings=None, spp: int = 64, size=None,
               material: HairMaterial | None = None, strands=None, seed: int = 0, max_depth: int = 64,
-              pass_spp: int | None = _passes.DEFAULT_PASS_SPP, ctx=None) -> str:
+              pass_spp: int | None = 0, variant: str | None = None, ctx=None) -> str:
     """The cache key ``render`` would use for these arguments."""
+    variant = resolve_variant(variant)
+    pass_spp = default_pass_spp(variant) if pass_spp == 0 else pass_spp
     settings, strands, head, camera, lights = _prepare(groom, head=head, camera=camera, lights=lights,
                                                       settings=settings, size=size, strands=strands, ctx=ctx)
     material = material if material is not None else HairMaterial.from_settings(settings)
     return _cache.scene_hash(_radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth,
-                                             pass_spp))
+                                             pass_spp, variant))
 
 
 def render(groom=None, *, head=None, camera=None, lights=None, settings=None, spp: int = 64, size=None,
            material: HairMaterial | None = None, strands=None, seed: int = 0, max_depth: int = 64,
-           pass_spp: int | None = _passes.DEFAULT_PASS_SPP, isolate: bool = True, progress=None,
-           background=(0.0, 0.0, 0.0), cache: bool = True, cache_dir=None, ctx=None) -> np.ndarray:
+           pass_spp: int | None = 0, isolate: bool = True, progress=None,
+           background=(0.0, 0.0, 0.0), cache: bool = True, cache_dir=None, variant: str | None = None,
+           ctx=None) -> np.ndarray:
     """Path trace what the real-time renderer draws; (H, W, 3) float32 linear radiance.
 
     groom     a Groom (or anything ``Renderer.set_strands`` takes); None with ``strands=``
@@ -276,7 +312,8 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
               2 is single scattering: the first hit lit directly, exact opaque-fibre shadows)
     pass_spp  samples per pass (``passes.py``): spp above it is rendered as independent passes
               of pass_spp samples with seeds derived from ``seed`` and averaged (the same
-              expectation, the noise of spp samples); None: one pass
+              expectation, the noise of spp samples); None: one pass; 0 (the default):
+              ``default_pass_spp(variant)``
     isolate   run each pass in a child process (default): a Mitsuba crash then fails that pass,
               which is tried again with another seed, and then raises one ReferencePassError
               line instead of killing the caller; False renders in this process
@@ -285,8 +322,12 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
               coverage at the silhouettes is exact, so black gives premultiplied radiance)
     cache, cache_dir  keep and reuse the image on disk (``cache.default_dir()`` by default);
               each pass is also cached as the one-pass render of its seed
+    variant   Mitsuba's variant (``resolve_variant``: scalar_rgb, cuda_ad_rgb, llvm_ad_rgb)
     """
-    mi = mitsuba()
+    variant = resolve_variant(variant)
+    mi = mitsuba(variant)
+    if pass_spp == 0:
+        pass_spp = default_pass_spp(variant)
     if int(spp) < 1:
         raise UsageError(f"spp must be >= 1, got {spp}")
     if pass_spp is not None and int(pass_spp) < 1:
@@ -295,11 +336,12 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
                                                       settings=settings, size=size, strands=strands, ctx=ctx)
     material = material if material is not None else HairMaterial.from_settings(settings)
     pass_spp = int(pass_spp) if pass_spp is not None else int(spp)
-    parts = _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp)
+    parts = _radiance_parts(strands, head, camera, lights, settings, material, spp, seed, max_depth, pass_spp,
+                            variant)
     folder = _cache_folder(cache_dir)
 
     def pass_parts(n, s):
-        return _hash_parts(strands, head, camera, lights, settings, material, n, s, max_depth, "radiance")
+        return _hash_parts(strands, head, camera, lights, settings, material, n, s, max_depth, "radiance", variant)
 
     def cached(n, s):
         return _cache.load(folder, _cache.scene_hash(pass_parts(n, s))) if cache else None
@@ -311,7 +353,7 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
 
     def make():
         with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
-            job = scene_job(Path(tmp), strands, head, camera, lights, settings, material, max_depth)
+            job = scene_job(Path(tmp), strands, head, camera, lights, settings, material, max_depth, variant)
             if isolate:
                 return _passes.render_passes(job, spp, pass_spp, seed, cached=cached, store=store, progress=progress)
             scene = mi.load_dict(scene_from_job(mi, job, pass_spp))
@@ -326,14 +368,14 @@ def render(groom=None, *, head=None, camera=None, lights=None, settings=None, sp
     bg = np.asarray(background, np.float32).reshape(3)
     if np.any(bg != 0):
         cov = hair_coverage(strands=strands, head=head, camera=camera, settings=settings, spp=max(4, min(int(spp), 16)),
-                            seed=seed, cache=cache, cache_dir=cache_dir, include_head=True)
+                            seed=seed, cache=cache, cache_dir=cache_dir, include_head=True, variant=variant)
         image += (1.0 - cov)[..., None] * bg
     return image
 
 
 def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=None, strands=None, spp: int = 16,
                   seed: int = 0, include_head: bool = False, cache: bool = True, cache_dir=None,
-                  ctx=None) -> np.ndarray:
+                  variant: str | None = None, ctx=None) -> np.ndarray:
     """(H, W) float32: the fraction of each pixel where the camera sees hair (the head, when
     given, hides what is behind it); with ``include_head`` hair or head. From Mitsuba's
     ``shape_index`` AOV (box filter, ``spp`` samples), which averages each shape's index (its
@@ -342,19 +384,20 @@ def hair_coverage(groom=None, *, head=None, camera=None, settings=None, size=Non
     lists curves before meshes, so swapping the keys does not swap them), the two averages give
     the two coverages (a 2 x 2 system; the same seed, the same samples). In this process (the
     AOV integrator traces no paths and has not crashed)."""
-    mi = mitsuba()
+    variant = resolve_variant(variant)
+    mi = mitsuba(variant)
     settings, strands, head, camera, _ = _prepare(groom, head=head, camera=camera, lights=[],
                                                  settings=settings, size=size, strands=strands, ctx=ctx)
     from ..render.lights import Light
 
     material = HairMaterial()
     parts = _hash_parts(strands, head, camera, [], settings, material, spp, seed, 0,
-                        "hair+head coverage" if include_head else "hair coverage")
+                        "hair+head coverage" if include_head else "hair coverage", variant)
     aov = {"type": "aov", "aovs": "si:shape_index"}
 
     def make():
         with tempfile.TemporaryDirectory(prefix="mane-ref-") as tmp:
-            job = scene_job(Path(tmp), strands, head, camera, [Light()], settings, material, 1)
+            job = scene_job(Path(tmp), strands, head, camera, [Light()], settings, material, 1, variant)
 
             def one(order):
                 scene = mi.load_dict(scene_from_job(mi, job, spp, integrator=aov, order=order))
@@ -408,4 +451,5 @@ def describe(material: HairMaterial) -> str:
 
 
 __all__ = ["render", "render_png", "save_png", "hair_coverage", "cache_key", "available", "mitsuba",
-           "to_srgb8", "ReferenceUnavailableError", "MITSUBA_VARIANT", "INSTALL_HINT"]
+           "to_srgb8", "ReferenceUnavailableError", "MITSUBA_VARIANT", "VARIANTS", "VARIANT_ENV", "resolve_variant",
+           "default_pass_spp", "INSTALL_HINT"]

@@ -23,7 +23,7 @@ def main(argv) -> int:
         return 2
     job_path, out_path = argv
     job = json.loads(Path(job_path).read_text())
-    mi = mitsuba()
+    mi = mitsuba(job.get("variant"))
     scene = mi.load_dict(scene_from_job(mi, job))
     image = np.array(mi.render(scene, seed=int(job["seed"]), spp=int(job["spp"])), np.float32)[..., :3]
     with open(out_path, "wb") as f:
