@@ -46,8 +46,10 @@ VARIANTS = {
     "opacity map 2048, strand_opacity 1, one transmittance, msaa 16":
         {"shadow_map_size": 2048, "strand_opacity": 1.0, "ms_shadow_footprint": 0, "msaa": 16},
     "opacity map 2048, ms_shadow_footprint 4, msaa 8": {"shadow_map_size": 2048, "ms_shadow_footprint": 4, "msaa": 8},
-    "opacity map 4096, strand_opacity 1, ms_shadow_footprint 16, msaa 16":
-        {"shadow_map_size": 4096, "strand_opacity": 1.0, "ms_shadow_footprint": 16, "msaa": 16},
+    "opacity map 4096, strand_opacity 1, ms_shadow_footprint 9, msaa 16":
+        {"shadow_map_size": 4096, "strand_opacity": 1.0, "ms_shadow_footprint": 9, "msaa": 16},
+    "opacity layers (0.02, 0.06, 1)": {"dom_layers": (0.02, 0.06, 1.0)},
+    "opacity layers (0.01, 0.04, 1)": {"dom_layers": (0.01, 0.04, 1.0)},
     "hard shadow map 2048, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "shadow_bias": 1.0, "msaa": 16},
     "no shadows": {"shadows": "none"},
 }
