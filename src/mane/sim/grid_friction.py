@@ -16,9 +16,13 @@ Each step, on the GPU only:
          m/s); the sums are exact and independent of order; a node holds up to 2^31 mass units.
      and in one of two schedules (``splat=``):
        * ``"binned"`` (default up to 129^3 nodes): particles are counted and sorted by tile of
-         8^3 cells (3 small dispatches), then each work group sums a balanced chunk of sorted
-         particles into its tile's 9^3 nodes in shared memory and adds only the touched nodes
-         to the accumulator (``splat_binned.comp``). Global atomics drop from 32 per particle
+         8^3 cells (3 small dispatches; the scatter also copies each particle's position and
+         velocity to its sorted slot), then each work group sums a balanced chunk of sorted
+         particles, read contiguously from those copies, into its tile's 9^3 nodes in shared
+         memory and adds only the touched nodes to the accumulator (``splat_binned.comp``).
+         Gathering a tile's particles through the order instead (they come from strands all
+         over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
+         guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms; docs/performance.md). Global atomics drop from 32 per particle
          to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
          serialise in L2. With float atomics (``aggregate``, on by default there) each
          invocation's run of sorted particles, mostly consecutive particles of a strand, is
@@ -56,7 +60,8 @@ from ..errors import GLFeatureError, UsageError
 from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
-from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_TILES,
+from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_SORTED, B_SORTED_VELOCITIES,
+                       B_TILES,
                        TEX_SPLAT)
 
 HERE = Path(__file__).resolve().parent
@@ -67,9 +72,9 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
-CHUNK = 512           # binned splat: sorted particles per work group (H200, friction pass at
-                      # 100k / 1M / 2M guides x 32: 0.40 / 7.8-8.0 / 31.6-32.1 ms, against
-                      # 0.41 / 8.7-9.8 / 43.0-48.8 at 1024; docs/performance.md)
+CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
+                      # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
+                      # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
 
 
 def _extensions(ctx) -> frozenset:
@@ -204,7 +209,7 @@ class GridFriction:
             if splat == "binned":
                 self.num_tiles = tiles_axis ** 3
                 self._tiles = ctx.buffer(bytes((3 * self.num_tiles + 1) * 4))
-                self._order = None
+                self._order = self._sorted = self._sorted_v = None
                 self._order_capacity = 0
                 # float sums only; on by default there
                 self.aggregate = self.float_atomics and (aggregate is None or bool(aggregate))
@@ -286,12 +291,24 @@ class GridFriction:
         """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
         ctx = self.ctx
         if self._order_capacity < n:
-            if self._order is not None:
-                self._order.release()
-            self._order_capacity = max(n, 1024)
-            self._order = ctx.buffer(reserve=2 * self._order_capacity * 4)
+            from ..gpu.buffers import check_allocation
+
+            for b in (self._order, self._sorted, self._sorted_v):
+                if b is not None:
+                    b.release()
+            self._order = self._sorted = self._sorted_v = None
+            capacity = max(n, 1024)
+            for _ in range(2):   # the sorted positions and velocities (the order is half as large)
+                check_allocation(ctx, capacity * 16, f"the friction splat's sorted copy of {n} particles",
+                                 reduce="Use fewer strands or points per strand")
+            self._order_capacity = capacity
+            self._order = ctx.buffer(reserve=2 * capacity * 4)
+            self._sorted = ctx.buffer(reserve=capacity * 16)
+            self._sorted_v = ctx.buffer(reserve=capacity * 16)
         self._tiles.bind_to_storage_buffer(B_TILES)
         self._order.bind_to_storage_buffer(B_ORDER)
+        self._sorted.bind_to_storage_buffer(B_SORTED)
+        self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
         per_group = 256 * PPT
         for name in ("count", "scan", "scatter", "splat"):
             sh = self._stages[name]
@@ -391,8 +408,9 @@ class GridFriction:
             self.accumulator.release()
             if self.splat_schedule == "binned":
                 self._tiles.release()
-                if self._order is not None:
-                    self._order.release()
+                for b in (self._order, self._sorted, self._sorted_v):
+                    if b is not None:
+                        b.release()
         else:
             self._vao.release()
             self._fbo.release()

@@ -14,8 +14,12 @@
 //   STAGE_SCAN     one work group: exclusive prefix sum of the counts -> START(t) and CURSOR(t);
 //                  START(NUM_TILES) = particles binned; clears the counts for the next step
 //   STAGE_SCATTER  per particle: its rank in the group's shared histogram plus the group's slot
-//                  range (one atomicAdd on CURSOR(t) per touched tile) -> ORDER(slot) = particle
-//   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group: for every tile segment of
+//                  range (one atomicAdd on CURSOR(t) per touched tile) -> ORDER(slot) = particle,
+//                  and its position and velocity copied to slot in the sorted buffers
+//   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group, read from the sorted copies in slot
+//                  order (contiguous: the particles of a tile come from strands all over the
+//                  buffers, and gathering them through ORDER was the splat's whole cost at 1M
+//                  guides: scattered 16-byte reads, docs/performance.md): for every tile segment of
 //                  the chunk, clear a shared node tile, add each particle's 8 corners to it, flush
 //                  the touched nodes to the accumulator (grid_accum.glsl's format). A particle whose
 //                  stencil the splat finds outside its tile (it cannot, unless the compiler rounds
@@ -33,6 +37,9 @@ layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec
 layout(std430, binding = B_TILES) buffer Tiles { uint tiles[]; };
 // [0, n): tile of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by tile
 layout(std430, binding = B_ORDER) buffer Order { uint order[]; };
+// the position (w: inverse mass) and the velocity of the particle at each slot
+layout(std430, binding = B_SORTED) buffer SortedPositions { vec4 sorted_p[]; };
+layout(std430, binding = B_SORTED_VELOCITIES) buffer SortedVelocities { vec4 sorted_v[]; };
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 
@@ -142,7 +149,12 @@ void main() {
     }
     barrier();
     for (uint r = 0u; r < uint(PPT); ++r)
-        if (tile[r] != NO_TILE) ORDER(s_hist[tile[r]] + rank[r]) = first + r * 256u;
+        if (tile[r] != NO_TILE) {
+            uint i = first + r * 256u, slot = s_hist[tile[r]] + rank[r];
+            ORDER(slot) = i;
+            sorted_p[slot] = positions[i];
+            sorted_v[slot] = velocities[i];
+        }
 }
 #endif
 
@@ -225,11 +237,11 @@ void run_flush(vec4 run[8], ivec3 base, ivec3 origin) {
     }
 }
 
-// Particle i into the run of register sums (cell: the run's cell, -1 for none yet).
-void run_particle(uint i, inout ivec3 cell, inout vec4 run[8], ivec3 origin) {
-    vec4 p = positions[i];
+// The particle at sorted slot `slot` into the run of register sums (cell: the run's cell, -1 for none yet).
+void run_particle(uint slot, inout ivec3 cell, inout vec4 run[8], ivec3 origin) {
+    vec4 p = sorted_p[slot];
     float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
-    vec3 v = velocities[i].xyz;
+    vec3 v = sorted_v[slot].xyz;
     NodeStencil s = node_stencil(p.xyz);
     if (s.base != cell) {
         if (cell.x >= 0) run_flush(run, cell, origin);
@@ -278,14 +290,13 @@ void main() {
         ivec3 cell = ivec3(-1);
         vec4 run[8];                           // per corner: (m w, m w v) of the run
         run_clear(run);
-        for (uint slot = pos + lid * per; slot < run_end; ++slot) run_particle(ORDER(slot), cell, run, origin);
+        for (uint slot = pos + lid * per; slot < run_end; ++slot) run_particle(slot, cell, run, origin);
         if (cell.x >= 0) run_flush(run, cell, origin);
 #else
         for (uint slot = pos + lid * per; slot < run_end; ++slot) {
-            uint i = ORDER(slot);
-            vec4 p = positions[i];
+            vec4 p = sorted_p[slot];
             float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
-            vec3 v = velocities[i].xyz;
+            vec3 v = sorted_v[slot].xyz;
             NodeStencil s = node_stencil(p.xyz);
             ivec3 local = s.base - origin;     // in [0, TILE_CELLS - 1]^3
             bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
