@@ -16,13 +16,15 @@ Each step, on the GPU only:
          m/s); the sums are exact and independent of order; a node holds up to 2^31 mass units.
      and in one of two schedules (``splat=``):
        * ``"binned"`` (default up to 129^3 nodes): particles are counted and sorted by tile of
-         8^3 cells (3 small dispatches; the scatter also copies each particle's position and
-         velocity to its sorted slot), then each work group sums a balanced chunk of sorted
-         particles, read contiguously from those copies, into its tile's 9^3 nodes in shared
+         8^3 cells (3 small dispatches; at scale the scatter also copies each particle's
+         position and velocity to its sorted slot), then each work group sums a balanced chunk
+         of sorted particles, read contiguously from those copies, into its tile's 9^3 nodes in shared
          memory and adds only the touched nodes to the accumulator (``splat_binned.comp``).
          Gathering a tile's particles through the order instead (they come from strands all
          over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
-         guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms; docs/performance.md). Global atomics drop from 32 per particle
+         guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper at 100k (0.41 against 0.50
+         ms), so the copies are made from ``SORTED_COPY_MIN`` particles on (``sorted_copy``
+         forces either; docs/performance.md). Global atomics drop from 32 per particle
          to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
          serialise in L2. With float atomics (``aggregate``, on by default there) each
          invocation's run of sorted particles, mostly consecutive particles of a strand, is
@@ -72,6 +74,10 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
+SORTED_COPY_MIN = 8_000_000   # binned splat: particles from which the scatter copies them in sorted
+                              # order for the splat (H200, friction step: 100k guides x 32 0.41 ms
+                              # without, 0.50 with; 1M 11.5 / 5.8, 2M 43.2 / 11.6; the crossover,
+                              # between, is estimated near 4.5M particles, not measured)
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
@@ -148,7 +154,7 @@ class GridFriction:
                  bounds_margin: float = 0.0, bounds_relative_margin: float = 0.05,
                  bounds_cubic: bool = True, float_atomics: bool | None = None,
                  splat: str | None = None, chunk: int = CHUNK, vertex_layer: bool | None = None,
-                 aggregate: bool | None = None):
+                 aggregate: bool | None = None, sorted_copy: bool | None = None):
         from ..gpu.glsl import compute_shader, program
 
         resolution = int(resolution)
@@ -219,6 +225,9 @@ class GridFriction:
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
                                 for name in ("count", "scan", "scatter", "splat")}
                 self._splat = self._stages["splat"]
+                self._binned_defines = binned
+                self._copy_stages = None    # the scatter and splat with SORTED_COPY, made when first used
+                self.sorted_copy = None if sorted_copy is None else bool(sorted_copy)
             else:
                 self._splat = compute_shader(ctx, HERE / "splat_atomic.comp", acc_defines)
             self._normalize = compute_shader(ctx, HERE / "grid_normalize.comp",
@@ -287,9 +296,27 @@ class GridFriction:
         self._run("normalise", self._normalize, groups(self.num_nodes, 256))
         storage_barrier(ctx)
 
+    def uses_sorted_copy(self, n: int) -> bool:
+        """Whether the binned splat of ``n`` particles copies them in sorted order first:
+        ``sorted_copy`` when given, else from ``SORTED_COPY_MIN`` particles on."""
+        return self.sorted_copy if self.sorted_copy is not None else n >= SORTED_COPY_MIN
+
     def _binned_splat(self, n: int, masses: dict) -> None:
         """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
         ctx = self.ctx
+        copy = self.uses_sorted_copy(n)
+        stages = self._stages
+        if copy:
+            if self._copy_stages is None:
+                from ..gpu.glsl import compute_shader
+
+                self._copy_stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
+                                                          dict(self._binned_defines, SORTED_COPY=1,
+                                                               **{f"STAGE_{name.upper()}": 1}))
+                                     for name in ("scatter", "splat")}
+            stages = dict(stages, **self._copy_stages)
+        if copy and self._sorted is None and self._order_capacity >= n:
+            self._order_capacity = 0     # the order is there, the copies are not: make them all again
         if self._order_capacity < n:
             from ..gpu.buffers import check_allocation
 
@@ -298,20 +325,23 @@ class GridFriction:
                     b.release()
             self._order = self._sorted = self._sorted_v = None
             capacity = max(n, 1024)
-            for _ in range(2):   # the sorted positions and velocities (the order is half as large)
-                check_allocation(ctx, capacity * 16, f"the friction splat's sorted copy of {n} particles",
-                                 reduce="Use fewer strands or points per strand")
+            if copy:   # the sorted positions and velocities (the order is half as large)
+                for _ in range(2):
+                    check_allocation(ctx, capacity * 16, f"the friction splat's sorted copy of {n} particles",
+                                     reduce="Use fewer strands or points per strand")
             self._order_capacity = capacity
             self._order = ctx.buffer(reserve=2 * capacity * 4)
-            self._sorted = ctx.buffer(reserve=capacity * 16)
-            self._sorted_v = ctx.buffer(reserve=capacity * 16)
+            if copy:
+                self._sorted = ctx.buffer(reserve=capacity * 16)
+                self._sorted_v = ctx.buffer(reserve=capacity * 16)
         self._tiles.bind_to_storage_buffer(B_TILES)
         self._order.bind_to_storage_buffer(B_ORDER)
-        self._sorted.bind_to_storage_buffer(B_SORTED)
-        self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
+        if copy:
+            self._sorted.bind_to_storage_buffer(B_SORTED)
+            self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
         per_group = 256 * PPT
         for name in ("count", "scan", "scatter", "splat"):
-            sh = self._stages[name]
+            sh = stages[name]
             set_uniforms(sh, num_particles=n, **masses)
             count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
                      "splat": groups(n, self.chunk)}[name]

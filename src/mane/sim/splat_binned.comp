@@ -15,11 +15,12 @@
 //                  START(NUM_TILES) = particles binned; clears the counts for the next step
 //   STAGE_SCATTER  per particle: its rank in the group's shared histogram plus the group's slot
 //                  range (one atomicAdd on CURSOR(t) per touched tile) -> ORDER(slot) = particle,
-//                  and its position and velocity copied to slot in the sorted buffers
-//   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group, read from the sorted copies in slot
-//                  order (contiguous: the particles of a tile come from strands all over the
-//                  buffers, and gathering them through ORDER was the splat's whole cost at 1M
-//                  guides: scattered 16-byte reads, docs/performance.md): for every tile segment of
+//                  and (SORTED_COPY) its position and velocity copied to slot in the sorted buffers
+//   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group, read through ORDER or
+//                  (SORTED_COPY) from the sorted copies in slot order (contiguous: the particles
+//                  of a tile come from strands all over the buffers, and gathering them through
+//                  ORDER was the splat's whole cost at 1M guides: scattered 16-byte reads; at 100k
+//                  the copies cost more than they save, docs/performance.md): for every tile segment of
 //                  the chunk, clear a shared node tile, add each particle's 8 corners to it, flush
 //                  the touched nodes to the accumulator (grid_accum.glsl's format). A particle whose
 //                  stencil the splat finds outside its tile (it cannot, unless the compiler rounds
@@ -37,9 +38,14 @@ layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec
 layout(std430, binding = B_TILES) buffer Tiles { uint tiles[]; };
 // [0, n): tile of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by tile
 layout(std430, binding = B_ORDER) buffer Order { uint order[]; };
+#ifndef SORTED_COPY
+#define SORTED_COPY 0
+#endif
+#if SORTED_COPY
 // the position (w: inverse mass) and the velocity of the particle at each slot
 layout(std430, binding = B_SORTED) buffer SortedPositions { vec4 sorted_p[]; };
 layout(std430, binding = B_SORTED_VELOCITIES) buffer SortedVelocities { vec4 sorted_v[]; };
+#endif
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 
@@ -152,8 +158,10 @@ void main() {
         if (tile[r] != NO_TILE) {
             uint i = first + r * 256u, slot = s_hist[tile[r]] + rank[r];
             ORDER(slot) = i;
+#if SORTED_COPY
             sorted_p[slot] = positions[i];
             sorted_v[slot] = velocities[i];
+#endif
         }
 }
 #endif
@@ -239,9 +247,15 @@ void run_flush(vec4 run[8], ivec3 base, ivec3 origin) {
 
 // The particle at sorted slot `slot` into the run of register sums (cell: the run's cell, -1 for none yet).
 void run_particle(uint slot, inout ivec3 cell, inout vec4 run[8], ivec3 origin) {
+#if SORTED_COPY
     vec4 p = sorted_p[slot];
-    float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
     vec3 v = sorted_v[slot].xyz;
+#else
+    uint i = ORDER(slot);
+    vec4 p = positions[i];
+    vec3 v = velocities[i].xyz;
+#endif
+    float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
     NodeStencil s = node_stencil(p.xyz);
     if (s.base != cell) {
         if (cell.x >= 0) run_flush(run, cell, origin);
@@ -294,9 +308,15 @@ void main() {
         if (cell.x >= 0) run_flush(run, cell, origin);
 #else
         for (uint slot = pos + lid * per; slot < run_end; ++slot) {
+#if SORTED_COPY
             vec4 p = sorted_p[slot];
-            float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
             vec3 v = sorted_v[slot].xyz;
+#else
+            uint i = ORDER(slot);
+            vec4 p = positions[i];
+            vec3 v = velocities[i].xyz;
+#endif
+            float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
             NodeStencil s = node_stencil(p.xyz);
             ivec3 local = s.base - origin;     // in [0, TILE_CELLS - 1]^3
             bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
