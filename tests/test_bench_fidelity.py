@@ -237,7 +237,7 @@ def test_decompose_reference_noise_from_its_passes_by_hand():
 
     a, b = np.full((2, 2, 3), 1.0), np.full((2, 2, 3), 1.2)
     store = {f"64-{pass_seed(0, k)}": img for k, img in enumerate((a, a, b, b))}
-    reference = SimpleNamespace(cache_key=lambda spp, seed, **kw: f"{spp}-{seed}")
+    reference = SimpleNamespace(cache_key=lambda spp, seed, **kw: f"{spp}-{seed}", default_pass_spp=lambda: 64)
     cache = SimpleNamespace(load=lambda folder, key: store.get(key))
     mask = np.ones((2, 2), bool)
     h = fd.pass_halves(reference, cache, None, {"spp": 256}, 0, mask)
@@ -245,6 +245,10 @@ def test_decompose_reference_noise_from_its_passes_by_hand():
     assert h["halves_relative_mae"] == pytest.approx(0.2 / 1.2)        # |1.0 - 1.2| over luminance 1.2
     assert h["reference_noise_estimate"] == pytest.approx(0.1 / 1.2)
     assert fd.pass_halves(reference, cache, None, {"spp": 64}, 0, mask) is None      # one pass
+    # the passes are the variant's (512 samples each for the GPU's): 1024 spp is two of them
+    gpu = SimpleNamespace(cache_key=reference.cache_key, default_pass_spp=lambda: 512)
+    store.update({f"512-{pass_seed(0, k)}": img for k, img in enumerate((a, b))})
+    assert fd.pass_halves(gpu, cache, None, {"spp": 1024}, 0, mask)["passes"] == 2
     del store[f"64-{pass_seed(0, 3)}"]
     assert fd.pass_halves(reference, cache, None, {"spp": 256}, 0, mask) is None     # a pass not cached
 
