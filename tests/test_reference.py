@@ -348,6 +348,19 @@ def test_cli_reference_takes_the_hair_preset_and_the_frame_options(monkeypatch):
         settings_from_args(args)
 
 
+def test_cli_reference_refuses_an_unknown_variant_before_any_work(tmp_path):
+    """--variant is checked first: one line naming the variants, and no image written."""
+    from mane.app.cli import build_parser
+    from mane.app.reference import run
+
+    out = tmp_path / "ref.png"
+    args = build_parser("reference").parse_args(["reference", "--variant", "optix", "--out", str(out)])
+    assert args.variant == "optix"
+    with pytest.raises(UsageError, match="cuda_ad_rgb") as info:
+        run(args)
+    assert "\n" not in str(info.value) and not out.exists()
+
+
 # ---------------------------------------------------------------- independent passes
 def test_pass_seeds_and_split():
     from mane.reference.passes import pass_seed, split
