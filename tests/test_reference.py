@@ -110,6 +110,18 @@ def test_variant_comes_from_the_argument_then_the_environment_then_scalar(monkey
     with pytest.raises(UsageError, match="scalar_rgb, cuda_ad_rgb, llvm_ad_rgb") as info:
         ref.resolve_variant("cuda_rgb")
     assert "\n" not in str(info.value)
+    # "auto": the GPU's variant where it starts, else scalar_rgb, probed once a process
+    import importlib
+
+    render_module = importlib.import_module("mane.reference.render")
+
+    monkeypatch.setattr(render_module, "_AUTO", [])
+    monkeypatch.setattr(render_module, "available", lambda v=None: v == "cuda_ad_rgb")
+    assert ref.resolve_variant("auto") == "cuda_ad_rgb"
+    monkeypatch.setattr(render_module, "_AUTO", [])
+    monkeypatch.setattr(render_module, "available", lambda v=None: False)
+    monkeypatch.setenv(ref.VARIANT_ENV, "auto")
+    assert ref.resolve_variant() == "scalar_rgb"
     monkeypatch.setenv(ref.VARIANT_ENV, "spectral")
     with pytest.raises(UsageError, match=r"\$MANE_REFERENCE_VARIANT"):
         ref.render(strands=_strand([[0, 0, 0], [0, 1, 0]], 1e-3), camera=Camera(), spp=1)

@@ -23,7 +23,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--spp", type=int, default=64, help="samples per pixel (default 64)")
     parser.add_argument("--seed", type=int, default=0, help="sampler seed (default 0)")
     parser.add_argument("--variant", default=None, help="Mitsuba variant: scalar_rgb (default, or "
-                        "$MANE_REFERENCE_VARIANT), cuda_ad_rgb (an NVIDIA GPU), llvm_ad_rgb (every CPU core)")
+                        "$MANE_REFERENCE_VARIANT), cuda_ad_rgb (an NVIDIA GPU), llvm_ad_rgb (every CPU core), "
+                        "auto (cuda_ad_rgb where it starts)")
     parser.add_argument("--max-depth", type=int, default=64, help="longest light path (default 64)")
     parser.add_argument("--exposure", type=float, default=1.0, help="multiply the radiance before sRGB (default 1)")
     parser.add_argument("--camera", default="", help="AZ,EL[,DIST_SCALE[,FOV]] degrees around the scene's "

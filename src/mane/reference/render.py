@@ -20,8 +20,8 @@ point light is Mitsuba's ``point`` emitter of radiant intensity c * I (W/sr, fal
 Mitsuba's diffuse head reflects albedo / pi (mane's head shader reflects the albedo itself).
 
 Mitsuba is an optional extra (``pip install mane[reference]``). Its variant (``variant=``, else
-``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``) is one of ``VARIANTS``: ``scalar_rgb`` needs
-nothing more; ``cuda_ad_rgb`` renders on an NVIDIA GPU (the driver's CUDA and OptiX) and
+``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``) is one of ``VARIANTS`` or "auto" (the GPU's
+where it starts, else scalar_rgb): ``scalar_rgb`` needs nothing more; ``cuda_ad_rgb`` renders on an NVIDIA GPU (the driver's CUDA and OptiX) and
 ``llvm_ad_rgb`` on every CPU core (a recent libLLVM), both the same estimator of the same image
 with other random numbers. Above ``pass_spp`` samples (64, or 512 for the two JIT variants,
 ``default_pass_spp``) the image is the mean of independent passes, each rendered in a child
@@ -54,14 +54,28 @@ class ReferenceUnavailableError(ManeError):
 
 
 def resolve_variant(variant: str | None = None) -> str:
-    """``variant``, else ``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``; one of ``VARIANTS``."""
+    """``variant``, else ``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``; one of ``VARIANTS``, or
+    "auto": cuda_ad_rgb where this machine renders with it, else scalar_rgb (probed once)."""
     import os
 
     name = variant if variant is not None else (os.environ.get(VARIANT_ENV) or MITSUBA_VARIANT)
+    if name == "auto":
+        return _auto_variant()
     if name not in VARIANTS:
         where = "" if variant is not None else f" (from ${VARIANT_ENV})"
-        raise UsageError(f"unknown Mitsuba variant {name!r}{where}: use one of {', '.join(VARIANTS)}")
+        raise UsageError(f"unknown Mitsuba variant {name!r}{where}: use one of {', '.join(VARIANTS)} or auto")
     return name
+
+
+_AUTO: list[str] = []
+
+
+def _auto_variant() -> str:
+    """cuda_ad_rgb if Mitsuba can start it here (an NVIDIA driver with CUDA and OptiX), else
+    scalar_rgb; the answer is kept for the process."""
+    if not _AUTO:
+        _AUTO.append("cuda_ad_rgb" if available("cuda_ad_rgb") else MITSUBA_VARIANT)
+    return _AUTO[0]
 
 
 def default_pass_spp(variant: str | None = None) -> int:
