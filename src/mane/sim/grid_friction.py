@@ -18,8 +18,9 @@ Each step, on the GPU only:
        * ``"binned"`` (default up to 129^3 nodes): particles are counted and sorted by tile of
          8^3 cells (3 small dispatches; at scale the scatter also copies each particle's
          position and velocity to its sorted slot), then each work group sums a balanced chunk
-         of sorted particles, read contiguously from those copies, into its tile's 9^3 nodes in shared
-         memory and adds only the touched nodes to the accumulator (``splat_binned.comp``).
+         of sorted particles, read contiguously from those copies, into its tile's 9^3 nodes
+         in shared memory and adds only the touched nodes to the accumulator
+         (``splat_binned.comp``).
          Gathering a tile's particles through the order instead (they come from strands all
          over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
          guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper at 100k (0.41 against 0.50
@@ -62,9 +63,8 @@ from ..errors import GLFeatureError, UsageError
 from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
-from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_SORTED, B_SORTED_VELOCITIES,
-                       B_TILES,
-                       TEX_SPLAT)
+from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_SORTED,
+                       B_SORTED_VELOCITIES, B_TILES, TEX_SPLAT)
 
 HERE = Path(__file__).resolve().parent
 METHODS = ("atomic", "raster")
@@ -325,10 +325,11 @@ class GridFriction:
                     b.release()
             self._order = self._sorted = self._sorted_v = None
             capacity = max(n, 1024)
-            if copy:   # the sorted positions and velocities (the order is half as large)
-                for _ in range(2):
-                    check_allocation(ctx, capacity * 16, f"the friction splat's sorted copy of {n} particles",
-                                     reduce="Use fewer strands or points per strand")
+            if copy:   # the order (8 bytes a particle) and the sorted positions and velocities (16 each)
+                what = f"the friction splat's sorted copy of {n} particles"
+                reduce = "Use fewer strands or points per strand"
+                check_allocation(ctx, capacity * 40, what, ssbo=False, reduce=reduce)
+                check_allocation(ctx, capacity * 16, what, reduce=reduce)     # each buffer's size
             self._order_capacity = capacity
             self._order = ctx.buffer(reserve=2 * capacity * 4)
             if copy:

@@ -184,6 +184,18 @@ shared uint s_acc[TILE_NODES * 8u];
 #endif
 #define S_ACC(w, j) s_acc[(w) * TILE_NODES + (j)]
 
+// The position (w: inverse mass) and the velocity of the particle at sorted slot `slot`.
+void slot_particle(uint slot, out vec4 p, out vec3 v) {
+#if SORTED_COPY
+    p = sorted_p[slot];
+    v = sorted_v[slot].xyz;
+#else
+    uint i = ORDER(slot);
+    p = positions[i];
+    v = velocities[i].xyz;
+#endif
+}
+
 void tile_add(uint j, float m, vec3 mv) {
 #if ACC_FLOAT
     atomicAdd(S_ACC(0u, j), m);
@@ -247,14 +259,9 @@ void run_flush(vec4 run[8], ivec3 base, ivec3 origin) {
 
 // The particle at sorted slot `slot` into the run of register sums (cell: the run's cell, -1 for none yet).
 void run_particle(uint slot, inout ivec3 cell, inout vec4 run[8], ivec3 origin) {
-#if SORTED_COPY
-    vec4 p = sorted_p[slot];
-    vec3 v = sorted_v[slot].xyz;
-#else
-    uint i = ORDER(slot);
-    vec4 p = positions[i];
-    vec3 v = velocities[i].xyz;
-#endif
+    vec4 p;
+    vec3 v;
+    slot_particle(slot, p, v);
     float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
     NodeStencil s = node_stencil(p.xyz);
     if (s.base != cell) {
@@ -308,14 +315,9 @@ void main() {
         if (cell.x >= 0) run_flush(run, cell, origin);
 #else
         for (uint slot = pos + lid * per; slot < run_end; ++slot) {
-#if SORTED_COPY
-            vec4 p = sorted_p[slot];
-            vec3 v = sorted_v[slot].xyz;
-#else
-            uint i = ORDER(slot);
-            vec4 p = positions[i];
-            vec3 v = velocities[i].xyz;
-#endif
+            vec4 p;
+            vec3 v;
+            slot_particle(slot, p, v);
             float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
             NodeStencil s = node_stencil(p.xyz);
             ivec3 local = s.base - origin;     // in [0, TILE_CELLS - 1]^3
