@@ -115,13 +115,15 @@ def test_variant_comes_from_the_argument_then_the_environment_then_scalar(monkey
 
     render_module = importlib.import_module("mane.reference.render")
 
-    monkeypatch.setattr(render_module, "_AUTO", [])
+    render_module._auto_variant.cache_clear()
     monkeypatch.setattr(render_module, "available", lambda v=None: v == "cuda_ad_rgb")
     assert ref.resolve_variant("auto") == "cuda_ad_rgb"
-    monkeypatch.setattr(render_module, "_AUTO", [])
     monkeypatch.setattr(render_module, "available", lambda v=None: False)
+    assert ref.resolve_variant("auto") == "cuda_ad_rgb"                 # probed once a process
+    render_module._auto_variant.cache_clear()
     monkeypatch.setenv(ref.VARIANT_ENV, "auto")
     assert ref.resolve_variant() == "scalar_rgb"
+    render_module._auto_variant.cache_clear()
     monkeypatch.setenv(ref.VARIANT_ENV, "spectral")
     with pytest.raises(UsageError, match=r"\$MANE_REFERENCE_VARIANT"):
         ref.render(strands=_strand([[0, 0, 0], [0, 1, 0]], 1e-3), camera=Camera(), spp=1)

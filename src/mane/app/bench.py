@@ -13,6 +13,7 @@ import argparse
 import importlib
 import inspect
 import sys
+from contextlib import nullcontext
 from pathlib import Path
 
 from ..bench.common import sanitise, to_json
@@ -103,13 +104,8 @@ def run(args) -> int:
 
     log = DriverLog(ctx) if getattr(args, "driver_log", False) else None
     try:
-        if log is not None:
-            log.start()
-        try:
+        with log if log is not None else nullcontext():
             result = module.run(ctx, mode, progress=progress, **kwargs)
-        finally:
-            if log is not None:
-                log.stop()
         if log is not None and isinstance(result.get("meta"), dict):
             result["meta"]["driver_log"] = log.summary()
         result = sanitise(result)

@@ -31,6 +31,7 @@ material, head, size, samples (and passes), seed, depth, Mitsuba's version and v
 """
 from __future__ import annotations
 
+import functools
 import tempfile
 from dataclasses import asdict
 from pathlib import Path
@@ -67,15 +68,11 @@ def resolve_variant(variant: str | None = None) -> str:
     return name
 
 
-_AUTO: list[str] = []
-
-
+@functools.cache
 def _auto_variant() -> str:
     """cuda_ad_rgb if Mitsuba can start it here (an NVIDIA driver with CUDA and OptiX), else
     scalar_rgb; the answer is kept for the process."""
-    if not _AUTO:
-        _AUTO.append("cuda_ad_rgb" if available("cuda_ad_rgb") else MITSUBA_VARIANT)
-    return _AUTO[0]
+    return "cuda_ad_rgb" if available("cuda_ad_rgb") else MITSUBA_VARIANT
 
 
 def default_pass_spp(variant: str | None = None) -> int:
@@ -294,7 +291,7 @@ def _cached_render(parts, cache, cache_dir, make) -> np.ndarray:
 def cache_key(groom=None, *, head=None, camera=None, lights=None, settings=None, spp: int = 64, size=None,
               material: HairMaterial | None = None, strands=None, seed: int = 0, max_depth: int = 64,
               pass_spp: int | None = 0, variant: str | None = None, ctx=None) -> str:
-    """The cache key ``render`` would use for these arguments."""
+    """The cache key ``render`` would use for these arguments (``pass_spp`` 0: the variant's own)."""
     variant = resolve_variant(variant)
     pass_spp = default_pass_spp(variant) if pass_spp == 0 else pass_spp
     settings, strands, head, camera, lights = _prepare(groom, head=head, camera=camera, lights=lights,

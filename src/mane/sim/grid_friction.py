@@ -224,7 +224,6 @@ class GridFriction:
                 self._stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
                                 for name in ("count", "scan", "scatter", "splat")}
-                self._splat = self._stages["splat"]
                 self._binned_defines = binned
                 self._copy_stages = None    # the scatter and splat with SORTED_COPY, made when first used
                 self.sorted_copy = None if sorted_copy is None else bool(sorted_copy)
@@ -315,9 +314,7 @@ class GridFriction:
                                                                **{f"STAGE_{name.upper()}": 1}))
                                      for name in ("scatter", "splat")}
             stages = dict(stages, **self._copy_stages)
-        if copy and self._sorted is None and self._order_capacity >= n:
-            self._order_capacity = 0     # the order is there, the copies are not: make them all again
-        if self._order_capacity < n:
+        if self._order_capacity < n or (copy and self._sorted is None):   # (re)made together
             from ..gpu.buffers import check_allocation
 
             for b in (self._order, self._sorted, self._sorted_v):
