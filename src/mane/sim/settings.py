@@ -55,9 +55,9 @@ class SolverTuning:
     """How the solver's kernels are built and folded: the same results (to float round-off),
     other speeds. ``SimSettings.solver``; ``mane bench sim`` records them with every row."""
 
-    shape_pipeline: int = setting(1, lo=1, hi=4,
+    shape_pipeline: int = setting(2, lo=1, hi=4,
         help="""shape iterations pipelined in one pass over a strand (1..4; the others take a pass
-        each, through memory). More stages mean more registers per thread; 1 was the fastest
+        each, through memory). More stages mean more registers per thread; 2 was the fastest
         measured (docs/performance.md).""")
     strand_group_size: int = setting(32, choices=(32, 64, 128, 256),
         help="""work group size of the per-strand kernels (one thread per strand); 32 was the fastest
