@@ -19,7 +19,7 @@ VARIANTS = {
     "binned-float": dict(method="atomic", splat="binned", float_atomics=True, aggregate=False),
     # the binned splat summing runs of particles in one cell in registers first (float sums only)
     "binned-float-run": dict(method="atomic", splat="binned", float_atomics=True, aggregate=True),
-    # the scatter copying the particles in sorted order for the splat (the default from 8M particles)
+    # the scatter copying the particles in sorted order for the splat (the default from 20M particles)
     "binned-float-copy": dict(method="atomic", splat="binned", float_atomics=True, sorted_copy=True),
     "binned-fixed-copy": dict(method="atomic", splat="binned", float_atomics=False, sorted_copy=True),
     "direct-fixed": dict(method="atomic", splat="direct", float_atomics=False),

@@ -23,8 +23,8 @@ Each step, on the GPU only:
          (``splat_binned.comp``).
          Gathering a tile's particles through the order instead (they come from strands all
          over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
-         guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper at 100k (0.41 against 0.50
-         ms), so the copies are made from ``SORTED_COPY_MIN`` particles on (``sorted_copy``
+         guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper up to 500k guides (16M
+         particles: 1.96 against 2.35 ms), so the copies are made from ``SORTED_COPY_MIN`` particles on (``sorted_copy``
          forces either; docs/performance.md). Global atomics drop from 32 per particle
          to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
          serialise in L2. With float atomics (``aggregate``, on by default there) each
@@ -74,10 +74,10 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
-SORTED_COPY_MIN = 8_000_000   # binned splat: particles from which the scatter copies them in sorted
-                              # order for the splat (H200, friction step: 100k guides x 32 0.41 ms
-                              # without, 0.50 with; 1M 11.5 / 5.8, 2M 43.2 / 11.6; the crossover,
-                              # between, is estimated near 4.5M particles, not measured)
+SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter copies them in sorted
+                              # order for the splat (H200, friction pass without / with the copies,
+                              # guides x 32: 100k 0.40 / 0.50 ms, 250k 0.91 / 1.15, 500k 1.96 / 2.35,
+                              # 1M 7.9 / 4.75, 2M 32.1 / 9.5; docs/performance.md)
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
