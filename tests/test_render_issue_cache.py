@@ -202,3 +202,24 @@ def test_lod_plan_kept_over_new_positions_and_made_again_for_a_new_box(gl):
         assert other is not plan and len(other.kept) == 1
     finally:
         r.release()
+
+
+def test_set_uniforms_sets_a_dict_again_after_another_dict_wrote_a_shared_uniform():
+    """A dict set whole is skipped only while no uniform of the program's plans was written since."""
+    a, b = FakeUniform("f"), FakeUniform("f")
+    prog = FakeProgram(u_a=a, u_b=b)
+    first, second = {"u_a": 0.5, "u_b": 1.0}, {"u_b": 2.0}
+    set_uniforms(prog, first)
+    set_uniforms(prog, first)
+    assert len(a.written) == 1 and len(b.written) == 1
+    set_uniforms(prog, second)       # another pass's dict on the same program
+    set_uniforms(prog, first)
+    set_uniforms(prog, first)
+    assert [struct.unpack("f", w)[0] for w in b.written] == [1.0, 2.0, 1.0]
+    assert len(a.written) == 1       # its value never changed: not written again
+    write_uniform(b, 3.0)            # a single write, not through a dict
+    set_uniforms(prog, first)
+    assert struct.unpack("f", b.written[-1])[0] == 1.0
+    forget_uniforms(prog)
+    set_uniforms(prog, first)
+    assert len(a.written) == 2 and len(b.written) == 6
