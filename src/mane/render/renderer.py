@@ -29,7 +29,7 @@ from .camera import Camera, look_at, orthographic, perspective
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
-from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, subdivisions
+from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
 from .passes.expand import ExpandPass
 from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
@@ -79,16 +79,6 @@ class ShadingAdapter:
 
 DEFAULT_HEAD_FRAME_FLOOR = -0.30
 """Lowest height (m) the default camera frames on the default bust (mid-chest)."""
-
-
-def _same_box(a, b) -> bool:
-    """Two (lo, hi) boxes equal (the strands keep their box object until refreshed; with
-    instances the box is made anew each call)."""
-    if a is b:
-        return True
-    if a is None or b is None:
-        return False
-    return bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
 
 
 class Renderer(GpuOwner):
@@ -467,7 +457,7 @@ class Renderer(GpuOwner):
         key = (pad, draw_head)
         memo = self._scene_box
         # the strands keep their box until it is refreshed (a new tuple); the head until set_head
-        if (memo is None or not _same_box(memo[0], st_box) or memo[1] is not self.head
+        if (memo is None or not same_box(memo[0], st_box) or memo[1] is not self.head
                 or memo[2] != key):
             los, his = [], []
             if st_box is not None:
@@ -680,7 +670,7 @@ class Renderer(GpuOwner):
         box = self.hair_bbox()
         pad = self.strand_pad()
         memo = lv.__dict__.get("_hair_depth_range")   # kept on the (kept) light view
-        if memo is not None and _same_box(memo[0], box) and memo[1] == pad:
+        if memo is not None and same_box(memo[0], box) and memo[1] == pad:
             return memo[2]
         lo, hi = box
         lo, hi = lo - pad, hi + pad
