@@ -139,16 +139,21 @@ class ExpandPass(Pass):
         compute rasteriser's scan conversions)."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        set_uniforms(cs, self._dispatch_uniforms())
-        run_1d(cs, self.segments)
+        uniforms, groups = self._dispatch_plan()
+        set_uniforms(cs, uniforms)
+        if groups is not None:
+            cs.run(*groups)
 
-    def _dispatch_uniforms(self) -> dict:
-        """dispatch_segments' uniforms, one dict while the expanded buffer's shape is the same."""
-        key = (int(self.points), int(self.segments))
+    def _dispatch_plan(self) -> tuple:
+        """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape is
+        the same."""
+        key = (self.points, self.strands)
         memo = self._dispatch_memo
         if memo is None or memo[0] != key:
-            memo = self._dispatch_memo = (key, {"u_points_per_strand": key[0], "u_num_segments": key[1]})
-        return memo[1]
+            segments = int(self.segments)
+            memo = self._dispatch_memo = (key, {"u_points_per_strand": int(self.points), "u_num_segments": segments},
+                                          groups_1d(segments))
+        return memo[1], memo[2]
 
     def read(self) -> np.ndarray:
         """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random; instance by
@@ -180,11 +185,18 @@ class ExpandPass(Pass):
 def run_1d(cs, n: int) -> None:
     """Dispatch ``cs`` (local_size_x = LOCAL_SIZE) over n invocations, x then y groups (the
     shader flattens gl_WorkGroupID); nothing for n = 0."""
+    groups = groups_1d(n)
+    if groups is not None:
+        cs.run(*groups)
+
+
+def groups_1d(n: int) -> tuple[int, int] | None:
+    """run_1d's work groups (x, y) for n invocations; None for n = 0."""
     groups = math.ceil(int(n) / LOCAL_SIZE)
     if groups <= 0:
-        return
+        return None
     gx = min(groups, MAX_GROUPS_X)
-    cs.run(gx, math.ceil(groups / gx))
+    return gx, math.ceil(groups / gx)
 
 
 def _ids():

@@ -38,7 +38,7 @@ import numpy as np
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_VIS
 from ..coverage_lod import box_corners
-from .base import RENDER_DIR, same_box, set_uniform, shader_path
+from .base import RENDER_DIR, same_box, shader_path
 from .depth_tiles import DepthTiles
 from .raster_segment import balance_for
 
@@ -93,9 +93,7 @@ class OcclusionTiles(DepthTiles):
         cs = self._programs.get(("occlusion", bool(vis64)), (), lambda: compute_shader(
             self.ctx, shader_path("occlusion_tiles.comp"), {"VIS64": int(bool(vis64))},
             include_dirs=[RENDER_DIR]))
-        tiles = self._begin(cs, depth, grid)
-        w, h = depth.size
-        set_uniform(cs, "u_raster_size", (w * grid, h * grid))
+        tiles = self._begin(cs, depth, grid)   # u_raster_size too
         vis.bind_to_storage_buffer(B_VIS)
         cover.bind_to_storage_buffer(B_COVER)
         cs.run(tiles[0], tiles[1])   # a work group a tile
