@@ -22,6 +22,7 @@ import numpy as np
 from ..errors import UsageError
 from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
+from ..gpu.glsl import ProgramMemo
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from ..gpu.uniforms import write_uniform
@@ -124,6 +125,7 @@ class Renderer(GpuOwner):
             self.samples = 1
         self._renderer_string = renderer_name(self.ctx)
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
+        self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
         if self.compute_raster and not self.settings.head_msaa:
             self.samples = 1
         if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
@@ -560,7 +562,7 @@ class Renderer(GpuOwner):
         if "hdr_depth" not in self._targets:
             self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
         self._targets["hdr_depth"][0].clear(depth=1.0)
-        clear_texture(self.ctx, self._targets["hdr"].color)
+        clear_texture(self.ctx, self._targets["hdr"].color, programs=self._programs)
         fbo.use()
 
     def hdr_target(self) -> Target:
