@@ -408,9 +408,11 @@ class Simulator(GpuOwner):
         _set(sh, "global_stiffness", s.global_shape_stiffness)
         _set(sh, "global_range", s.global_shape_range)
         _set(sh, "time", st.time)
-        _set(sh, "wind_on", int(s.wind.active))
-        for k, v in s.wind.uniforms().items():
-            _set(sh, k, v)
+        wind = int(s.wind.active)
+        _set(sh, "wind_on", wind)
+        if wind:   # the kernels read the wind's uniforms only with wind_on
+            for k, v in s.wind.uniforms().items():
+                _set(sh, k, v)
 
     # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp); how
     # they are built and folded: settings.solver (SolverTuning)
