@@ -111,6 +111,7 @@ class Renderer(GpuOwner):
         self._scene_box = None        # scene_bbox's last box and what it was made from
         self._camera_view = None      # (key, View) of the last camera
         self._light_views: dict = {}  # (light, map size, scene box) -> View
+        self._light_views_by_id: dict = {}  # id(light) -> (light, kept scene box, map size, View)
         self._default_lights = None
         self._frames_dirty = True
         self._geometry_version = 0
@@ -183,6 +184,7 @@ class Renderer(GpuOwner):
             self.instances = m
         self._scene_box = None
         self._light_views.clear()
+        self._light_views_by_id.clear()
         self._geometry_version += 1
 
     def instance_transforms(self) -> np.ndarray:
@@ -453,6 +455,12 @@ class Renderer(GpuOwner):
 
     def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
         """The hair's box (padded by strand_pad) and the head's, around the world's axes."""
+        lo, hi = self._kept_scene_box()
+        return lo.copy(), hi.copy()
+
+    def _kept_scene_box(self) -> tuple:
+        """scene_bbox's (lo, hi) as kept (not to be changed): one tuple object while the box is
+        the same."""
         st_box = self.hair_bbox() if self.strands is not None else None
         pad = self.strand_pad() if st_box is not None else 0.0
         draw_head = self.head is not None and bool(self.settings.draw_head)
@@ -474,8 +482,7 @@ class Renderer(GpuOwner):
             else:
                 box = (np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float))
             memo = self._scene_box = (st_box, self.head, key, box)
-        lo, hi = memo[3]
-        return lo.copy(), hi.copy()
+        return memo[3]
 
     def scene_center(self) -> np.ndarray:
         lo, hi = self.scene_bbox()
@@ -630,17 +637,26 @@ class Renderer(GpuOwner):
 
     def light_view(self, light: Light) -> View:
         """Light 0's view fitted around the scene's bounding sphere (kept while the light, the
-        scene's box and the map size are the same)."""
-        lo, hi = self.scene_bbox()
-        key = (light, int(self.settings.shadow_map_size), lo.tobytes(), hi.tobytes())
+        scene's box and the map size are the same; found by identity first: the same light
+        object and kept box, as every frame of a still scene asks)."""
+        box = self._kept_scene_box()
+        n = int(self.settings.shadow_map_size)
+        last = self._light_views_by_id.get(id(light))
+        if last is not None and last[0] is light and last[1] is box and last[2] == n:
+            return last[3]
+        lo, hi = box
+        key = (light, n, lo.tobytes(), hi.tobytes())
         try:
             view = self._light_views.get(key)
         except TypeError:   # an unhashable light: nothing kept
-            return self._light_view_of(light, lo, hi)
+            return self._light_view_of(light, lo.copy(), hi.copy())
         if view is None:
             if len(self._light_views) >= 4 * MAX_LIGHTS:
                 self._light_views.clear()
-            view = self._light_views[key] = self._light_view_of(light, lo, hi)
+            view = self._light_views[key] = self._light_view_of(light, lo.copy(), hi.copy())
+        if len(self._light_views_by_id) >= 4 * MAX_LIGHTS:   # new light objects every frame (a viewer)
+            self._light_views_by_id.clear()
+        self._light_views_by_id[id(light)] = (light, box, n, view)
         return view
 
     def _light_view_of(self, light: Light, lo, hi) -> View:
