@@ -13,6 +13,7 @@ import pytest
 
 from mane.gpu import glsl
 from mane.gpu.uniforms import forget_uniforms, write_uniform
+from mane.groom import Groom
 from mane.render import Renderer
 from mane.render.passes.base import has_uniform, set_uniforms
 from mane.render.shading import ShadingSettings
@@ -152,6 +153,30 @@ def test_changes_after_a_frame_reach_the_shaders(gl):
         r.set_head_transform(np.eye(4))
         assert not r.compute_raster
         assert np.array_equal(r.render_image(CAM2, LIGHTS), fresh(s3, CAM2, LIGHTS))
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
+def test_another_interpolation_after_a_frame_expands_with_its_kernel(gl):
+    """The expansion's kernel is kept per (interpolation, mode, LOD): a switch after frames
+    gives a fresh renderer's frame, and switching back the first frame again."""
+    t = np.linspace(0, 1, 8)
+    wavy = Groom.from_strands([np.c_[0.08 * np.cos(a) * t + 0.03 * np.sin(9 * t), 0.15 - 0.3 * t,
+                                     0.08 * np.sin(a) * t + 0.03] for a in np.linspace(0, np.pi, 9)])
+    s1 = base_settings(interpolation="catmull_rom")
+    r = Renderer(s1, ctx=gl, profile=False)
+    try:
+        r.set_strands(wavy)
+        r.set_head(ball())
+        first = r.render_image(CAM, LIGHTS)
+        s2 = replace(s1, interpolation="bspline")
+        r.settings = s2
+        other = r.render_image(CAM, LIGHTS)
+        assert not np.array_equal(other, first)
+        assert np.array_equal(other, fresh(s2, CAM, LIGHTS, wavy))
+        r.settings = s1
+        assert np.array_equal(r.render_image(CAM, LIGHTS), first)
     finally:
         r.release()
 

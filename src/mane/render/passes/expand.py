@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ...gpu.glsl import compute_shader
+from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_EXPANDED, B_STRAND_TABLE
 from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, set_uniform, set_uniforms, subdivisions  # noqa: F401  (pulls: here too)
 
@@ -37,6 +37,7 @@ class ExpandPass(Pass):
         self._key = None
         self._key_memo = None   # (what key() was made of, by identity; the key)
         self._dispatch_memo = None
+        self._programs = ProgramMemo()   # strand_expand.comp per (interpolation, mode, LOD)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -82,9 +83,10 @@ class ExpandPass(Pass):
         plan = r.lod_plan()
         sub = plan.subdivisions(subdivisions(s, N), N - 1)   # the segment LOD: fewer where strands look short
         multi = s.interpolation_mode != "single"
-        defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
-                   "LOD": int(bool(s.lod))}
-        cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
+        cs = self._programs.get("expand", (s.interpolation, s.interpolation_mode, bool(s.lod)), lambda: compute_shader(
+            ctx, HERE / "strand_expand.comp", {"INTERPOLATION": _ids()["interp"][s.interpolation],
+                                               "MULTI": _ids()["multi"][s.interpolation_mode], "LOD": int(bool(s.lod))},
+            include_dirs=[HERE.parent]))
         if multi:
             table = r.strand_table()
             table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
