@@ -27,6 +27,7 @@ from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from ..gpu.uniforms import write_uniform
 from .camera import Camera, look_at, orthographic, perspective
+from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
@@ -194,8 +195,6 @@ class Renderer(GpuOwner):
     def instance_boxes(self, pad: float = 0.0) -> list:
         """Each instance's world box around the hair (padded by ``pad``): its local box's
         corners transformed."""
-        from .coverage_lod import box_corners
-
         lo, hi = self.strands.bbox()
         if self.instances is None:
             return [(lo - pad, hi + pad)]
@@ -222,8 +221,6 @@ class Renderer(GpuOwner):
         """The coverage LOD's plan (mane.render.coverage_lod) at ``view`` (default: this frame's
         camera): strands kept per guide for each instance. Everything is kept without a view,
         with lod_depth 0 or with multi / hybrid interpolation."""
-        from .coverage_lod import LodPlan, lod_plan, mean_width
-
         s, st = self.settings, self.strands
         view = view if view is not None else self.lod_view
         spg = int(s.strands_per_guide)
