@@ -177,3 +177,26 @@ def test_the_split_depth_lies_in_the_hair(gl):
         assert z == pytest.approx(c[2] / c[3] * 0.5 + 0.5, abs=1e-6)
     finally:
         r.release()
+
+
+def test_the_split_depth_kept_on_the_view_follows_the_hair_and_split(gl, monkeypatch):
+    """split_depth keeps its value on the camera's View: a new groom (another box) or another
+    SPLIT gives what a fresh computation gives."""
+    r = Renderer(RenderSettings(size=(64, 48), shadows="none", rasterizer="compute", draw_head=False), ctx=gl,
+                 profile=False)
+    try:
+        groom = curtain_groom()
+        r.set_strands(groom)
+        view = r.camera_view(CAM)
+        first = occlusion_tiles.split_depth(r, view)
+        assert occlusion_tiles.split_depth(r, view) == first
+        r.set_strands(groom.translated((0.0, 0.0, 0.05)))   # nearer the camera: another split
+        box = r.hair_bbox()
+        pad = r.strand_pad() + float(r.settings.width)
+        nearer = occlusion_tiles.split_depth(r, view)
+        assert nearer == occlusion_tiles._split_depth(box, pad, view) and nearer != first
+        monkeypatch.setattr(occlusion_tiles, "SPLIT", 0.6)
+        deeper = occlusion_tiles.split_depth(r, view)
+        assert deeper == occlusion_tiles._split_depth(box, pad, view) and deeper != first
+    finally:
+        r.release()

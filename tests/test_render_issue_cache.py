@@ -13,6 +13,7 @@ import pytest
 
 from mane.gpu import glsl
 from mane.gpu.uniforms import forget_uniforms, write_uniform
+from mane.groom import Groom
 from mane.render import Renderer
 from mane.render.passes.base import has_uniform, set_uniforms
 from mane.render.shading import ShadingSettings
@@ -157,6 +158,30 @@ def test_changes_after_a_frame_reach_the_shaders(gl):
 
 
 @pytest.mark.gpu
+def test_another_interpolation_after_a_frame_expands_with_its_kernel(gl):
+    """The expansion's kernel is kept per (interpolation, mode, LOD): a switch after frames
+    gives a fresh renderer's frame, and switching back the first frame again."""
+    t = np.linspace(0, 1, 8)
+    wavy = Groom.from_strands([np.c_[0.08 * np.cos(a) * t + 0.03 * np.sin(9 * t), 0.15 - 0.3 * t,
+                                     0.08 * np.sin(a) * t + 0.03] for a in np.linspace(0, np.pi, 9)])
+    s1 = base_settings(interpolation="catmull_rom")
+    r = Renderer(s1, ctx=gl, profile=False)
+    try:
+        r.set_strands(wavy)
+        r.set_head(ball())
+        first = r.render_image(CAM, LIGHTS)
+        s2 = replace(s1, interpolation="bspline")
+        r.settings = s2
+        other = r.render_image(CAM, LIGHTS)
+        assert not np.array_equal(other, first)
+        assert np.array_equal(other, fresh(s2, CAM, LIGHTS, wavy))
+        r.settings = s1
+        assert np.array_equal(r.render_image(CAM, LIGHTS), first)
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
 def test_rebuilt_programs_get_every_uniform(gl, monkeypatch):
     """Programs compiled again (an edited shader: the cache forgotten, the recheck due) start
     with no remembered uniforms; the frame must equal the first."""
@@ -202,3 +227,24 @@ def test_lod_plan_kept_over_new_positions_and_made_again_for_a_new_box(gl):
         assert other is not plan and len(other.kept) == 1
     finally:
         r.release()
+
+
+def test_set_uniforms_sets_a_dict_again_after_another_dict_wrote_a_shared_uniform():
+    """A dict set whole is skipped only while no uniform of the program's plans was written since."""
+    a, b = FakeUniform("f"), FakeUniform("f")
+    prog = FakeProgram(u_a=a, u_b=b)
+    first, second = {"u_a": 0.5, "u_b": 1.0}, {"u_b": 2.0}
+    set_uniforms(prog, first)
+    set_uniforms(prog, first)
+    assert len(a.written) == 1 and len(b.written) == 1
+    set_uniforms(prog, second)       # another pass's dict on the same program
+    set_uniforms(prog, first)
+    set_uniforms(prog, first)
+    assert [struct.unpack("f", w)[0] for w in b.written] == [1.0, 2.0, 1.0]
+    assert len(a.written) == 1       # its value never changed: not written again
+    write_uniform(b, 3.0)            # a single write, not through a dict
+    set_uniforms(prog, first)
+    assert struct.unpack("f", b.written[-1])[0] == 1.0
+    forget_uniforms(prog)
+    set_uniforms(prog, first)
+    assert len(a.written) == 2 and len(b.written) == 6

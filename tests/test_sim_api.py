@@ -462,3 +462,14 @@ def test_folded_guard_recovers_before_the_grid_sees_nan(gl, rest):
     others = [0, 1, 3, 4, 5]
     assert np.allclose(p[others], padded(clean)[others], rtol=0, atol=1e-6)
     assert np.all(np.isfinite(sim.velocities()))
+
+
+def test_mat4_follows_a_matrix_changed_in_place():
+    """The head's uniform is kept per matrix value, never per array object."""
+    from mane.sim.simulator import _mat4
+
+    m = np.eye(4)
+    assert _mat4(m) == tuple(np.eye(4).T.reshape(-1))
+    m[0, 3] = 0.25                     # the same array, moved
+    assert _mat4(m)[12] == 0.25        # column-major: the translation is the fourth column
+    assert _mat4(m) is _mat4(m.copy())   # one tuple per value

@@ -278,6 +278,31 @@ def test_wind_blows_hair_downwind(gl):
     assert np.all(dx > 0.02), dx
 
 
+def test_wind_set_again_after_calm_steps(gl):
+    """The wind's uniforms are written only while it blows; a wind after calm steps (another
+    simulator's, sharing the kernels) blows with its own values, not the last wind's."""
+    rest = ref.straight_strands(S=6, N=12, length=0.25, direction=(0, -1, 0))
+    first = SimSettings(drag=2.0, wind=WindSettings(velocity=(3.0, 0, 0), gust=0.5))
+    second = SimSettings(drag=2.0, wind=WindSettings(velocity=(0, 0, -2.0), turbulence=0.5, seed=3))
+    reference = make_sim(gl, rest, second)
+    for _ in range(30):
+        reference.step()
+    calm = make_sim(gl, rest, SimSettings(drag=2.0))
+    for _ in range(30):
+        calm.step()
+    assert not np.array_equal(reference.positions(), calm.positions())
+    other = make_sim(gl, rest, first)   # another wind, then calm steps
+    for _ in range(5):
+        other.step()
+    for _ in range(5):
+        calm.step()
+    again = make_sim(gl, rest, SimSettings(drag=2.0))
+    again.settings = second
+    for _ in range(30):
+        again.step()
+    assert np.array_equal(again.positions(), reference.positions())
+
+
 def test_penalty_collider_pushes_out(gl):
     rest = ref.straight_strands(S=4, N=12, length=0.25, direction=(0, -1, 0), spacing=0.01,
                                 origin=(-0.015, 1.0, 0.0))

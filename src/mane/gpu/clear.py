@@ -15,7 +15,7 @@ import moderngl
 
 from ..errors import UsageError
 from .bindings import IMG_CLEAR
-from .glsl import compute_shader
+from .glsl import ProgramMemo, compute_shader
 from .uniforms import write_uniform
 
 HERE = Path(__file__).resolve().parent
@@ -37,10 +37,16 @@ def image_format(texture) -> str:
     return FORMATS[key]
 
 
-def clear_texture(ctx, texture, value=(0.0, 0.0, 0.0, 0.0)) -> None:
+def clear_texture(ctx, texture, value=(0.0, 0.0, 0.0, 0.0), programs: ProgramMemo | None = None) -> None:
     """Set every texel of ``texture`` (level 0) to ``value`` (RGBA; unused channels ignored),
-    then a barrier so that later draws, fetches and image loads see it."""
-    cs = compute_shader(ctx, SOURCE, defines={"FORMAT": image_format(texture)})
+    then a barrier so that later draws, fetches and image loads see it. ``programs``: the
+    caller's ProgramMemo, which keeps the kernel (else it is looked up in the shader cache)."""
+    fmt = image_format(texture)
+
+    def build():
+        return compute_shader(ctx, SOURCE, defines={"FORMAT": fmt})
+
+    cs = build() if programs is None else programs.get(("clear_image", fmt), (), build)
     w, h = texture.size
     write_uniform(cs["size"], (int(w), int(h)))
     write_uniform(cs["value"], tuple(map(float, value)))

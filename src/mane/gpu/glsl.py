@@ -325,8 +325,8 @@ class ProgramMemo:
     def get(self, slot, deps: tuple, build):
         entry = self._slots.get(slot)
         now = time.monotonic()
-        if (entry is not None and now - entry[2] < RECHECK_SECONDS and len(entry[0]) == len(deps)
-                and all(a is b or a == b for a, b in zip(entry[0], deps))):
+        # a tuple compares its items by identity first, then by equality
+        if entry is not None and now - entry[2] < RECHECK_SECONDS and entry[0] == deps:
             return entry[1]
         obj = build()
         self._slots[slot] = (deps, obj, now)

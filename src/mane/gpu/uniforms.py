@@ -35,20 +35,29 @@ def write_uniform(uniform, value) -> None:
     """Write ``value`` (a moderngl uniform value: a number, a tuple, a list of them, or the
     bytes) unless the uniform was last written the same value (an equal number of the same
     type, an equal tuple; 0.0 and -0.0 count as equal)."""
-    last = uniform.__dict__.get(_LAST)
+    sent = uniform.__dict__
+    last = sent.get(_LAST)
     if last is not None and last.__class__ is value.__class__ and last == value:
         return
     uniform.write(uniform_bytes(uniform, value))
-    uniform.__dict__[_LAST] = value if value.__class__ in _PLAIN else None
+    sent[_LAST] = value if value.__class__ in _PLAIN else None
+    writes = sent.get(_WRITES)
+    if writes is not None:
+        writes[0] += 1
 
 
 def forget_uniforms(program) -> None:
     """Forget what was written to ``program``'s uniforms (after something wrote them directly)."""
     for member in getattr(program, "_members", {}).values():
         member.__dict__.pop(_LAST, None)
+        writes = member.__dict__.get(_WRITES)
+        if writes is not None:
+            writes[0] += 1
 
 
-_PLANS = "_mane_plans"   # on a program: id(values dict) -> (the dict, ((uniform, its __dict__, packed value), ...))
+_PLANS = "_mane_plans"   # on a program: id(values dict) -> [the dict, ((uniform, its __dict__, packed value), ...),
+                         # the program's write count when the dict was last set whole]
+_WRITES = "_mane_writes"   # on a program, and on each uniform of its plans: the program's write count, [n]
 MAX_PLANS = 64
 
 
@@ -56,20 +65,29 @@ def set_uniforms(prog, values: dict, pack=None) -> None:
     """Write every uniform of ``values`` (name -> value; a dict not changed once made) that
     ``prog`` has. The program's uniforms of the dict and their values (``pack(uniform, value)``
     where given) are found once per (program, dict) and kept on the program; a uniform whose
-    last write was that very value object (write_uniform remembers it) is not looked at again."""
-    plans = prog.__dict__.get(_PLANS)
+    last write was that very value object (write_uniform remembers it) is not looked at again,
+    and the whole dict is not looked at again while no uniform of the program's plans has
+    been written (write_uniform counts the writes) since it was last set."""
+    d = prog.__dict__
+    plans = d.get(_PLANS)
     if plans is None:
-        plans = prog.__dict__[_PLANS] = {}
+        plans = d[_PLANS] = {}
+        d[_WRITES] = [0]
+    writes = d[_WRITES]
     entry = plans.get(id(values))
     if entry is None or entry[0] is not values:
         pairs = []
         for name, value in values.items():
             u = prog.get(name, None)
             if u is not None:
+                u.__dict__[_WRITES] = writes
                 pairs.append((u, u.__dict__, pack(u, value) if pack is not None else value))
         if len(plans) >= MAX_PLANS:
             plans.clear()
-        entry = plans[id(values)] = (values, tuple(pairs))
+        entry = plans[id(values)] = [values, tuple(pairs), None]
+    elif entry[2] == writes[0]:
+        return
     for u, sent, v in entry[1]:
         if sent.get(_LAST) is not v:
             write_uniform(u, v)
+    entry[2] = writes[0]

@@ -22,14 +22,16 @@ import numpy as np
 from ..errors import UsageError
 from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
+from ..gpu.glsl import ProgramMemo
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
 from ..gpu.uniforms import write_uniform
 from .camera import Camera, look_at, orthographic, perspective
+from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass)
-from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, subdivisions
+from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
 from .passes.expand import ExpandPass
 from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
@@ -81,16 +83,6 @@ DEFAULT_HEAD_FRAME_FLOOR = -0.30
 """Lowest height (m) the default camera frames on the default bust (mid-chest)."""
 
 
-def _same_box(a, b) -> bool:
-    """Two (lo, hi) boxes equal (the strands keep their box object until refreshed; with
-    instances the box is made anew each call)."""
-    if a is b:
-        return True
-    if a is None or b is None:
-        return False
-    return bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
-
-
 class Renderer(GpuOwner):
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
@@ -120,6 +112,7 @@ class Renderer(GpuOwner):
         self._scene_box = None        # scene_bbox's last box and what it was made from
         self._camera_view = None      # (key, View) of the last camera
         self._light_views: dict = {}  # (light, map size, scene box) -> View
+        self._light_views_by_id: dict = {}  # id(light) -> (light, kept scene box, map size, View)
         self._default_lights = None
         self._frames_dirty = True
         self._geometry_version = 0
@@ -134,6 +127,7 @@ class Renderer(GpuOwner):
             self.samples = 1
         self._renderer_string = renderer_name(self.ctx)
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
+        self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
         if self.compute_raster and not self.settings.head_msaa:
             self.samples = 1
         if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
@@ -191,6 +185,7 @@ class Renderer(GpuOwner):
             self.instances = m
         self._scene_box = None
         self._light_views.clear()
+        self._light_views_by_id.clear()
         self._geometry_version += 1
 
     def instance_transforms(self) -> np.ndarray:
@@ -200,8 +195,6 @@ class Renderer(GpuOwner):
     def instance_boxes(self, pad: float = 0.0) -> list:
         """Each instance's world box around the hair (padded by ``pad``): its local box's
         corners transformed."""
-        from .coverage_lod import box_corners
-
         lo, hi = self.strands.bbox()
         if self.instances is None:
             return [(lo - pad, hi + pad)]
@@ -228,8 +221,6 @@ class Renderer(GpuOwner):
         """The coverage LOD's plan (mane.render.coverage_lod) at ``view`` (default: this frame's
         camera): strands kept per guide for each instance. Everything is kept without a view,
         with lod_depth 0 or with multi / hybrid interpolation."""
-        from .coverage_lod import LodPlan, lod_plan, mean_width
-
         s, st = self.settings, self.strands
         view = view if view is not None else self.lod_view
         spg = int(s.strands_per_guide)
@@ -461,13 +452,19 @@ class Renderer(GpuOwner):
 
     def scene_bbox(self) -> tuple[np.ndarray, np.ndarray]:
         """The hair's box (padded by strand_pad) and the head's, around the world's axes."""
+        lo, hi = self._kept_scene_box()
+        return lo.copy(), hi.copy()
+
+    def _kept_scene_box(self) -> tuple:
+        """scene_bbox's (lo, hi) as kept (not to be changed): one tuple object while the box is
+        the same."""
         st_box = self.hair_bbox() if self.strands is not None else None
         pad = self.strand_pad() if st_box is not None else 0.0
         draw_head = self.head is not None and bool(self.settings.draw_head)
         key = (pad, draw_head)
         memo = self._scene_box
         # the strands keep their box until it is refreshed (a new tuple); the head until set_head
-        if (memo is None or not _same_box(memo[0], st_box) or memo[1] is not self.head
+        if (memo is None or not same_box(memo[0], st_box) or memo[1] is not self.head
                 or memo[2] != key):
             los, his = [], []
             if st_box is not None:
@@ -482,8 +479,7 @@ class Renderer(GpuOwner):
             else:
                 box = (np.min(los, axis=0).astype(float), np.max(his, axis=0).astype(float))
             memo = self._scene_box = (st_box, self.head, key, box)
-        lo, hi = memo[3]
-        return lo.copy(), hi.copy()
+        return memo[3]
 
     def scene_center(self) -> np.ndarray:
         lo, hi = self.scene_bbox()
@@ -570,7 +566,7 @@ class Renderer(GpuOwner):
         if "hdr_depth" not in self._targets:
             self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
         self._targets["hdr_depth"][0].clear(depth=1.0)
-        clear_texture(self.ctx, self._targets["hdr"].color)
+        clear_texture(self.ctx, self._targets["hdr"].color, programs=self._programs)
         fbo.use()
 
     def hdr_target(self) -> Target:
@@ -638,17 +634,26 @@ class Renderer(GpuOwner):
 
     def light_view(self, light: Light) -> View:
         """Light 0's view fitted around the scene's bounding sphere (kept while the light, the
-        scene's box and the map size are the same)."""
-        lo, hi = self.scene_bbox()
-        key = (light, int(self.settings.shadow_map_size), lo.tobytes(), hi.tobytes())
+        scene's box and the map size are the same; found by identity first: the same light
+        object and kept box, as every frame of a still scene asks)."""
+        box = self._kept_scene_box()
+        n = int(self.settings.shadow_map_size)
+        last = self._light_views_by_id.get(id(light))
+        if last is not None and last[0] is light and last[1] is box and last[2] == n:
+            return last[3]
+        lo, hi = box
+        key = (light, n, lo.tobytes(), hi.tobytes())
         try:
             view = self._light_views.get(key)
         except TypeError:   # an unhashable light: nothing kept
-            return self._light_view_of(light, lo, hi)
+            return self._light_view_of(light, lo.copy(), hi.copy())
         if view is None:
             if len(self._light_views) >= 4 * MAX_LIGHTS:
                 self._light_views.clear()
-            view = self._light_views[key] = self._light_view_of(light, lo, hi)
+            view = self._light_views[key] = self._light_view_of(light, lo.copy(), hi.copy())
+        if len(self._light_views_by_id) >= 4 * MAX_LIGHTS:   # new light objects every frame (a viewer)
+            self._light_views_by_id.clear()
+        self._light_views_by_id[id(light)] = (light, box, n, view)
         return view
 
     def _light_view_of(self, light: Light, lo, hi) -> View:
@@ -680,7 +685,7 @@ class Renderer(GpuOwner):
         box = self.hair_bbox()
         pad = self.strand_pad()
         memo = lv.__dict__.get("_hair_depth_range")   # kept on the (kept) light view
-        if memo is not None and _same_box(memo[0], box) and memo[1] == pad:
+        if memo is not None and same_box(memo[0], box) and memo[1] == pad:
             return memo[2]
         lo, hi = box
         lo, hi = lo - pad, hi + pad

@@ -16,7 +16,7 @@ import numpy as np
 
 from ..errors import GroomError, UsageError
 from ..gpu.buffers import as_device, check_allocation
-from ..gpu.glsl import compute_shader
+from ..gpu.glsl import ProgramMemo, compute_shader
 from ..gpu.uniforms import write_uniform
 from .bindings import B_FRAMES, B_POSITIONS
 
@@ -57,6 +57,7 @@ class StrandBuffers:
         self.frames = as_device(ctx.buffer(reserve=self.num_points * 16))
         self._bbox = None if bbox is None else (np.asarray(bbox[0], float), np.asarray(bbox[1], float))
         self.guide_triangles = None   # (S, 3) int32 guides blended by multi-strand interpolation
+        self._programs = ProgramMemo()   # update_frames' kernel (a simulator's frames: every frame)
         self.update_frames()
 
     # ------------------------------------------------------------------ construction
@@ -133,7 +134,7 @@ class StrandBuffers:
 
     def update_frames(self) -> None:
         """Rebuild the transported frames from the current positions (a compute dispatch)."""
-        cs = compute_shader(self.ctx, PASSES / "guide_frames.comp")
+        cs = self._programs.get("frames", (), lambda: compute_shader(self.ctx, PASSES / "guide_frames.comp"))
         write_uniform(cs["u_n"], self.points_per_strand)
         write_uniform(cs["u_num_guides"], self.num_guides)
         self.bind()

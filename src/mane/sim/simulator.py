@@ -48,6 +48,7 @@ has a gather deferred onto its grid).
 """
 from __future__ import annotations
 
+import functools
 import math
 from contextlib import contextmanager
 from dataclasses import dataclass, field
@@ -81,8 +82,14 @@ AUX_BOUNDS_BINDING = B_GATHER_BOUNDS  # the length pass reducing into the fricti
 
 
 def _mat4(m) -> tuple:
-    """A row-major NumPy 4x4 as the column-major tuple GLSL wants."""
-    return tuple(float(x) for x in np.asarray(m, dtype=np.float64).T.reshape(-1))
+    """A row-major NumPy 4x4 as the column-major tuple GLSL wants (one tuple object per value:
+    the head's matrix is asked for by two passes of every sub-step, mostly unchanged)."""
+    return _mat4_of(np.asarray(m, dtype=np.float64).tobytes())
+
+
+@functools.lru_cache(maxsize=8)
+def _mat4_of(raw: bytes) -> tuple:
+    return tuple(float(x) for x in np.frombuffer(raw, np.float64).reshape(4, 4).T.reshape(-1))
 
 
 def _set(shader, name: str, value) -> None:
@@ -199,7 +206,7 @@ class Simulator(GpuOwner):
     def _shader(self, name: str, **defines):
         """The pass's program, cached per simulator (``compute_shader``'s own cache resolves
         paths and stats every source file on each call: CPU time in every pass of every step)."""
-        key = (name, self.state.points_per_strand, tuple(sorted(defines.items())))
+        key = (name, self.state.points_per_strand, tuple(defines.items()))   # a call site's order is fixed
         shader = self._shaders.get(key)
         if shader is None:
             shader = compute_shader(self.ctx, HERE / f"{name}.comp", {"NV": self.state.points_per_strand, **defines})
@@ -401,9 +408,11 @@ class Simulator(GpuOwner):
         _set(sh, "global_stiffness", s.global_shape_stiffness)
         _set(sh, "global_range", s.global_shape_range)
         _set(sh, "time", st.time)
-        _set(sh, "wind_on", int(s.wind.active))
-        for k, v in s.wind.uniforms().items():
-            _set(sh, k, v)
+        wind = int(s.wind.active)
+        _set(sh, "wind_on", wind)
+        if wind:   # the kernels read the wind's uniforms only with wind_on
+            for k, v in s.wind.uniforms().items():
+                _set(sh, k, v)
 
     # per-strand sweeps: local shape, bending, DFTL, collisions, velocities (strand_solve.comp); how
     # they are built and folded: settings.solver (SolverTuning)

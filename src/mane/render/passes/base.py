@@ -93,6 +93,16 @@ class Frame:
     memo: dict = field(default_factory=dict)   # uniforms the passes share, made once a frame
 
 
+def same_box(a, b) -> bool:
+    """Two (lo, hi) boxes equal (the strands keep their box object until refreshed; with
+    instances the box is made anew each call)."""
+    if a is b:
+        return True
+    if a is None or b is None:
+        return False
+    return bool(np.array_equal(a[0], b[0]) and np.array_equal(a[1], b[1]))
+
+
 def _packable(u, value):
     """``value`` as write_uniform takes it for uniform ``u``: a 4x4 array as its bytes, another
     array as a tuple of floats, a list of vectors trimmed or zero-padded to the uniform's length."""

@@ -48,6 +48,7 @@ class DeepOpacityPass(LightDepthPass):
         self.opacity_fbo = ctx.framebuffer([self.opacity])
         self._counters = None   # compute path: (z0 bits, 3 layer sums) per texel
         self._programs = ProgramMemo()
+        self._layers = None     # (settings, hair depth range, _layer_uniforms)
 
     def run(self, frame: Frame) -> None:
         if self.renderer.compute_raster:
@@ -100,8 +101,7 @@ class DeepOpacityPass(LightDepthPass):
         z0, layers = self._counters
         z0.bind_to_storage_buffer(B_DOM_Z0)
         layers.bind_to_storage_buffer(B_DOM_LAYERS)
-        lo, hi = frame.hair_depth_range
-        ext = max(hi - lo, 1e-4)
+        layer_ends, opacity = self._layer_uniforms(frame.hair_depth_range)
         # the form by measurement (scan_form.py): both dispatches timed; the extra lights' maps
         # (extra_shadows.py) take the main light's choice untimed
         site = r.scan_forms.dom
@@ -113,9 +113,8 @@ class DeepOpacityPass(LightDepthPass):
         else:
             form = site.current()
         for dom_pass in (0, 1):
-            scan_light_depths(r, frame.light_view, n, dom_pass,
-                              layer_ends=tuple(float(f) * ext for f in r.settings.dom_layers),
-                              strand_opacity=float(r.settings.strand_opacity), balance=form)
+            scan_light_depths(r, frame.light_view, n, dom_pass, layer_ends=layer_ends, strand_opacity=opacity,
+                              balance=form, programs=self._programs)
         if main:
             site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
@@ -125,6 +124,18 @@ class DeepOpacityPass(LightDepthPass):
         pack.run(math.ceil(n / 8), math.ceil(n / 8))
         ctx.memory_barrier()
         frame.targets["dom"] = self.opacity
+
+    def _layer_uniforms(self, depth_range) -> tuple:
+        """(the layers' ends (m), strand opacity) for the hair's depth range along the light,
+        kept while the settings object and the range are the same."""
+        s = self.renderer.settings
+        memo = self._layers
+        if memo is None or memo[0] is not s or memo[1] != depth_range:
+            lo, hi = depth_range
+            ext = max(hi - lo, 1e-4)
+            memo = self._layers = (s, depth_range, (tuple(float(f) * ext for f in s.dom_layers),
+                                                    float(s.strand_opacity)))
+        return memo[2]
 
     def read(self) -> np.ndarray:
         """(n, n, 4) float32: O1, O2, O3, z0."""
@@ -139,16 +150,22 @@ class DeepOpacityPass(LightDepthPass):
 
 
 def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
-                      strand_opacity: float = 0.0, balance: int | None = None) -> None:
+                      strand_opacity: float = 0.0, balance: int | None = None, programs: ProgramMemo = None) -> None:
     """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers. ``balance``: the
-    scan-conversion form (None: raster_segment.balance_for's)."""
+    scan-conversion form (None: raster_segment.balance_for's); ``programs``: the calling pass's
+    ProgramMemo, which keeps the kernel (else it is looked up in the shader cache)."""
     ctx = renderer.ctx
-    cs = compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **raster_defines(ctx, balance)},
-                        include_dirs=[RENDER_DIR])
+    defines = raster_defines(ctx, balance)
+
+    def build():
+        return compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **defines},
+                              include_dirs=[RENDER_DIR])
+
+    cs = build() if programs is None else programs.get(("dom_raster", dom_pass, defines["RASTER_BALANCE"]), (), build)
     set_view(cs, view)
-    set_uniforms(cs, _scan_uniforms(int(n), tuple(float(x) for x in layer_ends), float(strand_opacity)))
+    set_uniforms(cs, _scan_uniforms(int(n), layer_ends, strand_opacity))
     renderer.get_pass("expand").dispatch_segments(cs)
     ctx.memory_barrier()
 
@@ -156,7 +173,8 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
 @functools.lru_cache(maxsize=32)
 def _scan_uniforms(n: int, layer_ends: tuple, strand_opacity: float) -> dict:
     """scan_light_depths' uniforms, one dict per value (set_uniforms skips them by identity)."""
-    return {"u_raster_size": (n, n), "u_grid": 1, "u_dom_layers_abs": layer_ends, "u_strand_opacity": strand_opacity}
+    return {"u_raster_size": (n, n), "u_grid": 1, "u_dom_layers_abs": tuple(float(x) for x in layer_ends),
+            "u_strand_opacity": float(strand_opacity)}
 
 
 @functools.lru_cache(maxsize=8)

@@ -42,7 +42,7 @@ import numpy as np
 from ...gpu.buffers import as_device
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_DEPTH_TILES, TEX_SCENE_DEPTH
-from .base import set_uniform, shader_path
+from .base import set_uniforms, shader_path
 from .raster_segment import balance_for
 
 TILE = 8           # pixels a tile side (a power of two)
@@ -83,6 +83,7 @@ class DepthTiles:
         self.tiles = (0, 0)   # across, down
         self.shift = 0        # log2 of a tile's side in samples
         self._programs = ProgramMemo()
+        self._layout = None   # ((depth size, grid, TILE), update's uniforms, bind's uniforms)
 
     def update(self, depth, grid: int = 1) -> None:
         """Reduce ``depth`` (a single-sample depth texture, a pixel ``grid`` x ``grid`` samples
@@ -94,28 +95,30 @@ class DepthTiles:
 
     def _begin(self, cs, depth, grid: int) -> tuple:
         """Size the map for ``depth`` at ``grid`` samples a pixel side and set ``cs``'s common
-        uniforms (the depth texture, the tile counts and shift); the tile counts."""
-        w, h = depth.size
-        shift = tile_shift(grid)
-        side = 1 << shift
-        tiles = (-(-w * grid // side), -(-h * grid // side))
-        if self.buffer is None or tiles != self.tiles:
-            self.release()
-            self.buffer = as_device(self.ctx.buffer(reserve=4 * tiles[0] * tiles[1]))
-            self.tiles = tiles
-        self.shift = shift
+        uniforms (the depth texture, the tile counts and shift, the sample grid's size); the tile
+        counts. The layout and its uniforms are made again when the depth's size or grid changes."""
+        key = (depth.size, grid, TILE)
+        if self._layout is None or self._layout[0] != key or self.buffer is None:
+            w, h = depth.size
+            shift = tile_shift(grid)
+            side = 1 << shift
+            tiles = (-(-w * grid // side), -(-h * grid // side))
+            if self.buffer is None or tiles != self.tiles:
+                self.release()
+                self.buffer = as_device(self.ctx.buffer(reserve=4 * tiles[0] * tiles[1]))
+                self.tiles = tiles
+            self.shift = shift
+            bind = {"u_depth_tiles": tiles, "u_tile_shift": shift}
+            self._layout = (key, {**bind, "u_scene_depth": TEX_SCENE_DEPTH, "u_grid": int(grid),
+                                  "u_raster_size": (w * grid, h * grid)}, bind)
         depth.use(TEX_SCENE_DEPTH)
-        set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
-        set_uniform(cs, "u_depth_tiles", tiles)
-        set_uniform(cs, "u_tile_shift", shift)
-        set_uniform(cs, "u_grid", int(grid))
+        set_uniforms(cs, self._layout[1])
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        return tiles
+        return self.tiles
 
     def bind(self, cs) -> None:
         self.buffer.bind_to_storage_buffer(B_DEPTH_TILES)
-        set_uniform(cs, "u_depth_tiles", self.tiles)
-        set_uniform(cs, "u_tile_shift", self.shift)
+        set_uniforms(cs, self._layout[2])
 
     def read(self) -> np.ndarray:
         """The map, (tiles down, tiles across) float32."""
@@ -126,3 +129,4 @@ class DepthTiles:
             self.buffer.release()
         self.buffer = None
         self.tiles = (0, 0)
+        self._layout = None

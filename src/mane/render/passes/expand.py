@@ -16,7 +16,7 @@ import math
 
 import numpy as np
 
-from ...gpu.glsl import compute_shader
+from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_EXPANDED, B_STRAND_TABLE
 from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, set_uniform, set_uniforms, subdivisions  # noqa: F401  (pulls: here too)
 
@@ -37,6 +37,7 @@ class ExpandPass(Pass):
         self._key = None
         self._key_memo = None   # (what key() was made of, by identity; the key)
         self._dispatch_memo = None
+        self._programs = ProgramMemo()   # strand_expand.comp per (interpolation, mode, LOD)
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -82,9 +83,10 @@ class ExpandPass(Pass):
         plan = r.lod_plan()
         sub = plan.subdivisions(subdivisions(s, N), N - 1)   # the segment LOD: fewer where strands look short
         multi = s.interpolation_mode != "single"
-        defines = {"INTERPOLATION": _ids()["interp"][s.interpolation], "MULTI": _ids()["multi"][s.interpolation_mode],
-                   "LOD": int(bool(s.lod))}
-        cs = compute_shader(ctx, HERE / "strand_expand.comp", defines, include_dirs=[HERE.parent])
+        cs = self._programs.get("expand", (s.interpolation, s.interpolation_mode, bool(s.lod)), lambda: compute_shader(
+            ctx, HERE / "strand_expand.comp", {"INTERPOLATION": _ids()["interp"][s.interpolation],
+                                               "MULTI": _ids()["multi"][s.interpolation_mode], "LOD": int(bool(s.lod))},
+            include_dirs=[HERE.parent]))
         if multi:
             table = r.strand_table()
             table.buffer.bind_to_storage_buffer(B_STRAND_TABLE)
@@ -139,16 +141,21 @@ class ExpandPass(Pass):
         compute rasteriser's scan conversions)."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        set_uniforms(cs, self._dispatch_uniforms())
-        run_1d(cs, self.segments)
+        uniforms, groups = self._dispatch_plan()
+        set_uniforms(cs, uniforms)
+        if groups is not None:
+            cs.run(*groups)
 
-    def _dispatch_uniforms(self) -> dict:
-        """dispatch_segments' uniforms, one dict while the expanded buffer's shape is the same."""
-        key = (int(self.points), int(self.segments))
+    def _dispatch_plan(self) -> tuple:
+        """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape is
+        the same."""
+        key = (self.points, self.strands)
         memo = self._dispatch_memo
         if memo is None or memo[0] != key:
-            memo = self._dispatch_memo = (key, {"u_points_per_strand": key[0], "u_num_segments": key[1]})
-        return memo[1]
+            segments = int(self.segments)
+            memo = self._dispatch_memo = (key, {"u_points_per_strand": int(self.points), "u_num_segments": segments},
+                                          groups_1d(segments))
+        return memo[1], memo[2]
 
     def read(self) -> np.ndarray:
         """(strands, points, 8) float32: x, y, z, width, tx, ty, tz, strand random; instance by
@@ -180,11 +187,18 @@ class ExpandPass(Pass):
 def run_1d(cs, n: int) -> None:
     """Dispatch ``cs`` (local_size_x = LOCAL_SIZE) over n invocations, x then y groups (the
     shader flattens gl_WorkGroupID); nothing for n = 0."""
+    groups = groups_1d(n)
+    if groups is not None:
+        cs.run(*groups)
+
+
+def groups_1d(n: int) -> tuple[int, int] | None:
+    """run_1d's work groups (x, y) for n invocations; None for n = 0."""
     groups = math.ceil(int(n) / LOCAL_SIZE)
     if groups <= 0:
-        return
+        return None
     gx = min(groups, MAX_GROUPS_X)
-    cs.run(gx, math.ceil(groups / gx))
+    return gx, math.ceil(groups / gx)
 
 
 def _ids():

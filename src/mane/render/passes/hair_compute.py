@@ -51,7 +51,7 @@ from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
-from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniform, set_uniforms, set_view,
+from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniforms, set_view,
                    shadow_defines)
 from . import depth_tiles, occlusion_tiles
 from .raster_segment import raster_defines
@@ -91,7 +91,8 @@ class HairComputePass(Pass):
         super().__init__(renderer)
         self.vis64 = has_atomic64(self.ctx)
         self._programs = ProgramMemo()
-        self._common = None   # (what _set_common's uniforms were made of, the uniforms)
+        self._common = None   # (what _common_uniforms were made of, the uniforms)
+        self._steps: dict = {}   # split side -> (split depth, _step_uniforms)
         self._buffers: tuple = ()
         self._key = None
         self.capture = False       # True: keep each frame's visibility (read_capture) before shading
@@ -146,6 +147,7 @@ class HairComputePass(Pass):
         color, depth = r.hdr_textures()
         grid = r.raster_grid
         size = self.sample_size()
+        common = self._common_uniforms(size, grid, expand.points)
         defines = {"VIS64": int(self.vis64)}
         stats = self._stats_buffer() if self.count_stats else None
         # the form of this frame: the hair site's tuner's (scan_form.py), which times everything
@@ -188,11 +190,10 @@ class HairComputePass(Pass):
                                             **defines, **balance, **cull, "RASTER_PASS": raster_pass,
                                             **({"RASTER_STATS": 1} if stats is not None else {})},
                                             include_dirs=[RENDER_DIR]))
-                self._set_common(cs, frame, size, grid, expand.points)
+                set_view(cs, frame.view)
+                set_uniforms(cs, common)
                 depth.use(TEX_SCENE_DEPTH)
-                set_uniform(cs, "u_scene_depth", TEX_SCENE_DEPTH)
-                set_uniform(cs, "u_split_side", side)
-                set_uniform(cs, "u_split_depth", split)
+                set_uniforms(cs, self._step_uniforms(side, split))
                 if tiles is not None:
                     tiles.bind(cs)
                 expand.dispatch_segments(cs)
@@ -208,7 +209,8 @@ class HairComputePass(Pass):
             cs = self._programs.get("shade", (r.shading, r.settings), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings)},
                 include_dirs=[RENDER_DIR]))
-            self._set_common(cs, frame, size, grid, expand.points)
+            set_view(cs, frame.view)
+            set_uniforms(cs, common)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)
             r.shading.bind(cs, ctx, r.settings)
             bind_lighting(r, cs, frame)
@@ -267,14 +269,24 @@ class HairComputePass(Pass):
 
         return {"ids": grid(ids), "cover": grid(cover)}
 
-    def _set_common(self, cs, frame: Frame, size, grid: int, points: int) -> None:
-        set_view(cs, frame.view)
-        key = (tuple(size), grid, self.renderer.settings.geometry == "lines", points)
+    def _common_uniforms(self, size, grid: int, points: int) -> dict:
+        """The raster and shade kernels' common uniforms (besides the view's): one dict while
+        they stay the same, so that set_uniforms skips it."""
+        key = (size, grid, self.renderer.settings.geometry == "lines", points)
         memo = self._common
-        if memo is None or memo[0] != key:   # one dict while they stay the same: set_uniforms skips it
+        if memo is None or memo[0] != key:
             memo = self._common = (key, {"u_raster_size": tuple(int(v) for v in size), "u_grid": int(grid),
                                          "u_lines": int(key[2]), "u_points_per_strand": int(points)})
-        set_uniforms(cs, memo[1])
+        return memo[1]
+
+    def _step_uniforms(self, side: int, split: float) -> dict:
+        """A raster dispatch's own uniforms (the scene depth's unit, which side of the split it
+        draws), one dict per side while the split depth is the same."""
+        memo = self._steps.get(side)
+        if memo is None or memo[0] != split:
+            memo = self._steps[side] = (split, {"u_scene_depth": TEX_SCENE_DEPTH, "u_split_side": side,
+                                                "u_split_depth": split})
+        return memo[1]
 
     def _release_buffers(self) -> None:
         for _, b in self._buffers:

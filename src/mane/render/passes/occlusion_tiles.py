@@ -38,7 +38,7 @@ import numpy as np
 from ...gpu.glsl import compute_shader
 from ..bindings import B_COVER, B_VIS
 from ..coverage_lod import box_corners
-from .base import RENDER_DIR, set_uniform, shader_path
+from .base import RENDER_DIR, same_box, shader_path
 from .depth_tiles import DepthTiles
 from .raster_segment import balance_for
 
@@ -59,9 +59,20 @@ def hair_cull(ctx, balance: int | None = None) -> bool:
 
 def split_depth(renderer, view) -> float:
     """The window depth between the two dispatches: ``SPLIT`` of the way through the hair's view
-    depth range (its box padded as the OIT methods pad it: oit/base.py), projected by ``view``."""
-    lo, hi = renderer.hair_bbox()
-    pad = renderer.strand_pad() + float(renderer.settings.width)
+    depth range (its box padded as the OIT methods pad it: oit/base.py), projected by ``view``;
+    kept on the (kept) view while the hair's box, the pad and SPLIT are the same."""
+    box = renderer.hair_bbox()
+    key = (renderer.strand_pad() + float(renderer.settings.width), SPLIT)
+    memo = view.__dict__.get("_split_depth")
+    if memo is not None and same_box(memo[0], box) and memo[1] == key:
+        return memo[2]
+    out = _split_depth(box, key[0], view)
+    view.__dict__["_split_depth"] = (box, key, out)
+    return out
+
+
+def _split_depth(box, pad: float, view) -> float:
+    lo, hi = box
     corners = box_corners(np.asarray(lo, float) - pad, np.asarray(hi, float) + pad)
     fwd = np.asarray(view.forward, float)
     d = (corners - np.asarray(view.eye, float)) @ fwd
@@ -82,9 +93,7 @@ class OcclusionTiles(DepthTiles):
         cs = self._programs.get(("occlusion", bool(vis64)), (), lambda: compute_shader(
             self.ctx, shader_path("occlusion_tiles.comp"), {"VIS64": int(bool(vis64))},
             include_dirs=[RENDER_DIR]))
-        tiles = self._begin(cs, depth, grid)
-        w, h = depth.size
-        set_uniform(cs, "u_raster_size", (w * grid, h * grid))
+        tiles = self._begin(cs, depth, grid)   # u_raster_size too
         vis.bind_to_storage_buffer(B_VIS)
         cover.bind_to_storage_buffer(B_COVER)
         cs.run(tiles[0], tiles[1])   # a work group a tile

@@ -53,7 +53,7 @@ class ShadowMapPass(LightDepthPass):
         if self._z0 is None:
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
         self._z0.bind_to_storage_buffer(B_DOM_Z0)
-        scan_light_depths(r, frame.light_view, n, 0)
+        scan_light_depths(r, frame.light_view, n, 0, programs=self._programs)
         merge = self._programs.get("merge", (), lambda: compute_shader(ctx, shader_path("shadow_merge.comp"),
                                                                        include_dirs=[RENDER_DIR]))
         set_uniform(merge, "u_size", n)

@@ -47,6 +47,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+from moderngl import InvalidObject
 
 from ...gpu.uniforms import set_uniforms, write_uniform
 from ...phases import phase
@@ -368,13 +369,10 @@ class ShadingSettings:
         for dual scattering the ``hair_dual_lut`` texture to ``unit_dual``. What a program gets
         (its uniforms, their values, the textures) is found once per (program, material) and
         kept on the program; a value the uniform was last written is skipped by identity."""
-        from moderngl import InvalidObject
-
         units = (prefix, unit_m, unit_n, unit_dual)
         # kept on the program: (settings, units, the uniforms' values, ((texture, unit), ...))
         plan = program.__dict__.get("_mane_material")
-        if (plan is None or plan[0] is not self or plan[1] != units
-                or any(isinstance(t.mglo, InvalidObject) for t, _ in plan[3])):   # a cache let one go
+        if plan is None or plan[0] is not self or plan[1] != units or _released(plan[3]):   # a cache let one go
             values = dict(self.material_uniforms(prefix))
             textures = []
             if self.model == "marschner_lut":
@@ -391,6 +389,14 @@ class ShadingSettings:
         set_uniforms(program, plan[2])   # kept dict: its uniforms looked up once, unchanged ones skipped
         for tex, unit in plan[3]:
             tex.use(unit)
+
+
+def _released(textures) -> bool:
+    """Whether a texture of ((texture, unit), ...) has been released."""
+    for t, _ in textures:
+        if isinstance(t.mglo, InvalidObject):
+            return True
+    return False
 
 
 def _stored(kind: str, key, build) -> tuple:
