@@ -24,8 +24,8 @@ Each step, on the GPU only:
          Gathering a tile's particles through the order instead (they come from strands all
          over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
          guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper up to 500k guides (16M
-         particles: 1.96 against 2.35 ms), so the copies are made from ``SORTED_COPY_MIN`` particles on (``sorted_copy``
-         forces either; docs/performance.md). Global atomics drop from 32 per particle
+         particles: 1.96 against 2.35 ms), so the copies are made from ``SORTED_COPY_MIN``
+         particles on (``sorted_copy`` forces either; docs/performance.md). Global atomics drop from 32 per particle
          to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
          serialise in L2. With float atomics (``aggregate``, on by default there) each
          invocation's run of sorted particles, mostly consecutive particles of a strand, is

@@ -20,9 +20,10 @@
 //                  (SORTED_COPY) from the sorted copies in slot order (contiguous: the particles
 //                  of a tile come from strands all over the buffers, and gathering them through
 //                  ORDER was the splat's whole cost at 1M guides: scattered 16-byte reads; up to
-//                  500k guides the copies cost more than they save, docs/performance.md): for every tile segment of
-//                  the chunk, clear a shared node tile, add each particle's 8 corners to it, flush
-//                  the touched nodes to the accumulator (grid_accum.glsl's format). A particle whose
+//                  500k guides the copies cost more than they save, docs/performance.md): for
+//                  every tile segment of the chunk, clear a shared node tile, add each particle's
+//                  8 corners to it, flush the touched nodes to the accumulator (grid_accum.glsl's
+//                  format). A particle whose
 //                  stencil the splat finds outside its tile (it cannot, unless the compiler rounds
 //                  the two stages differently) goes straight to the accumulator. AGGREGATE (float
 //                  atomics only): runs of particles in one cell are summed in registers first.
