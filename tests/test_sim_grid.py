@@ -356,3 +356,31 @@ def test_the_sorted_copy_is_chosen_by_size_and_made_only_when_used(gl):
     np.testing.assert_allclose(copied["density"], plain["density"], rtol=tol, atol=tol)
     np.testing.assert_allclose(copied["momentum"], plain["momentum"], rtol=1e-5 if tol else 0.0, atol=1e-5 if tol else 0.0)
     gf.release()
+
+
+def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
+    """Out of memory for the sorted copies: one GPUMemoryError, and the splat without them then
+    works and gives the sums it gave before."""
+    from mane.errors import GPUMemoryError
+    from mane.gpu import buffers
+
+    p, v = scene(3000, seed=4)
+    pb, vb = upload(gl, p, v)
+    gf = GridFriction(gl, 16, "atomic", splat="binned")
+    gf.apply(pb, vb, len(p), friction=0.0)
+    before = gf.read_grid()
+
+    def refuse(*args, **kwargs):
+        raise GPUMemoryError("no room (test)")
+
+    monkeypatch.setattr(buffers, "check_allocation", refuse)
+    gf.sorted_copy = True
+    with pytest.raises(GPUMemoryError):
+        gf.apply(pb, vb, len(p), friction=0.0)
+    monkeypatch.undo()
+    gf.sorted_copy = False
+    gf.apply(pb, vb, len(p), friction=0.0)
+    after = gf.read_grid()
+    tol = 1e-6 if is_float(gf) else 0.0
+    np.testing.assert_allclose(after["density"], before["density"], rtol=tol, atol=tol)
+    gf.release()

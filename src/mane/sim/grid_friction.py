@@ -25,8 +25,8 @@ Each step, on the GPU only:
          over the buffers) was the splat's whole cost at 1M guides (H200, friction at 1M / 2M
          guides x 32: 11.5 / 43.2 -> 5.8 / 11.6 ms), but cheaper up to 500k guides (16M
          particles: 1.96 against 2.35 ms), so the copies are made from ``SORTED_COPY_MIN``
-         particles on (``sorted_copy`` forces either; docs/performance.md). Global atomics drop from 32 per particle
-         to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
+         particles on (``sorted_copy`` forces either; docs/performance.md). Global atomics drop
+         from 32 per particle to a few per tile node, so hot nodes (thousands of particles at the scalp) no longer
          serialise in L2. With float atomics (``aggregate``, on by default there) each
          invocation's run of sorted particles, mostly consecutive particles of a strand, is
          summed in registers while it stays in one cell, and goes to the tile when the cell
@@ -225,7 +225,7 @@ class GridFriction:
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
                                 for name in ("count", "scan", "scatter", "splat")}
                 self._binned_defines = binned
-                self._copy_stages = None    # the scatter and splat with SORTED_COPY, made when first used
+                self._copy_stages = None    # the stages with the scatter and splat of SORTED_COPY, made when first used
                 self.sorted_copy = None if sorted_copy is None else bool(sorted_copy)
             else:
                 self._splat = compute_shader(ctx, HERE / "splat_atomic.comp", acc_defines)
@@ -309,18 +309,15 @@ class GridFriction:
             if self._copy_stages is None:
                 from ..gpu.glsl import compute_shader
 
-                self._copy_stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
-                                                          dict(self._binned_defines, SORTED_COPY=1,
-                                                               **{f"STAGE_{name.upper()}": 1}))
-                                     for name in ("scatter", "splat")}
-            stages = dict(stages, **self._copy_stages)
+                self._copy_stages = dict(stages, **{name: compute_shader(
+                    ctx, HERE / "splat_binned.comp", dict(self._binned_defines, SORTED_COPY=1,
+                                                          **{f"STAGE_{name.upper()}": 1}))
+                    for name in ("scatter", "splat")})
+            stages = self._copy_stages
         if self._order_capacity < n or (copy and self._sorted is None):   # (re)made together
             from ..gpu.buffers import check_allocation
 
-            for b in (self._order, self._sorted, self._sorted_v):
-                if b is not None:
-                    b.release()
-            self._order = self._sorted = self._sorted_v = None
+            self._release_order()
             capacity = max(n, 1024)
             if copy:   # the order (8 bytes a particle) and the sorted positions and velocities (16 each)
                 what = f"the friction splat's sorted copy of {n} particles"
@@ -429,6 +426,14 @@ class GridFriction:
         velocity = g[..., :3].copy()
         return {"density": density, "velocity": velocity, "momentum": velocity * density[..., None]}
 
+    def _release_order(self) -> None:
+        """The binned splat's order and sorted copies, released (made again when next needed)."""
+        for b in (self._order, self._sorted, self._sorted_v):
+            if b is not None:
+                b.release()
+        self._order = self._sorted = self._sorted_v = None
+        self._order_capacity = 0
+
     def release(self) -> None:
         self.grid.release()
         self._own_bounds.release()
@@ -436,9 +441,7 @@ class GridFriction:
             self.accumulator.release()
             if self.splat_schedule == "binned":
                 self._tiles.release()
-                for b in (self._order, self._sorted, self._sorted_v):
-                    if b is not None:
-                        b.release()
+                self._release_order()
         else:
             self._vao.release()
             self._fbo.release()
