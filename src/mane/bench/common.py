@@ -19,7 +19,7 @@ import traceback
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..errors import GLFeatureError, GPUMemoryError
+from ..errors import GLFeatureError, GPUMemoryError, UsageError
 
 
 class Skip(Exception):
@@ -315,6 +315,4 @@ def check_sections(what: str, sections, allowed, listed=None) -> None:
     (``listed``, default ``allowed``): before any section runs."""
     for name in sections or ():
         if name not in allowed:
-            from ..errors import UsageError
-
             raise UsageError(f"unknown {what} section {name!r}; sections: {', '.join(listed or allowed)}")

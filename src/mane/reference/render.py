@@ -32,6 +32,7 @@ material, head, size, samples (and passes), seed, depth, Mitsuba's version and v
 from __future__ import annotations
 
 import functools
+import os
 import tempfile
 from dataclasses import asdict
 from pathlib import Path
@@ -57,8 +58,6 @@ class ReferenceUnavailableError(ManeError):
 def resolve_variant(variant: str | None = None) -> str:
     """``variant``, else ``$MANE_REFERENCE_VARIANT``, else ``scalar_rgb``; one of ``VARIANTS``, or
     "auto": cuda_ad_rgb where this machine renders with it, else scalar_rgb (probed once)."""
-    import os
-
     name = variant if variant is not None else (os.environ.get(VARIANT_ENV) or MITSUBA_VARIANT)
     if name == "auto":
         return _auto_variant()
