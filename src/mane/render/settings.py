@@ -183,6 +183,12 @@ class RenderSettings:
         help="""How far the scalp's albedo (the head's "scalp" vertex weight) is tinted from skin_color
         toward the hair's colour: the look of the undrawn hair covering a real scalp between the
         drawn strands. 0: the scalp is skin (what a path tracer of the drawn strands sees).""")
+    root_darkening: float = setting(0.0, lo=0.0, hi=1.0, slider=(0.0, 1.0),
+        help="""How much darker a strand's root is than the rest of it (the hair's radiance times
+        1 - root_darkening at the root, rising smoothly to 1 by a quarter of the strand): a painted
+        occlusion, for looks. 0 (the default): none; the shadows already darken the hair near the
+        scalp, and against a path tracer 0.45 (the look until 2026-12-02) made the image worse
+        (docs/quality.md, "The painted root darkening").""")
     background: tuple[float, float, float] = setting((0.16, 0.17, 0.19), lo=0.0, hi=1000.0,
         help="sRGB background colour in [0, 1].")
     draw_head: bool = setting(True,

@@ -315,7 +315,8 @@ def _make_lighting_uniforms(renderer, frame: Frame) -> dict:
         vecs.append((0.0, 1.0, 0.0, 0.0))
         rads.append((0.0, 0.0, 0.0))
     a = float(renderer.settings.ambient)
-    out = {"u_num_lights": len(lights), "u_light_vec": vecs, "u_light_radiance": rads, "u_ambient": (a, a, a)}
+    out = {"u_num_lights": len(lights), "u_light_vec": vecs, "u_light_radiance": rads, "u_ambient": (a, a, a),
+           "u_root_darkening": float(renderer.settings.root_darkening)}
     t = frame.targets
     if "shadow_map" in t:
         out["u_shadow_map"] = TEX_SHADOW_MAP

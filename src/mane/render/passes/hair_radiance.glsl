@@ -14,6 +14,7 @@ in vec4 g_vis;
 #endif
 
 uniform HairMaterial u_material;
+uniform float u_root_darkening;   // settings.root_darkening
 
 // P: world point, T: unit tangent, s: 0 at the root .. 1 at the tip, rand: the strand's random.
 vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
@@ -40,6 +41,6 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
         vec3 radiance = u_light_radiance[i] * falloff;
         color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis_ms[i]));
     }
-    // darker toward the root: a touch of the occlusion a clump gives itself
-    return color * mix(0.55, 1.0, smoothstep(0.0, 0.25, s));
+    // settings.root_darkening: a painted occlusion toward the root (0: none, the default)
+    return color * (1.0 - u_root_darkening * (1.0 - smoothstep(0.0, 0.25, s)));
 }
