@@ -60,6 +60,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GLFeatureError, UsageError
+from ..gpu.context import is_software_renderer
 from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
@@ -74,6 +75,10 @@ VERTEX_LAYER_EXTENSIONS = ("GL_ARB_shader_viewport_layer_array", "GL_AMD_vertex_
 TILE_CELLS = 8        # binned splat: a tile is 8^3 cells, 9^3 nodes in shared memory
 MAX_TILES_AXIS = 16   # 4096 tiles (the count / scatter stages keep a shared histogram of them)
 PPT = 4               # binned count / scatter: particles per invocation
+SOFTWARE_MAX_CHUNK = 2048  # binned splat on llvmpipe: its loop limiter (gallivm) ends a shader after
+                           # 65,535 iterations of all its loops together, and a chunk walks up to
+                           # ~18 a tile segment: 8,000 particles spread over a 129^3 grid in chunks of
+                           # 8,192 summed 5,071 of their 8,000 mass units, with no error
 SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter copies them in sorted
                               # order for the splat (H200, friction pass without / with the copies,
                               # guides x 32: 100k 0.40 / 0.50 ms, 250k 0.91 / 1.15, 500k 1.96 / 2.35,
@@ -205,6 +210,9 @@ class GridFriction:
                                  f"{MAX_TILES_AXIS * TILE_CELLS + 1}; use splat='direct'")
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
+            if int(chunk) > SOFTWARE_MAX_CHUNK and is_software_renderer(ctx):
+                raise UsageError(f"GridFriction chunk {int(chunk)} is over {SOFTWARE_MAX_CHUNK} on a CPU rasteriser, "
+                                 f"which stops a shader after 65,535 loop iterations and would drop particles")
             self.splat_schedule = splat
             self.chunk = int(chunk)
             words = 4 if self.float_atomics else 8
