@@ -22,6 +22,11 @@ VARIANTS = {
     # the scatter copying the particles in sorted order for the splat (the default from 20M particles)
     "binned-float-copy": dict(method="atomic", splat="binned", float_atomics=True, sorted_copy=True),
     "binned-fixed-copy": dict(method="atomic", splat="binned", float_atomics=False, sorted_copy=True),
+    # sorted by cell instead of by tile (with the sorted copy; the last one reads through the order)
+    "binned-float-cells": dict(method="atomic", splat="binned", float_atomics=True, cell_sort=True),
+    "binned-fixed-cells": dict(method="atomic", splat="binned", float_atomics=False, cell_sort=True),
+    "binned-float-cells-order": dict(method="atomic", splat="binned", float_atomics=True, cell_sort=True,
+                                     sorted_copy=False),
     "direct-fixed": dict(method="atomic", splat="direct", float_atomics=False),
     "direct-float": dict(method="atomic", splat="direct", float_atomics=True),
     "raster": dict(method="raster"),
@@ -167,21 +172,25 @@ def test_atomic_and_raster_agree_and_fixed_point_is_deterministic(gl):
     for variant, g in grids.items():
         np.testing.assert_allclose(g["density"], ref_grid["density"], rtol=1e-6,
                                    atol=1e-6 * ref_grid["density"].max(), err_msg=variant)
-    # fixed point: exact sums, so the binned (shared-memory) splat equals the direct one bit for bit,
-    # and a second run equals the first
-    for variant in ("binned-fixed", "binned-fixed-again"):
+    # fixed point: exact sums, so the binned (shared-memory) splat equals the direct one bit for bit
+    # whatever the order it sorts by, and a second run equals the first
+    for variant in ("binned-fixed", "binned-fixed-cells", "binned-fixed-again"):
         np.testing.assert_array_equal(grids[variant]["density"], ref_grid["density"])
         np.testing.assert_array_equal(grids[variant]["velocity"], ref_grid["velocity"])
 
 
+@pytest.mark.parametrize("cell_sort", [False, True])
 @pytest.mark.parametrize("variant", ["binned-fixed", "binned-float", "binned-float-run"])
-@pytest.mark.parametrize("R,n,chunk", [(16, 1, 4096), (64, 5000, 256), (97, 20000, 1024), (129, 3000, 4096)])
+@pytest.mark.parametrize("R,n,chunk,pinned_mass", [(16, 1, 4096, 1.0), (9, 257, None, 0.0), (16, 0, None, 1.0),
+                                                   (64, 5000, 256, 1.0), (97, 20000, 1024, 0.0),
+                                                   (129, 3000, None, 1.0)])
 @pytest.mark.slow
-def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
+def test_binned_splat_equals_direct(gl, variant, cell_sort, R, n, chunk, pinned_mass):
     """Tiles at the grid's far faces (R - 1 not a multiple of 8), chunks across several tiles,
-    a single particle, hot nodes (a clump of identical positions), NaN particles left out,
-    and runs of consecutive particles along lines (strands), a few per cell."""
-    p, v = scene(n, seed=R)
+    no particle, a single particle, counts that are not multiples of a work group, hot nodes (a
+    clump of identical positions), NaN particles and massless pinned ones left out, and runs of
+    consecutive particles along lines (strands), a few per cell; sorted by tile or by cell."""
+    p, v = scene(max(n, 1), seed=R)                   # (n = 0: buffers of one particle, none splatted)
     if n > 100:
         p[: n // 10, :3] = p[0, :3]                   # 10% of the particles on one point
         p[n // 10: n // 10 + 3, :3] = np.nan          # not splatted by either
@@ -193,15 +202,16 @@ def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
         steps = np.arange(16)[None, :, None] * (0.4 / (R - 1)) * dirs[:, None]
         p[first:first + count, :3] = (roots[:, None] + steps).reshape(-1, 3)
-    direct = make(gl, R, "direct-" + variant.split("-")[1])
-    binned = make(gl, R, variant, chunk=chunk)
+    direct = make(gl, R, "direct-" + variant.split("-")[1], pinned_mass=pinned_mass)
+    binned = make(gl, R, variant, chunk=chunk, cell_sort=cell_sort, pinned_mass=pinned_mass)
     assert binned.splat_schedule == "binned" and direct.splat_schedule == "direct"
+    assert binned.cell_sort == cell_sort
     bounds = GridBounds(gl).set(np.nanmin(p[:, :3], axis=0) - 0.01, np.nanmax(p[:, :3], axis=0) + 0.01)
     finite = np.all(np.isfinite(p[:, :3]), axis=1)
     grids = []
     for gf, keep in ((direct, finite), (binned, slice(None))):   # the direct splat without the NaNs
         pb, vb = upload(gl, p[keep], v[keep])
-        gf.splat(pb, vb, int(len(p[keep])), bounds)
+        gf.splat(pb, vb, int(len(p[keep])) if n else 0, bounds)
         grids.append(gf.read_grid())
     if binned.float_atomics:
         scale = grids[0]["density"].max()
@@ -212,7 +222,7 @@ def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
         np.testing.assert_array_equal(grids[1]["velocity"], grids[0]["velocity"])
     # a second splat with the same object: the tile counters were reset by the scan
     pb, vb = upload(gl, p, v)
-    binned.splat(pb, vb, len(p), bounds)
+    binned.splat(pb, vb, n, bounds)
     np.testing.assert_allclose(binned.read_grid()["density"], grids[1]["density"], rtol=1e-6,
                                atol=1e-6 * grids[1]["density"].max())
     direct.release()
@@ -231,6 +241,14 @@ def test_splat_defaults_and_large_grids(gl):
         GridFriction(gl, 130, splat="binned")
     with pytest.raises(UsageError):
         GridFriction(gl, 16, splat="sorted")
+    # the cell sort sorts the binned splat's particles: nothing to sort elsewhere
+    for kw in (dict(resolution=130), dict(splat="direct"), dict(method="raster")):
+        with pytest.raises(UsageError, match="cell_sort"):
+            GridFriction(gl, **{"resolution": 16, **kw}, cell_sort=True)
+    cells = GridFriction(gl, 129, cell_sort=True)   # the most bins: 16^3 tiles x 8^3 cells
+    assert cells.num_bins == 16 ** 3 * 8 ** 3 and cells._tiles.size >= (3 * cells.num_bins + 1) * 4
+    assert GridFriction(gl, 16).cell_sort is False   # off unless asked for
+    cells.release()
 
 
 def test_clear_accumulator_on_the_gpu(gl):
@@ -343,6 +361,7 @@ def test_the_sorted_copy_is_chosen_by_size_and_made_only_when_used(gl):
 
     p, v = scene(3000, seed=9)
     pb, vb = upload(gl, p, v)
+    assert GridFriction(gl, 16, cell_sort=True).uses_sorted_copy(1)   # the cell sort turns it on
     gf = GridFriction(gl, 16, "atomic", splat="binned")
     assert not gf.uses_sorted_copy(len(p)) and gf.uses_sorted_copy(SORTED_COPY_MIN)
     gf.apply(pb, vb, len(p), friction=0.0)
@@ -358,7 +377,8 @@ def test_the_sorted_copy_is_chosen_by_size_and_made_only_when_used(gl):
     gf.release()
 
 
-def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
+@pytest.mark.parametrize("cell_sort", [False, True])
+def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch, cell_sort):
     """Out of memory for the sorted copies: one GPUMemoryError, and the splat without them then
     works and gives the sums it gave before."""
     from mane.errors import GPUMemoryError
@@ -366,7 +386,7 @@ def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
 
     p, v = scene(3000, seed=4)
     pb, vb = upload(gl, p, v)
-    gf = GridFriction(gl, 16, "atomic", splat="binned")
+    gf = GridFriction(gl, 16, "atomic", splat="binned", cell_sort=cell_sort, sorted_copy=False)
     gf.apply(pb, vb, len(p), friction=0.0)
     before = gf.read_grid()
 
@@ -383,4 +403,54 @@ def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
     after = gf.read_grid()
     tol = 1e-6 if is_float(gf) else 0.0
     np.testing.assert_allclose(after["density"], before["density"], rtol=tol, atol=tol)
+    gf.release()
+
+
+@pytest.mark.parametrize("cell_sort", [False, True])
+@pytest.mark.parametrize("R,n", [(16, 3001), (64, 20000), (9, 700)])
+def test_sorted_slots_follow_the_bins(gl, cell_sort, R, n):
+    """The sort itself, read back: the bins (tile, or cell in tile-major order) of the particles
+    in slot order are non-decreasing, the order is a permutation of the binned particles (no
+    NaN, no massless pinned one), the sorted copies hold them, and each bin's start is the
+    prefix sum of the bins before it. The keys are recomputed here from the positions, which sit
+    well inside their cells, so a wrong key or a wrong scan shows."""
+    rng = np.random.default_rng(R + n)
+    cells = R - 1
+    cell = rng.integers(0, cells, size=(n, 3))
+    cell[: n // 3] = cell[0]                         # a crowded cell: a run longer than a chunk
+    p = np.zeros((n, 4), np.float32)
+    p[:, :3] = (cell + rng.uniform(0.1, 0.9, size=(n, 3))) / cells   # the box [0, 1]^3
+    p[:, 3] = rng.uniform(0.5, 4.0, n)
+    p[::37, 3] = 0.0                                  # pinned, massless below: not binned
+    p[5::101, :3] = np.nan                            # not binned
+    v = rng.normal(size=(n, 4)).astype(np.float32)
+    pb, vb = upload(gl, p, v)
+    bounds = GridBounds(gl).set([0, 0, 0], [1, 1, 1])
+    gf = GridFriction(gl, R, "atomic", splat="binned", cell_sort=cell_sort, sorted_copy=True, pinned_mass=0.0)
+    binned = np.flatnonzero(np.all(np.isfinite(p[:, :3]), axis=1) & (p[:, 3] > 0))
+    tile = cell // 8
+    axis = -(-cells // 8)
+    key = tile[:, 0] + axis * (tile[:, 1] + axis * tile[:, 2])
+    if cell_sort:
+        local = cell - 8 * tile
+        key = key * 512 + local[:, 0] + 8 * (local[:, 1] + 8 * local[:, 2])
+    assert gf.num_bins == axis ** 3 * (512 if cell_sort else 1)
+    for _ in range(2):                                # the second time the scan's cleared counters
+        gf.splat(pb, vb, n, bounds)
+        words = np.frombuffer(gf._order.read(), np.uint32)
+        bins = np.frombuffer(gf._tiles.read(), np.uint32)
+        B = gf.num_bins
+        total = int(bins[2 * B])
+        assert total == len(binned)
+        order = words[n:n + total]
+        assert np.array_equal(np.sort(order), binned)            # a permutation of the binned ones
+        assert np.array_equal(words[binned], key[binned])         # the shader's bins are these keys
+        assert np.all(np.diff(key[order].astype(np.int64)) >= 0)  # sorted by them
+        starts = bins[B:2 * B + 1]
+        want = np.concatenate([[0], np.cumsum(np.bincount(key[binned], minlength=B))])
+        assert np.array_equal(starts, want)
+        assert not bins[:B].any()                                 # counts cleared for the next step
+        assert np.array_equal(bins[2 * B + 1:3 * B + 1], want[1:])   # each cursor at its bin's end
+        np.testing.assert_array_equal(read4(gf._sorted, total), p[order])
+        np.testing.assert_array_equal(read4(gf._sorted_v, total), v[order])
     gf.release()

@@ -32,6 +32,12 @@ Each step, on the GPU only:
          summed in registers while it stays in one cell, and goes to the tile when the cell
          changes: fewer shared atomics (faster: docs/performance.md), the same sums up to float
          rounding.
+         ``cell_sort`` sorts by cell instead (tile-major, so each tile's particles stay
+         contiguous, and within a tile each cell's): one counter per cell, a scan of them in two
+         dispatches, a slot per particle from its cell's cursor. Each invocation then walks
+         ``CELL_RUN`` slots (chunks of 256 x ``CELL_RUN``), mostly of one cell, so the register
+         runs span whole cells: about one flush of 32 shared atomics per run instead of per
+         particle. Off by default until measured.
        * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
          (``splat_atomic.comp``).
    - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
@@ -81,6 +87,11 @@ SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter c
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
+CELL_RUN = 16         # cell-sorted binned splat: sorted slots per invocation (its chunk is 256 x this),
+                      # so that a run of register sums spans a cell's particles (not measured yet)
+SCAN_BLOCK = 2048     # cell-sorted binned splat: bins a work group of its scan takes (256 x 8)
+SPREAD_FLUSH = True   # cell-sorted binned splat: each lane starts its flush of a run's 32 shared
+                      # atomics at another (corner, word), so a warp's lanes in one cell do not meet
 
 
 def _extensions(ctx) -> frozenset:
@@ -147,14 +158,24 @@ class GridFriction:
     resolution are in this unit). pinned_mass: kg a pinned particle (w = 0) brings to the
     grid (0 leaves pinned particles out). bounds_*: settings of the GridBounds made when
     ``apply`` gets no ``bounds``.
+
+    Binned splat only: ``chunk``: sorted slots per work group (default ``CHUNK``; with
+    ``cell_sort`` 256 x ``CELL_RUN``: each invocation walks chunk / 256 of them). ``aggregate``:
+    register sums of a run's particles in one cell (float atomics only; on there by default).
+    ``sorted_copy``: the scatter copies the particles in sorted order for the splat (default from
+    ``SORTED_COPY_MIN`` particles on). ``cell_sort``: sort by cell instead of by tile (None: off);
+    it turns the sorted copy on whatever the size (it is made for reading the sorted slots
+    contiguously; ``sorted_copy=False`` still works, reading them through the order). It pays only
+    with ``aggregate``; with fixed-point sums it is correct (the same exact sums) but no faster.
     """
 
     def __init__(self, ctx, resolution: int = 32, method: str = "atomic", *,
                  mass_unit: float = 1.0, pinned_mass: float = 1.0,
                  bounds_margin: float = 0.0, bounds_relative_margin: float = 0.05,
                  bounds_cubic: bool = True, float_atomics: bool | None = None,
-                 splat: str | None = None, chunk: int = CHUNK, vertex_layer: bool | None = None,
-                 aggregate: bool | None = None, sorted_copy: bool | None = None):
+                 splat: str | None = None, chunk: int | None = None, vertex_layer: bool | None = None,
+                 aggregate: bool | None = None, sorted_copy: bool | None = None,
+                 cell_sort: bool | None = None):
         from ..gpu.glsl import compute_shader, program
 
         resolution = int(resolution)
@@ -187,6 +208,10 @@ class GridFriction:
         self.splat_schedule = None
         self.vertex_layer = False
         self.aggregate = False
+        self.cell_sort = bool(cell_sort)     # None: off (no default measured yet)
+        if self.cell_sort and (method != "atomic" or splat == "direct"):
+            raise UsageError("GridFriction(cell_sort=True) sorts the binned splat's particles; it needs "
+                             "method='atomic' and splat='binned'")
         if method == "atomic":
             has_float = FLOAT_ATOMICS_EXTENSION in exts
             if float_atomics is None:
@@ -203,6 +228,11 @@ class GridFriction:
             if splat == "binned" and tiles_axis > MAX_TILES_AXIS:
                 raise UsageError(f"the binned splat takes resolutions up to "
                                  f"{MAX_TILES_AXIS * TILE_CELLS + 1}; use splat='direct'")
+            if self.cell_sort and splat != "binned":
+                raise UsageError(f"GridFriction(cell_sort=True) needs the binned splat, which takes "
+                                 f"resolutions up to {MAX_TILES_AXIS * TILE_CELLS + 1}")
+            if chunk is None:
+                chunk = 256 * CELL_RUN if self.cell_sort else CHUNK
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
             self.splat_schedule = splat
@@ -214,16 +244,27 @@ class GridFriction:
             self.accumulator = ctx.buffer(bytes(self.num_nodes * words * 4))
             if splat == "binned":
                 self.num_tiles = tiles_axis ** 3
-                self._tiles = ctx.buffer(bytes((3 * self.num_tiles + 1) * 4))
+                # the sort's bins: tiles, or (cell_sort) every cell of every tile, tile-major
+                self.num_bins = self.num_tiles * (TILE_CELLS ** 3 if self.cell_sort else 1)
+                self._scan_blocks = -(-self.num_bins // SCAN_BLOCK) if self.cell_sort else 0
+                # counts, starts (+ the total), cursors, the cell scan's block sums
+                tiles_words = 3 * self.num_bins + 1 + self._scan_blocks
+                check_allocation(ctx, tiles_words * 4, f"the friction splat's {self.num_bins} bins",
+                                 reduce="Use a smaller grid_resolution")
+                self._tiles = ctx.buffer(bytes(tiles_words * 4))
                 self._order = self._sorted = self._sorted_v = None
                 self._order_capacity = 0
                 # float sums only; on by default there
                 self.aggregate = self.float_atomics and (aggregate is None or bool(aggregate))
                 binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
                               CHUNK=self.chunk, AGGREGATE=int(self.aggregate))
+                if self.cell_sort:
+                    binned.update(CELL_SORT=1, SCAN_BLOCK=SCAN_BLOCK, SPREAD_FLUSH=int(SPREAD_FLUSH))
+                self._stage_names = (("count", "scan_blocks", "scan", "scatter", "splat") if self.cell_sort
+                                     else ("count", "scan", "scatter", "splat"))
                 self._stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
-                                for name in ("count", "scan", "scatter", "splat")}
+                                for name in self._stage_names}
                 self._binned_defines = binned
                 self._copy_stages = None    # the stages with the scatter and splat of SORTED_COPY, made when first used
                 self.sorted_copy = None if sorted_copy is None else bool(sorted_copy)
@@ -297,8 +338,10 @@ class GridFriction:
 
     def uses_sorted_copy(self, n: int) -> bool:
         """Whether the binned splat of ``n`` particles copies them in sorted order first:
-        ``sorted_copy`` when given, else from ``SORTED_COPY_MIN`` particles on."""
-        return self.sorted_copy if self.sorted_copy is not None else n >= SORTED_COPY_MIN
+        ``sorted_copy`` when given, else with ``cell_sort`` or from ``SORTED_COPY_MIN`` particles on."""
+        if self.sorted_copy is not None:
+            return self.sorted_copy
+        return self.cell_sort or n >= SORTED_COPY_MIN
 
     def _binned_splat(self, n: int, masses: dict) -> None:
         """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
@@ -335,11 +378,12 @@ class GridFriction:
             self._sorted.bind_to_storage_buffer(B_SORTED)
             self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
         per_group = 256 * PPT
-        for name in ("count", "scan", "scatter", "splat"):
+        scan_groups = self._scan_blocks if self.cell_sort else 1
+        for name in self._stage_names:
             sh = stages[name]
             set_uniforms(sh, num_particles=n, **masses)
-            count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
-                     "splat": groups(n, self.chunk)}[name]
+            count = {"count": groups(n, per_group), "scan_blocks": scan_groups, "scan": scan_groups,
+                     "scatter": groups(n, per_group), "splat": groups(n, self.chunk)}[name]
             self._run(name, sh, count)
             storage_barrier(ctx)
 
