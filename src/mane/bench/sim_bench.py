@@ -378,7 +378,7 @@ class Bench(BenchRows):
         """bounds / bin / splat / normalise / gather / other of one GridFriction, ms (means over iters).
 
         Every dispatch (draw) is its own profiler section, through GridFriction's ``_run`` hook;
-        the binned splat's count, scan(s) and scatter are summed as ``bin``. ``total`` is one section
+        the binned splat's count, scan and scatter are summed as ``bin``. ``total`` is one section
         around the whole friction step, and ``other`` = total - the stages: barriers and state
         changes between dispatches (for raster, also the framebuffer clear and blend set-up), so
         the columns add up to ``total``. ``clear`` is timed separately: an explicit clear of the
@@ -392,7 +392,7 @@ class Bench(BenchRows):
         gf = GridFriction(ctx, resolution, method, **options)
         bounds = GridBounds(ctx)   # GridFriction's own defaults: relative margin 0.05, cubic
         pos, vel, n = state.positions, state.velocities, state.num_particles
-        stage_of = {"count": "bin", "scan_blocks": "bin", "scan": "bin", "scatter": "bin"}
+        stage_of = {"count": "bin", "scan": "bin", "scatter": "bin"}
         plain_run, plain_render = gf._run, gf._run_render
         try:
             gf.apply(pos, vel, n, 0.1)   # compile
