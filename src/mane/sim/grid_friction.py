@@ -32,12 +32,12 @@ Each step, on the GPU only:
          summed in registers while it stays in one cell, and goes to the tile when the cell
          changes: fewer shared atomics (faster: docs/performance.md), the same sums up to float
          rounding.
-         ``cell_sort`` sorts by cell instead (tile-major, so each tile's particles stay
-         contiguous, and within a tile each cell's): one counter per cell, a scan of them in two
-         dispatches, a slot per particle from its cell's cursor. Each invocation then walks
-         ``CELL_RUN`` slots (chunks of 256 x ``CELL_RUN``), mostly of one cell, so the register
-         runs span whole cells: about one flush of 32 shared atomics per run instead of per
-         particle. Off by default until measured.
+         ``cell_sort`` has each work group walk its chunk in cell order: per tile segment of the
+         chunk, a shared histogram of the particles' cells within the tile (512), its scan and
+         a shared permutation (16-bit offsets in the chunk), then each invocation sums a
+         contiguous run of the cell-ordered particles, mostly of one cell, so a run of register
+         sums spans a cell: about one flush of 32 shared atomics a run instead of about one a
+         particle. The tile sort itself is unchanged. Off by default until measured.
        * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
          (``splat_atomic.comp``).
    - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
@@ -66,6 +66,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import GLFeatureError, UsageError
+from ..gpu.context import is_software_renderer
 from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
@@ -87,11 +88,35 @@ SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter c
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
-CELL_RUN = 16         # cell-sorted binned splat: sorted slots per invocation (its chunk is 256 x this),
-                      # so that a run of register sums spans a cell's particles (not measured yet)
-SCAN_BLOCK = 2048     # cell-sorted binned splat: bins a work group of its scan takes (256 x 8)
-SPREAD_FLUSH = True   # cell-sorted binned splat: each lane starts its flush of a run's 32 shared
+CELL_RUN = 32         # cell-ordered binned splat: slots per invocation (its chunk is 256 x this). A
+                      # global sort by cell (since removed: its count and scatter cost more than the
+                      # splat saved) gave splats of 2.06 / 1.40 / 1.15 ms at runs of 8 / 16 / 32 (H200,
+                      # 1M guides x 32); this per-chunk cell order is not measured yet
+MAX_CELL_CHUNK = 256 * 32   # cell-ordered chunks at most (its shared permutation: 2 bytes a slot)
+SOFTWARE_CELL_CHUNK = 512  # cell-ordered chunks by default on llvmpipe, which stops a shader after
+                           # 65535 loop iterations (gallivm's loop limiter, all loops together): a
+                           # long chunk over hundreds of tiles runs past it and silently drops the
+                           # particles of its last tiles (the plain tile walk too, from a few
+                           # thousand slots a chunk)
+SPREAD_FLUSH = True   # cell-ordered binned splat: each lane starts its flush of a run's 32 shared
                       # atomics at another (corner, word), so a warp's lanes in one cell do not meet
+
+
+def _shared_limit(ctx) -> int:
+    """GL_MAX_COMPUTE_SHARED_MEMORY_SIZE, bytes (GL 4.3's minimum, 32 KiB, where unreadable)."""
+    try:
+        from ..gpu.capabilities import get_capabilities
+
+        return int(get_capabilities(ctx).limits.get("max_compute_shared_memory_size") or 32768)
+    except Exception:
+        return 32768
+
+
+def cell_splat_shared_bytes(chunk: int, float_atomics: bool) -> int:
+    """Shared memory of the cell-ordered splat stage: the node tile ((TILE_CELLS + 1)^3 nodes of
+    4 floats or 8 fixed-point words), the 512 cell counts, the 256 scan sums and the permutation
+    (2 bytes a slot)."""
+    return (TILE_CELLS + 1) ** 3 * (4 if float_atomics else 8) * 4 + (TILE_CELLS ** 3 + 256) * 4 + chunk * 2
 
 
 def _extensions(ctx) -> frozenset:
@@ -160,13 +185,15 @@ class GridFriction:
     ``apply`` gets no ``bounds``.
 
     Binned splat only: ``chunk``: sorted slots per work group (default ``CHUNK``; with
-    ``cell_sort`` 256 x ``CELL_RUN``: each invocation walks chunk / 256 of them). ``aggregate``:
+    ``cell_sort`` 256 x ``CELL_RUN``, shortened until the splat's shared memory fits, or
+    ``SOFTWARE_CELL_CHUNK`` on llvmpipe; a multiple of 256 up to ``MAX_CELL_CHUNK``). ``aggregate``:
     register sums of a run's particles in one cell (float atomics only; on there by default).
     ``sorted_copy``: the scatter copies the particles in sorted order for the splat (default from
-    ``SORTED_COPY_MIN`` particles on). ``cell_sort``: sort by cell instead of by tile (None: off);
-    it turns the sorted copy on whatever the size (it is made for reading the sorted slots
-    contiguously; ``sorted_copy=False`` still works, reading them through the order). It pays only
-    with ``aggregate``; with fixed-point sums it is correct (the same exact sums) but no faster.
+    ``SORTED_COPY_MIN`` particles on). ``cell_sort``: each work group walks its chunk in cell
+    order (None: off); it turns the sorted copy on whatever the size (the cell order reads a
+    chunk's slots out of order, cheap in the copies; ``sorted_copy=False`` still works, reading
+    them through the order). It pays only with ``aggregate``; with fixed-point sums it is correct
+    (the same exact sums) but no faster.
     """
 
     def __init__(self, ctx, resolution: int = 32, method: str = "atomic", *,
@@ -210,7 +237,7 @@ class GridFriction:
         self.aggregate = False
         self.cell_sort = bool(cell_sort)     # None: off (no default measured yet)
         if self.cell_sort and (method != "atomic" or splat == "direct"):
-            raise UsageError("GridFriction(cell_sort=True) sorts the binned splat's particles; it needs "
+            raise UsageError("GridFriction(cell_sort=True) orders the binned splat's chunks by cell; it needs "
                              "method='atomic' and splat='binned'")
         if method == "atomic":
             has_float = FLOAT_ATOMICS_EXTENSION in exts
@@ -231,10 +258,24 @@ class GridFriction:
             if self.cell_sort and splat != "binned":
                 raise UsageError(f"GridFriction(cell_sort=True) needs the binned splat, which takes "
                                  f"resolutions up to {MAX_TILES_AXIS * TILE_CELLS + 1}")
-            if chunk is None:
-                chunk = 256 * CELL_RUN if self.cell_sort else CHUNK
+            if chunk is None and self.cell_sort:
+                # 256 x CELL_RUN, or the longest multiple of 256 whose shared memory fits (fixed
+                # point's node tile is twice float's: 23 KB; llvmpipe allows 32 KB, NVIDIA 48 KB)
+                limit = _shared_limit(ctx)
+                chunk = SOFTWARE_CELL_CHUNK if is_software_renderer(ctx) else 256 * CELL_RUN
+                while chunk > 256 and cell_splat_shared_bytes(chunk, self.float_atomics) > limit:
+                    chunk -= 256
+            elif chunk is None:
+                chunk = CHUNK
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
+            if self.cell_sort and (int(chunk) % 256 or int(chunk) > MAX_CELL_CHUNK):
+                raise UsageError(f"GridFriction(cell_sort=True) takes a chunk that is a multiple of 256 "
+                                 f"up to {MAX_CELL_CHUNK}, got {chunk}")
+            if self.cell_sort and cell_splat_shared_bytes(int(chunk), self.float_atomics) > _shared_limit(ctx):
+                raise UsageError(f"GridFriction(cell_sort=True, chunk={chunk}) needs "
+                                 f"{cell_splat_shared_bytes(int(chunk), self.float_atomics)} bytes of shared "
+                                 f"memory, more than this OpenGL's {_shared_limit(ctx)}; use a smaller chunk")
             self.splat_schedule = splat
             self.chunk = int(chunk)
             words = 4 if self.float_atomics else 8
@@ -244,14 +285,7 @@ class GridFriction:
             self.accumulator = ctx.buffer(bytes(self.num_nodes * words * 4))
             if splat == "binned":
                 self.num_tiles = tiles_axis ** 3
-                # the sort's bins: tiles, or (cell_sort) every cell of every tile, tile-major
-                self.num_bins = self.num_tiles * (TILE_CELLS ** 3 if self.cell_sort else 1)
-                self._scan_blocks = -(-self.num_bins // SCAN_BLOCK) if self.cell_sort else 0
-                # counts, starts (+ the total), cursors, the cell scan's block sums
-                tiles_words = 3 * self.num_bins + 1 + self._scan_blocks
-                check_allocation(ctx, tiles_words * 4, f"the friction splat's {self.num_bins} bins",
-                                 reduce="Use a smaller grid_resolution")
-                self._tiles = ctx.buffer(bytes(tiles_words * 4))
+                self._tiles = ctx.buffer(bytes((3 * self.num_tiles + 1) * 4))
                 self._order = self._sorted = self._sorted_v = None
                 self._order_capacity = 0
                 # float sums only; on by default there
@@ -259,12 +293,10 @@ class GridFriction:
                 binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
                               CHUNK=self.chunk, AGGREGATE=int(self.aggregate))
                 if self.cell_sort:
-                    binned.update(CELL_SORT=1, SCAN_BLOCK=SCAN_BLOCK, SPREAD_FLUSH=int(SPREAD_FLUSH))
-                self._stage_names = (("count", "scan_blocks", "scan", "scatter", "splat") if self.cell_sort
-                                     else ("count", "scan", "scatter", "splat"))
+                    binned.update(CELL_SORT=1, SPREAD_FLUSH=int(SPREAD_FLUSH))
                 self._stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
-                                for name in self._stage_names}
+                                for name in ("count", "scan", "scatter", "splat")}
                 self._binned_defines = binned
                 self._copy_stages = None    # the stages with the scatter and splat of SORTED_COPY, made when first used
                 self.sorted_copy = None if sorted_copy is None else bool(sorted_copy)
@@ -378,12 +410,11 @@ class GridFriction:
             self._sorted.bind_to_storage_buffer(B_SORTED)
             self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
         per_group = 256 * PPT
-        scan_groups = self._scan_blocks if self.cell_sort else 1
-        for name in self._stage_names:
+        for name in ("count", "scan", "scatter", "splat"):
             sh = stages[name]
             set_uniforms(sh, num_particles=n, **masses)
-            count = {"count": groups(n, per_group), "scan_blocks": scan_groups, "scan": scan_groups,
-                     "scatter": groups(n, per_group), "splat": groups(n, self.chunk)}[name]
+            count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
+                     "splat": groups(n, self.chunk)}[name]
             self._run(name, sh, count)
             storage_barrier(ctx)
 

@@ -28,25 +28,26 @@
 //                  the two stages differently) goes straight to the accumulator. AGGREGATE (float
 //                  atomics only): runs of particles in one cell are summed in registers first.
 //
-// CELL_SORT: the same stages sort by cell instead of by tile. The bin (sort key) is the cell in
-// tile-major order, tile * TILE_CELLS^3 + the cell within the tile, so each tile's particles are
-// still one contiguous range of slots (its start is its first cell's, TILE_START(t)) and within
-// it each cell's particles are contiguous. That is what the splat's register runs (AGGREGATE) are
-// for: an invocation's run of slots then mostly lies in one cell, so it flushes its 32 shared
-// atomics about once a run instead of about once a particle (in tile order a strand's
-// consecutive points rarely share a cell). The bins are too many for a shared histogram (262,144
-// at 64^3 nodes, 2,097,152 at 129^3), so
-//   STAGE_COUNT        one global atomicAdd on COUNT(bin) per particle;
-//   STAGE_SCAN_BLOCKS  per work group, the sum of a block of SCAN_BLOCK counts -> BLOCK_SUM(g);
-//   STAGE_SCAN         per work group, its block's offset (the sum of the block sums before it)
-//                      plus the block's own exclusive scan -> START and CURSOR, clears the counts;
-//                      the last group writes START(NUM_BINS) = particles binned;
-//   STAGE_SCATTER      slot = atomicAdd(CURSOR(bin), 1) per particle (no shared ranks).
-// A warp's lanes then mostly walk runs of the same cell, so their flushes would meet on the same
-// 32 shared words at once (an earlier cell sort, reading through ORDER, measured slower for that
-// and for its reads, docs/performance.md); with SPREAD_FLUSH each lane starts its flush at another
-// of the 32 (corner, word) pairs (lane & 31), so 32 lanes of one cell add to 32 different words
-// at each step.
+// CELL_SORT (the splat only; the tile sort above is unchanged): a work group walks each tile
+// segment of its chunk in cell order rather than slot order. In slot order a strand's
+// consecutive points rarely share a cell, so a run of register sums (AGGREGATE) is short; in
+// cell order an invocation's run mostly lies in one cell and flushes its 32 shared atomics about
+// once a run. Per segment (CHUNK = 256 x CELL_RUN slots at most):
+//   1. each invocation takes slots pos + r * 256 + lid (r < CELL_RUN: coalesced), computes the
+//      particle's cell within the tile (0..511) and its rank in that cell with one shared
+//      atomicAdd on s_cells (a histogram), keeping (cell << 16 | rank) in registers; a particle
+//      whose stencil falls outside the tile (the guard: it cannot, unless the compiler rounds the
+//      count stage and this one differently) goes straight to the accumulator here;
+//   2. an exclusive scan of the 512 counts in shared memory -> each cell's first position;
+//   3. s_perm[cell's start + rank] = slot - pos (16 bits each, two a word, atomicOr into a
+//      cleared array: CHUNK <= 65536);
+//   4. each invocation walks a contiguous run of the cell-ordered positions, reading each
+//      particle from its slot (within the chunk: cache-friendly with the sorted copies).
+// Which cell a particle is counted in only decides the order: the walk recomputes each
+// particle's stencil and its runs and the tile guard use that, so the sums do not depend on
+// the two computations agreeing. With SPREAD_FLUSH a warp's lanes, mostly in one cell, start
+// their 32 shared atomics at different (corner, word) pairs (lane & 31), so they do not meet on
+// the same shared word at once.
 //
 // A particle that brings no mass (pinned with pinned_mass 0) or whose position is not finite is
 // not binned (the direct splat would clamp a NaN onto some node; the NaN guard resets it anyway).
@@ -55,10 +56,9 @@
 
 layout(std430, binding = B_POSITIONS) readonly buffer Positions { vec4 positions[]; };
 layout(std430, binding = B_PARTICLE_VELOCITIES) readonly buffer Velocities { vec4 velocities[]; };
-// B bins (tiles, or CELL_SORT cells): [0, B): counts, [B, 2B]: starts (START(B) = total),
-// [2B + 1, 3B + 1): cursors, CELL_SORT: [3B + 1, 3B + 1 + scan blocks): block sums
+// [0, T): counts, [T, 2T]: starts (START(T) = total), [2T + 1, 3T + 1): cursors
 layout(std430, binding = B_TILES) buffer Tiles { uint tiles[]; };
-// [0, n): bin of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by bin
+// [0, n): tile of each particle (NO_TILE: not splatted), [n, 2n): particles sorted by tile
 layout(std430, binding = B_ORDER) buffer Order { uint order[]; };
 #ifndef SORTED_COPY
 #define SORTED_COPY 0
@@ -71,24 +71,12 @@ layout(std430, binding = B_SORTED_VELOCITIES) buffer SortedVelocities { vec4 sor
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
 
-// TILE_CELLS, TILES_AXIS (ceil((GRID_RES - 1) / TILE_CELLS)), CHUNK and PPT are injected
-// (CELL_SORT: SCAN_BLOCK too).
-#ifndef CELL_SORT
-#define CELL_SORT 0
-#endif
+// TILE_CELLS, TILES_AXIS (ceil((GRID_RES - 1) / TILE_CELLS)), CHUNK and PPT are injected.
 #define NUM_TILES uint(TILES_AXIS * TILES_AXIS * TILES_AXIS)
-#if CELL_SORT
-#define BINS_PER_TILE uint(TILE_CELLS * TILE_CELLS * TILE_CELLS)
-#else
-#define BINS_PER_TILE 1u
-#endif
-#define NUM_BINS (NUM_TILES * BINS_PER_TILE)
-#define COUNT(b) tiles[(b)]
-#define START(b) tiles[NUM_BINS + (b)]
-#define CURSOR(b) tiles[2u * NUM_BINS + 1u + (b)]
-#define BLOCK_SUM(g) tiles[3u * NUM_BINS + 1u + (g)]
-#define TILE_START(t) START((t) * BINS_PER_TILE)   // TILE_START(NUM_TILES) = START(NUM_BINS)
-#define BIN_OF(i) order[(i)]
+#define COUNT(t) tiles[(t)]
+#define START(t) tiles[NUM_TILES + (t)]
+#define CURSOR(t) tiles[2u * NUM_TILES + 1u + (t)]
+#define TILE_OF(i) order[(i)]
 #define ORDER(slot) order[num_particles + (slot)]
 const uint NO_TILE = 0xffffffffu;
 
@@ -101,41 +89,20 @@ bool finite3(vec3 v) {
     return all(notEqual(e, uvec3(0x7f800000u)));
 }
 
-// The bin of particle i: the tile that holds its stencil (CELL_SORT: its cell, tile-major), or
-// NO_TILE when the particle is not splatted.
-uint particle_bin(uint i) {
+// The tile that holds particle i's stencil, or NO_TILE when the particle is not splatted.
+uint particle_tile(uint i) {
     vec4 p = positions[i];
     if (!(particle_mass(p.w, pinned_mass, inv_mass_unit) > 0.0) || !finite3(p.xyz)) return NO_TILE;
-    ivec3 base = node_stencil(p.xyz).base;
-    ivec3 t = clamp(base / TILE_CELLS, ivec3(0), ivec3(TILES_AXIS - 1));
-    uint tile = uint(t.x + TILES_AXIS * (t.y + TILES_AXIS * t.z));
-#if CELL_SORT
-    ivec3 c = clamp(base - t * TILE_CELLS, ivec3(0), ivec3(TILE_CELLS - 1));
-    return tile * BINS_PER_TILE + uint(c.x + TILE_CELLS * (c.y + TILE_CELLS * c.z));
-#else
-    return tile;
-#endif
+    ivec3 t = clamp(node_stencil(p.xyz).base / TILE_CELLS, ivec3(0), ivec3(TILES_AXIS - 1));
+    return uint(t.x + TILES_AXIS * (t.y + TILES_AXIS * t.z));
 }
 
 #if STAGE_COUNT || STAGE_SCATTER
 layout(local_size_x = 256) in;
-#if !CELL_SORT
 shared uint s_hist[NUM_TILES];
 #endif
-#endif
 
-#if STAGE_COUNT && CELL_SORT
-void main() {
-    uint first = gl_WorkGroupID.x * 256u * uint(PPT) + gl_LocalInvocationID.x;
-    for (uint r = 0u; r < uint(PPT); ++r) {
-        uint i = first + r * 256u;
-        if (i >= num_particles) break;
-        uint b = particle_bin(i);
-        BIN_OF(i) = b;
-        if (b != NO_TILE) atomicAdd(COUNT(b), 1u);
-    }
-}
-#elif STAGE_COUNT
+#if STAGE_COUNT
 void main() {
     uint lid = gl_LocalInvocationID.x;
     for (uint t = lid; t < NUM_TILES; t += 256u) s_hist[t] = 0u;
@@ -144,8 +111,8 @@ void main() {
     for (uint r = 0u; r < uint(PPT); ++r) {
         uint i = first + r * 256u;
         if (i >= num_particles) break;
-        uint t = particle_bin(i);
-        BIN_OF(i) = t;
+        uint t = particle_tile(i);
+        TILE_OF(i) = t;
         if (t != NO_TILE) atomicAdd(s_hist[t], 1u);
     }
     barrier();
@@ -156,75 +123,7 @@ void main() {
 }
 #endif
 
-#if (STAGE_SCAN_BLOCKS || STAGE_SCAN) && CELL_SORT
-// SCAN_BLOCK = 256 * SCAN_PER bins a work group; NUM_BINS / SCAN_BLOCK blocks (at most 1024:
-// STAGE_SCAN's offset sum reads 4 block sums an invocation at most)
-layout(local_size_x = 256) in;
-shared uint s_sum[256];
-#define SCAN_PER (uint(SCAN_BLOCK) / 256u)
-
-// the sum of s_sum[0..256) (every invocation calls it; leaves it in s_sum[0])
-uint group_sum(uint lid, uint mine) {
-    s_sum[lid] = mine;
-    barrier();
-    for (uint half_ = 128u; half_ > 0u; half_ >>= 1) {
-        if (lid < half_) s_sum[lid] += s_sum[lid + half_];
-        barrier();
-    }
-    uint total = s_sum[0];
-    barrier();                                 // s_sum is reused next
-    return total;
-}
-#endif
-
-#if STAGE_SCAN_BLOCKS && CELL_SORT
-void main() {
-    uint lid = gl_LocalInvocationID.x, g = gl_WorkGroupID.x;
-    uint mine = 0u;
-    for (uint r = 0u; r < SCAN_PER; ++r) {     // coalesced: consecutive invocations, consecutive bins
-        uint b = g * uint(SCAN_BLOCK) + r * 256u + lid;
-        if (b < NUM_BINS) mine += COUNT(b);
-    }
-    uint total = group_sum(lid, mine);
-    if (lid == 0u) BLOCK_SUM(g) = total;
-}
-#endif
-
-#if STAGE_SCAN && CELL_SORT
-void main() {
-    uint lid = gl_LocalInvocationID.x, g = gl_WorkGroupID.x;
-    uint before = 0u;                          // the bins of the blocks before this one
-    for (uint k = lid; k < g; k += 256u) before += BLOCK_SUM(k);
-    uint offset = group_sum(lid, before);
-    // SCAN_PER consecutive bins an invocation (a warp reads 32 * SCAN_PER consecutive words)
-    uint b0 = g * uint(SCAN_BLOCK) + lid * SCAN_PER;
-    uint mine = 0u;
-    for (uint r = 0u; r < SCAN_PER; ++r)
-        if (b0 + r < NUM_BINS) mine += COUNT(b0 + r);
-    s_sum[lid] = mine;
-    barrier();
-    for (uint off = 1u; off < 256u; off <<= 1) {   // Hillis-Steele inclusive scan
-        uint add = lid >= off ? s_sum[lid - off] : 0u;
-        barrier();
-        s_sum[lid] += add;
-        barrier();
-    }
-    uint run = offset + s_sum[lid] - mine;
-    for (uint r = 0u; r < SCAN_PER; ++r) {
-        uint b = b0 + r;
-        if (b < NUM_BINS) {
-            uint c = COUNT(b);
-            START(b) = run;
-            CURSOR(b) = run;
-            COUNT(b) = 0u;
-            run += c;
-        }
-    }
-    if (g == gl_NumWorkGroups.x - 1u && lid == 255u) START(NUM_BINS) = offset + s_sum[255];
-}
-#endif
-
-#if STAGE_SCAN && !CELL_SORT
+#if STAGE_SCAN
 layout(local_size_x = 1024) in;
 shared uint s_sum[1024];
 void main() {
@@ -257,23 +156,7 @@ void main() {
 }
 #endif
 
-#if STAGE_SCATTER && CELL_SORT
-void main() {
-    uint first = gl_WorkGroupID.x * 256u * uint(PPT) + gl_LocalInvocationID.x;
-    for (uint r = 0u; r < uint(PPT); ++r) {
-        uint i = first + r * 256u;
-        if (i >= num_particles) break;
-        uint b = BIN_OF(i);
-        if (b == NO_TILE) continue;
-        uint slot = atomicAdd(CURSOR(b), 1u);
-        ORDER(slot) = i;
-#if SORTED_COPY
-        sorted_p[slot] = positions[i];
-        sorted_v[slot] = velocities[i];
-#endif
-    }
-}
-#elif STAGE_SCATTER
+#if STAGE_SCATTER
 void main() {
     uint lid = gl_LocalInvocationID.x;
     for (uint t = lid; t < NUM_TILES; t += 256u) s_hist[t] = 0u;
@@ -283,7 +166,7 @@ void main() {
     uint rank[PPT];
     for (uint r = 0u; r < uint(PPT); ++r) {
         uint i = first + r * 256u;
-        tile[r] = i < num_particles ? BIN_OF(i) : NO_TILE;
+        tile[r] = i < num_particles ? TILE_OF(i) : NO_TILE;
         rank[r] = 0u;
         if (tile[r] != NO_TILE) rank[r] = atomicAdd(s_hist[tile[r]], 1u);
     }
@@ -310,6 +193,9 @@ void main() {
 #undef AGGREGATE
 #define AGGREGATE 0
 #endif
+#ifndef CELL_SORT
+#define CELL_SORT 0
+#endif
 #ifndef SPREAD_FLUSH
 #define SPREAD_FLUSH 0
 #endif
@@ -325,6 +211,18 @@ shared float s_acc[TILE_NODES * 4u];
 shared uint s_acc[TILE_NODES * 8u];
 #endif
 #define S_ACC(w, j) s_acc[(w) * TILE_NODES + (j)]
+#if CELL_SORT
+#if TILE_CELLS != 8 || (CHUNK % 256) != 0 || CHUNK > 65536
+#error "CELL_SORT: 8^3 cells a tile (two an invocation in the scan), CHUNK a multiple of 256 up to 65536"
+#endif
+#define CELL_RUN (CHUNK / 256)
+#define TILE_CELL_COUNT 512u
+const uint OUTSIDE = 0xffffffffu;
+shared uint s_cells[TILE_CELL_COUNT];   // per cell of the tile: counts, then first positions
+shared uint s_scan[256];
+shared uint s_perm[CHUNK / 2];          // cell-ordered position k -> slot - pos, 16 bits each
+#define PERM_SLOT(k) ((s_perm[(k) >> 1] >> (((k) & 1u) * 16u)) & 0xffffu)
+#endif
 
 // The position (w: inverse mass) and the velocity of the particle at sorted slot `slot`.
 void slot_particle(uint slot, out vec4 p, out vec3 v) {
@@ -337,6 +235,35 @@ void slot_particle(uint slot, out vec4 p, out vec3 v) {
     v = velocities[i].xyz;
 #endif
 }
+
+#if CELL_SORT
+// The position (w: inverse mass) of the particle at sorted slot `slot`.
+vec4 slot_position(uint slot) {
+#if SORTED_COPY
+    return sorted_p[slot];
+#else
+    return positions[ORDER(slot)];
+#endif
+}
+
+bool in_tile(ivec3 local) {
+    return all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
+}
+
+// The particle at sorted slot `slot` straight to the accumulator (its stencil is outside the tile).
+void particle_to_accumulator(uint slot) {
+    vec4 p;
+    vec3 v;
+    slot_particle(slot, p, v);
+    float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
+    NodeStencil s = node_stencil(p.xyz);
+    for (int c = 0; c < 8; ++c) {
+        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        float mw = m * corner_weight(s.frac, corner);
+        if (mw != 0.0) acc_add(node_index(s.base + corner), mw, mw * v);
+    }
+}
+#endif
 
 void tile_add(uint j, float m, vec3 mv) {
 #if ACC_FLOAT
@@ -444,21 +371,21 @@ void run_particle(uint slot, inout ivec3 cell, inout vec4 run[8], ivec3 origin) 
 
 void main() {
     uint lid = gl_LocalInvocationID.x;
-    uint total = START(NUM_BINS);
+    uint total = START(NUM_TILES);
     uint pos = gl_WorkGroupID.x * uint(CHUNK);
     if (pos >= total) return;                  // the whole group: no barrier is skipped by part of it
     uint last = min(pos + uint(CHUNK), total);
-    // the tile whose slots hold pos: the last t with TILE_START(t) <= pos (binary search; empty
-    // tiles have TILE_START(t) == TILE_START(t + 1))
-    uint lo = 0u, hi = NUM_TILES;               // TILE_START(lo) <= pos < TILE_START(hi)
+    // the tile whose slots hold pos: the last t with START(t) <= pos (binary search; empty tiles
+    // have START(t) == START(t + 1))
+    uint lo = 0u, hi = NUM_TILES;               // START(lo) <= pos < START(hi)
     while (hi - lo > 1u) {
         uint mid = (lo + hi) >> 1;
-        if (TILE_START(mid) <= pos) lo = mid; else hi = mid;
+        if (START(mid) <= pos) lo = mid; else hi = mid;
     }
     uint t = lo;
     while (pos < last) {                       // group-uniform: every invocation takes the same path
-        while (TILE_START(t + 1u) <= pos) ++t;
-        uint seg_end = min(last, TILE_START(t + 1u));
+        while (START(t + 1u) <= pos) ++t;
+        uint seg_end = min(last, START(t + 1u));
         ivec3 origin = ivec3(int(t) % TILES_AXIS, (int(t) / TILES_AXIS) % TILES_AXIS,
                              int(t) / (TILES_AXIS * TILES_AXIS)) * TILE_CELLS;
 #if ACC_FLOAT
@@ -466,20 +393,69 @@ void main() {
 #else
         for (uint j = lid; j < TILE_NODES * 8u; j += 256u) s_acc[j] = 0u;
 #endif
+#if CELL_SORT
+        for (uint j = lid; j < TILE_CELL_COUNT; j += 256u) s_cells[j] = 0u;
+        for (uint j = lid; j < uint(CHUNK) / 2u; j += 256u) s_perm[j] = 0u;
         barrier();
-        // each invocation takes a contiguous run of slots: neighbouring slots are mostly
-        // neighbouring particles of one strand (same cell), so interleaving them across lanes
-        // would make a warp's shared atomics collide on the same node
-        uint per = (seg_end - pos + 255u) / 256u;
-        uint run_end = min(seg_end, pos + (lid + 1u) * per);
+        // 1. each slot's cell within the tile and its rank there (registers: constant indices
+        //    once the loop is unrolled)
+        uint key[CELL_RUN];                    // cell << 16 | rank, or OUTSIDE
+        for (uint r = 0u; r < uint(CELL_RUN); ++r) {
+            uint slot = pos + r * 256u + lid;
+            key[r] = OUTSIDE;
+            if (slot < seg_end) {
+                ivec3 local = node_stencil(slot_position(slot).xyz).base - origin;
+                if (in_tile(local)) {
+                    uint c = uint(local.x + TILE_CELLS * (local.y + TILE_CELLS * local.z));
+                    key[r] = (c << 16) | atomicAdd(s_cells[c], 1u);
+                } else {
+                    particle_to_accumulator(slot);   // the guard: not in the walk
+                }
+            }
+        }
+        barrier();
+        // 2. exclusive scan of the 512 counts: two an invocation, a Hillis-Steele scan of the pairs
+        uint c0 = s_cells[2u * lid], c1 = s_cells[2u * lid + 1u];
+        s_scan[lid] = c0 + c1;
+        barrier();
+        for (uint off = 1u; off < 256u; off <<= 1) {
+            uint add = lid >= off ? s_scan[lid - off] : 0u;
+            barrier();
+            s_scan[lid] += add;
+            barrier();
+        }
+        uint inclusive = s_scan[lid];
+        s_cells[2u * lid] = inclusive - c1 - c0;
+        s_cells[2u * lid + 1u] = inclusive - c1;
+        uint walk = s_scan[255];               // particles of the segment in the tile
+        barrier();
+        // 3. the permutation: cell-ordered position -> slot - pos
+        for (uint r = 0u; r < uint(CELL_RUN); ++r) {
+            if (key[r] == OUTSIDE) continue;
+            uint k = s_cells[key[r] >> 16] + (key[r] & 0xffffu);
+            atomicOr(s_perm[k >> 1], (r * 256u + lid) << ((k & 1u) * 16u));
+        }
+        barrier();
+#define WALK_SLOT(k) (pos + PERM_SLOT(k))
+#else
+        barrier();
+        uint walk = seg_end - pos;
+#define WALK_SLOT(k) (pos + (k))
+#endif
+        // each invocation takes a contiguous run of slots (CELL_SORT: of cell-ordered positions):
+        // neighbouring slots are mostly neighbouring particles of one strand (same cell), so
+        // interleaving them across lanes would make a warp's shared atomics collide on the same node
+        uint per = (walk + 255u) / 256u;
+        uint k_end = min(walk, (lid + 1u) * per);
 #if AGGREGATE
         ivec3 cell = ivec3(-1);
         vec4 run[8];                           // per corner: (m w, m w v) of the run
         run_clear(run);
-        for (uint slot = pos + lid * per; slot < run_end; ++slot) run_particle(slot, cell, run, origin);
+        for (uint k = lid * per; k < k_end; ++k) run_particle(WALK_SLOT(k), cell, run, origin);
         if (cell.x >= 0) run_flush(run, cell, origin);
 #else
-        for (uint slot = pos + lid * per; slot < run_end; ++slot) {
+        for (uint k = lid * per; k < k_end; ++k) {
+            uint slot = WALK_SLOT(k);
             vec4 p;
             vec3 v;
             slot_particle(slot, p, v);
@@ -502,6 +478,7 @@ void main() {
             }
         }
 #endif
+#undef WALK_SLOT
         barrier();
         for (uint j = lid; j < TILE_NODES; j += 256u) {
             ivec3 l = ivec3(int(j) % TN, (int(j) / TN) % TN, int(j) / (TN * TN));
