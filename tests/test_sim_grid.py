@@ -7,7 +7,7 @@ import pytest
 from mane.errors import UsageError
 from mane.gpu.bounds import GridBounds, padded_box
 from mane.gpu.context import is_software_renderer
-from mane.sim.grid_friction import (CELL_RUN, SOFTWARE_CELL_CHUNK, GridFriction, _shared_limit,
+from mane.sim.grid_friction import (CELL_RUN, CHUNK, SORTED_COPY_MIN, SOFTWARE_CELL_CHUNK, GridFriction, _shared_limit,
                                     cell_splat_shared_bytes)
 from mane.twins import grid as ref
 
@@ -267,7 +267,20 @@ def test_splat_defaults_and_large_grids(gl):
     if cell_splat_shared_bytes(256 * 32, False) > limit:
         with pytest.raises(UsageError, match="shared memory"):
             GridFriction(gl, 16, cell_sort=True, float_atomics=False, chunk=256 * 32)
-    assert GridFriction(gl, 16).cell_sort is False   # off unless asked for
+    # by default the splats that make the sorted copy walk their chunks in cell order, with float
+    # sums only; the others keep the tile walk
+    plain = GridFriction(gl, 16)
+    assert plain.cell_sort is None and plain.chunk == CHUNK
+    assert plain.copy_cell_sort == plain.aggregate
+    assert plain.copy_chunk == (SOFTWARE_CELL_CHUNK if is_software_renderer(gl) else 256 * CELL_RUN) or not plain.aggregate
+    assert not plain.uses_sorted_copy(1000) and plain.uses_sorted_copy(SORTED_COPY_MIN)
+    plain.release()
+    off = GridFriction(gl, 16, cell_sort=False)
+    assert not off.copy_cell_sort and off.copy_chunk == CHUNK
+    off.release()
+    fixed = GridFriction(gl, 16, float_atomics=False)
+    assert not fixed.copy_cell_sort
+    fixed.release()
 
 
 def test_clear_accumulator_on_the_gpu(gl):

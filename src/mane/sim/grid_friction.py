@@ -37,7 +37,8 @@ Each step, on the GPU only:
          a shared permutation (16-bit offsets in the chunk), then each invocation sums a
          contiguous run of the cell-ordered particles, mostly of one cell, so a run of register
          sums spans a cell: about one flush of 32 shared atomics a run instead of about one a
-         particle. The tile sort itself is unchanged. Off by default until measured.
+         particle. The tile sort itself is unchanged. On by default where the sorted copies are made
+         (from ``SORTED_COPY_MIN`` particles) with float sums.
        * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
          (``splat_atomic.comp``).
    - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
@@ -88,10 +89,10 @@ SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter c
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
-CELL_RUN = 32         # cell-ordered binned splat: slots per invocation (its chunk is 256 x this). A
-                      # global sort by cell (since removed: its count and scatter cost more than the
-                      # splat saved) gave splats of 2.06 / 1.40 / 1.15 ms at runs of 8 / 16 / 32 (H200,
-                      # 1M guides x 32); this per-chunk cell order is not measured yet
+CELL_RUN = 16         # cell-ordered binned splat: slots per invocation (its chunk is 256 x this). H200,
+                      # 1M / 2M guides x 32, splat stage: tile order 2.94 / 5.84 ms, cell order at runs
+                      # of 16 1.78 / 3.30, of 32 2.96 / 5.37 (31 KB of shared memory a group: fewer
+                      # groups resident); docs/performance.md
 MAX_CELL_CHUNK = 256 * 32   # cell-ordered chunks at most (its shared permutation: 2 bytes a slot)
 SOFTWARE_CELL_CHUNK = 512  # cell-ordered chunks by default on llvmpipe, which stops a shader after
                            # 65535 loop iterations (gallivm's loop limiter, all loops together): a
@@ -190,7 +191,9 @@ class GridFriction:
     register sums of a run's particles in one cell (float atomics only; on there by default).
     ``sorted_copy``: the scatter copies the particles in sorted order for the splat (default from
     ``SORTED_COPY_MIN`` particles on). ``cell_sort``: each work group walks its chunk in cell
-    order (None: off); it turns the sorted copy on whatever the size (the cell order reads a
+    order. None (the default): the splats that make the sorted copy do, with float sums
+    (``copy_cell_sort``, chunks of ``copy_chunk``); True: every splat does, and it turns the
+    sorted copy on whatever the size (the cell order reads a
     chunk's slots out of order, cheap in the copies; ``sorted_copy=False`` still works, reading
     them through the order). It pays only with ``aggregate``; with fixed-point sums it is correct
     (the same exact sums) but no faster.
@@ -235,7 +238,9 @@ class GridFriction:
         self.splat_schedule = None
         self.vertex_layer = False
         self.aggregate = False
-        self.cell_sort = bool(cell_sort)     # None: off (no default measured yet)
+        # True: every binned splat in cell order (the sorted copy forced on); None: the splats that
+        # make the sorted copy, with float sums (where it was measured); False: none
+        self.cell_sort = cell_sort if cell_sort is None else bool(cell_sort)
         if self.cell_sort and (method != "atomic" or splat == "direct"):
             raise UsageError("GridFriction(cell_sort=True) orders the binned splat's chunks by cell; it needs "
                              "method='atomic' and splat='binned'")
@@ -258,15 +263,16 @@ class GridFriction:
             if self.cell_sort and splat != "binned":
                 raise UsageError(f"GridFriction(cell_sort=True) needs the binned splat, which takes "
                                  f"resolutions up to {MAX_TILES_AXIS * TILE_CELLS + 1}")
-            if chunk is None and self.cell_sort:
+            explicit_chunk = chunk is not None
+            cell_chunk = int(chunk) if explicit_chunk else None
+            if not explicit_chunk:
                 # 256 x CELL_RUN, or the longest multiple of 256 whose shared memory fits (fixed
                 # point's node tile is twice float's: 23 KB; llvmpipe allows 32 KB, NVIDIA 48 KB)
                 limit = _shared_limit(ctx)
-                chunk = SOFTWARE_CELL_CHUNK if is_software_renderer(ctx) else 256 * CELL_RUN
-                while chunk > 256 and cell_splat_shared_bytes(chunk, self.float_atomics) > limit:
-                    chunk -= 256
-            elif chunk is None:
-                chunk = CHUNK
+                cell_chunk = SOFTWARE_CELL_CHUNK if is_software_renderer(ctx) else 256 * CELL_RUN
+                while cell_chunk > 256 and cell_splat_shared_bytes(cell_chunk, self.float_atomics) > limit:
+                    cell_chunk -= 256
+                chunk = cell_chunk if self.cell_sort else CHUNK
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
             if self.cell_sort and (int(chunk) % 256 or int(chunk) > MAX_CELL_CHUNK):
@@ -290,6 +296,13 @@ class GridFriction:
                 self._order_capacity = 0
                 # float sums only; on by default there
                 self.aggregate = self.float_atomics and (aggregate is None or bool(aggregate))
+                # the sorted-copy path's splat in cell order: always with cell_sort, and by default
+                # with float sums (H200, 1M guides x 32: friction splat 5.02 -> 3.84 ms, the step
+                # 9.5 -> 8.3; docs/performance.md)
+                fits = (cell_chunk % 256 == 0 and cell_chunk <= MAX_CELL_CHUNK
+                        and cell_splat_shared_bytes(cell_chunk, self.float_atomics) <= _shared_limit(ctx))
+                self.copy_cell_sort = bool(self.cell_sort) or (self.cell_sort is None and self.aggregate and fits)
+                self.copy_chunk = cell_chunk if self.copy_cell_sort else self.chunk
                 binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
                               CHUNK=self.chunk, AGGREGATE=int(self.aggregate))
                 if self.cell_sort:
@@ -373,7 +386,7 @@ class GridFriction:
         ``sorted_copy`` when given, else with ``cell_sort`` or from ``SORTED_COPY_MIN`` particles on."""
         if self.sorted_copy is not None:
             return self.sorted_copy
-        return self.cell_sort or n >= SORTED_COPY_MIN
+        return bool(self.cell_sort) or n >= SORTED_COPY_MIN
 
     def _binned_splat(self, n: int, masses: dict) -> None:
         """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
@@ -384,9 +397,11 @@ class GridFriction:
             if self._copy_stages is None:
                 from ..gpu.glsl import compute_shader
 
+                copy_defines = dict(self._binned_defines, SORTED_COPY=1, CHUNK=self.copy_chunk)
+                if self.copy_cell_sort:
+                    copy_defines.update(CELL_SORT=1, SPREAD_FLUSH=int(SPREAD_FLUSH))
                 self._copy_stages = dict(stages, **{name: compute_shader(
-                    ctx, HERE / "splat_binned.comp", dict(self._binned_defines, SORTED_COPY=1,
-                                                          **{f"STAGE_{name.upper()}": 1}))
+                    ctx, HERE / "splat_binned.comp", dict(copy_defines, **{f"STAGE_{name.upper()}": 1}))
                     for name in ("scatter", "splat")})
             stages = self._copy_stages
         if self._order_capacity < n or (copy and self._sorted is None):   # (re)made together
@@ -414,7 +429,7 @@ class GridFriction:
             sh = stages[name]
             set_uniforms(sh, num_particles=n, **masses)
             count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
-                     "splat": groups(n, self.chunk)}[name]
+                     "splat": groups(n, self.copy_chunk if copy else self.chunk)}[name]
             self._run(name, sh, count)
             storage_barrier(ctx)
 
