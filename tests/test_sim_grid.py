@@ -6,7 +6,9 @@ import pytest
 
 from mane.errors import UsageError
 from mane.gpu.bounds import GridBounds, padded_box
-from mane.sim.grid_friction import GridFriction
+from mane.gpu.context import is_software_renderer
+from mane.sim.grid_friction import (CELL_RUN, CHUNK, SORTED_COPY_MIN, SOFTWARE_CELL_CHUNK, GridFriction, _shared_limit,
+                                    cell_splat_shared_bytes)
 from mane.twins import grid as ref
 
 pytestmark = pytest.mark.gpu
@@ -22,6 +24,11 @@ VARIANTS = {
     # the scatter copying the particles in sorted order for the splat (the default from 20M particles)
     "binned-float-copy": dict(method="atomic", splat="binned", float_atomics=True, sorted_copy=True),
     "binned-fixed-copy": dict(method="atomic", splat="binned", float_atomics=False, sorted_copy=True),
+    # each chunk walked in cell order (with the sorted copy; the last one reads through the order)
+    "binned-float-cells": dict(method="atomic", splat="binned", float_atomics=True, cell_sort=True),
+    "binned-fixed-cells": dict(method="atomic", splat="binned", float_atomics=False, cell_sort=True),
+    "binned-float-cells-order": dict(method="atomic", splat="binned", float_atomics=True, cell_sort=True,
+                                     sorted_copy=False),
     "direct-fixed": dict(method="atomic", splat="direct", float_atomics=False),
     "direct-float": dict(method="atomic", splat="direct", float_atomics=True),
     "raster": dict(method="raster"),
@@ -167,21 +174,25 @@ def test_atomic_and_raster_agree_and_fixed_point_is_deterministic(gl):
     for variant, g in grids.items():
         np.testing.assert_allclose(g["density"], ref_grid["density"], rtol=1e-6,
                                    atol=1e-6 * ref_grid["density"].max(), err_msg=variant)
-    # fixed point: exact sums, so the binned (shared-memory) splat equals the direct one bit for bit,
-    # and a second run equals the first
-    for variant in ("binned-fixed", "binned-fixed-again"):
+    # fixed point: exact sums, so the binned (shared-memory) splat equals the direct one bit for bit
+    # whatever the order it sorts by, and a second run equals the first
+    for variant in ("binned-fixed", "binned-fixed-cells", "binned-fixed-again"):
         np.testing.assert_array_equal(grids[variant]["density"], ref_grid["density"])
         np.testing.assert_array_equal(grids[variant]["velocity"], ref_grid["velocity"])
 
 
+@pytest.mark.parametrize("cell_sort", [False, True])
 @pytest.mark.parametrize("variant", ["binned-fixed", "binned-float", "binned-float-run"])
-@pytest.mark.parametrize("R,n,chunk", [(16, 1, 2048), (64, 5000, 256), (97, 20000, 1024), (129, 3000, 2048)])
+@pytest.mark.parametrize("R,n,chunk,pinned_mass", [(16, 1, 2048, 1.0), (9, 257, None, 0.0), (16, 0, None, 1.0),
+                                                   (64, 5000, 256, 1.0), (97, 20000, 1024, 0.0),
+                                                   (129, 3000, None, 1.0)])
 @pytest.mark.slow
-def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
+def test_binned_splat_equals_direct(gl, variant, cell_sort, R, n, chunk, pinned_mass):
     """Tiles at the grid's far faces (R - 1 not a multiple of 8), chunks across several tiles,
-    a single particle, hot nodes (a clump of identical positions), NaN particles left out,
-    and runs of consecutive particles along lines (strands), a few per cell."""
-    p, v = scene(n, seed=R)
+    no particle, a single particle, counts that are not multiples of a work group, hot nodes (a
+    clump of identical positions), NaN particles and massless pinned ones left out, and runs of
+    consecutive particles along lines (strands), a few per cell; sorted by tile or by cell."""
+    p, v = scene(max(n, 1), seed=R)                   # (n = 0: buffers of one particle, none splatted)
     if n > 100:
         p[: n // 10, :3] = p[0, :3]                   # 10% of the particles on one point
         p[n // 10: n // 10 + 3, :3] = np.nan          # not splatted by either
@@ -193,15 +204,18 @@ def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
         steps = np.arange(16)[None, :, None] * (0.4 / (R - 1)) * dirs[:, None]
         p[first:first + count, :3] = (roots[:, None] + steps).reshape(-1, 3)
-    direct = make(gl, R, "direct-" + variant.split("-")[1])
-    binned = make(gl, R, variant, chunk=chunk)
+    direct = make(gl, R, "direct-" + variant.split("-")[1], pinned_mass=pinned_mass)
+    if cell_sort and chunk and cell_splat_shared_bytes(chunk, "float" in variant) > _shared_limit(gl):
+        chunk = None                                  # (llvmpipe's 32 KB: the longest chunk that fits)
+    binned = make(gl, R, variant, chunk=chunk, cell_sort=cell_sort, pinned_mass=pinned_mass)
     assert binned.splat_schedule == "binned" and direct.splat_schedule == "direct"
+    assert binned.cell_sort == cell_sort
     bounds = GridBounds(gl).set(np.nanmin(p[:, :3], axis=0) - 0.01, np.nanmax(p[:, :3], axis=0) + 0.01)
     finite = np.all(np.isfinite(p[:, :3]), axis=1)
     grids = []
     for gf, keep in ((direct, finite), (binned, slice(None))):   # the direct splat without the NaNs
         pb, vb = upload(gl, p[keep], v[keep])
-        gf.splat(pb, vb, int(len(p[keep])), bounds)
+        gf.splat(pb, vb, int(len(p[keep])) if n else 0, bounds)
         grids.append(gf.read_grid())
     if binned.float_atomics:
         scale = grids[0]["density"].max()
@@ -212,7 +226,7 @@ def test_binned_splat_equals_direct(gl, variant, R, n, chunk):
         np.testing.assert_array_equal(grids[1]["velocity"], grids[0]["velocity"])
     # a second splat with the same object: the tile counters were reset by the scan
     pb, vb = upload(gl, p, v)
-    binned.splat(pb, vb, len(p), bounds)
+    binned.splat(pb, vb, n, bounds)
     np.testing.assert_allclose(binned.read_grid()["density"], grids[1]["density"], rtol=1e-6,
                                atol=1e-6 * grids[1]["density"].max())
     direct.release()
@@ -231,6 +245,42 @@ def test_splat_defaults_and_large_grids(gl):
         GridFriction(gl, 130, splat="binned")
     with pytest.raises(UsageError):
         GridFriction(gl, 16, splat="sorted")
+    # the cell order is the binned splat's: nothing to order elsewhere
+    for kw in (dict(resolution=130), dict(splat="direct"), dict(method="raster")):
+        with pytest.raises(UsageError, match="cell_sort"):
+            GridFriction(gl, **{"resolution": 16, **kw}, cell_sort=True)
+    for chunk in (300, 256 * 33):                  # not a multiple of 256; past the 16-bit slots' default
+        with pytest.raises(UsageError, match="cell_sort"):
+            GridFriction(gl, 16, cell_sort=True, chunk=chunk)
+    limit = _shared_limit(gl)
+    for float_atomics in ((False, True) if FLOAT_EXT in gl.extensions else (False,)):
+        # the default chunk: 256 x CELL_RUN, shortened until the splat's shared memory fits
+        cells = GridFriction(gl, 129, cell_sort=True, float_atomics=float_atomics)
+        assert cells.chunk % 256 == 0 and 256 <= cells.chunk <= 256 * CELL_RUN
+        assert cell_splat_shared_bytes(cells.chunk, float_atomics) <= limit
+        if is_software_renderer(gl):               # llvmpipe's loop limiter: short chunks
+            assert cells.chunk == SOFTWARE_CELL_CHUNK
+        else:
+            assert cells.chunk == 256 * CELL_RUN or cell_splat_shared_bytes(cells.chunk + 256, float_atomics) > limit
+        assert cells.num_tiles == 16 ** 3 and cells.uses_sorted_copy(1)
+        cells.release()
+    if cell_splat_shared_bytes(256 * 32, False) > limit:
+        with pytest.raises(UsageError, match="shared memory"):
+            GridFriction(gl, 16, cell_sort=True, float_atomics=False, chunk=256 * 32)
+    # by default the splats that make the sorted copy walk their chunks in cell order, with float
+    # sums only; the others keep the tile walk
+    plain = GridFriction(gl, 16)
+    assert plain.cell_sort is None and plain.chunk == CHUNK
+    assert plain.copy_cell_sort == plain.aggregate
+    assert plain.copy_chunk == (SOFTWARE_CELL_CHUNK if is_software_renderer(gl) else 256 * CELL_RUN) or not plain.aggregate
+    assert not plain.uses_sorted_copy(1000) and plain.uses_sorted_copy(SORTED_COPY_MIN)
+    plain.release()
+    off = GridFriction(gl, 16, cell_sort=False)
+    assert not off.copy_cell_sort and off.copy_chunk == CHUNK
+    off.release()
+    fixed = GridFriction(gl, 16, float_atomics=False)
+    assert not fixed.copy_cell_sort
+    fixed.release()
 
 
 def test_clear_accumulator_on_the_gpu(gl):
@@ -343,6 +393,7 @@ def test_the_sorted_copy_is_chosen_by_size_and_made_only_when_used(gl):
 
     p, v = scene(3000, seed=9)
     pb, vb = upload(gl, p, v)
+    assert GridFriction(gl, 16, cell_sort=True).uses_sorted_copy(1)   # the cell sort turns it on
     gf = GridFriction(gl, 16, "atomic", splat="binned")
     assert not gf.uses_sorted_copy(len(p)) and gf.uses_sorted_copy(SORTED_COPY_MIN)
     gf.apply(pb, vb, len(p), friction=0.0)
@@ -358,7 +409,8 @@ def test_the_sorted_copy_is_chosen_by_size_and_made_only_when_used(gl):
     gf.release()
 
 
-def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
+@pytest.mark.parametrize("cell_sort", [False, True])
+def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch, cell_sort):
     """Out of memory for the sorted copies: one GPUMemoryError, and the splat without them then
     works and gives the sums it gave before."""
     from mane.errors import GPUMemoryError
@@ -366,7 +418,7 @@ def test_a_refused_sorted_copy_leaves_the_splat_usable(gl, monkeypatch):
 
     p, v = scene(3000, seed=4)
     pb, vb = upload(gl, p, v)
-    gf = GridFriction(gl, 16, "atomic", splat="binned")
+    gf = GridFriction(gl, 16, "atomic", splat="binned", cell_sort=cell_sort, sorted_copy=False)
     gf.apply(pb, vb, len(p), friction=0.0)
     before = gf.read_grid()
 
@@ -404,3 +456,99 @@ def test_long_chunks_keep_every_particle(gl):
     if is_software_renderer(gl):
         with pytest.raises(UsageError, match="CPU rasteriser"):
             GridFriction(gl, 129, "atomic", splat="binned", chunk=2 * SOFTWARE_MAX_CHUNK)
+
+
+@pytest.mark.parametrize("cell_sort", [False, True])
+@pytest.mark.parametrize("R,n", [(16, 3001), (64, 20000), (9, 700)])
+def test_sorted_slots_follow_the_tiles(gl, cell_sort, R, n):
+    """The tile sort itself, read back (the same with the cell-ordered splat, which orders only
+    inside its chunks): the tiles of the particles in slot order are non-decreasing, the order is
+    a permutation of the binned particles (no NaN, no massless pinned one), the sorted copies hold
+    them, and each tile's start is the prefix sum of the tiles before it. The tiles are recomputed
+    here from the positions, which sit well inside their cells, so a wrong tile or scan shows."""
+    rng = np.random.default_rng(R + n)
+    cells = R - 1
+    cell = rng.integers(0, cells, size=(n, 3))
+    cell[: n // 3] = cell[0]                         # a crowded cell: a run longer than a chunk
+    p = np.zeros((n, 4), np.float32)
+    p[:, :3] = (cell + rng.uniform(0.1, 0.9, size=(n, 3))) / cells   # the box [0, 1]^3
+    p[:, 3] = rng.uniform(0.5, 4.0, n)
+    p[::37, 3] = 0.0                                  # pinned, massless below: not binned
+    p[5::101, :3] = np.nan                            # not binned
+    v = rng.normal(size=(n, 4)).astype(np.float32)
+    pb, vb = upload(gl, p, v)
+    bounds = GridBounds(gl).set([0, 0, 0], [1, 1, 1])
+    gf = GridFriction(gl, R, "atomic", splat="binned", cell_sort=cell_sort, sorted_copy=True, pinned_mass=0.0)
+    binned = np.flatnonzero(np.all(np.isfinite(p[:, :3]), axis=1) & (p[:, 3] > 0))
+    tile = cell // 8
+    axis = -(-cells // 8)
+    key = tile[:, 0] + axis * (tile[:, 1] + axis * tile[:, 2])
+    T = gf.num_tiles
+    assert T == axis ** 3
+    for _ in range(2):                                # the second time the scan's cleared counters
+        gf.splat(pb, vb, n, bounds)
+        words = np.frombuffer(gf._order.read(), np.uint32)
+        tiles = np.frombuffer(gf._tiles.read(), np.uint32)
+        total = int(tiles[2 * T])
+        assert total == len(binned)
+        order = words[n:n + total]
+        assert np.array_equal(np.sort(order), binned)            # a permutation of the binned ones
+        assert np.array_equal(words[binned], key[binned])         # the shader's tiles are these
+        assert np.all(np.diff(key[order].astype(np.int64)) >= 0)  # sorted by them
+        starts = tiles[T:2 * T + 1]
+        want = np.concatenate([[0], np.cumsum(np.bincount(key[binned], minlength=T))])
+        assert np.array_equal(starts, want)
+        assert not tiles[:T].any()                                # counts cleared for the next step
+        assert np.array_equal(tiles[2 * T + 1:3 * T + 1], want[1:])   # each cursor at its tile's end
+        np.testing.assert_array_equal(read4(gf._sorted, total), p[order])
+        np.testing.assert_array_equal(read4(gf._sorted_v, total), v[order])
+    gf.release()
+
+
+@pytest.mark.parametrize("float_atomics", [False, True])
+@pytest.mark.parametrize("chunk", [256, 768, None])
+def test_cell_order_keeps_every_particle_once(gl, float_atomics, chunk):
+    """The cell-ordered walk of chunks that span several tile segments, of lengths that are not
+    multiples of 256, with crowded cells (ranks past 256) and the cells of a strand's
+    consecutive slots scattered over the tile: every particle summed once (a wrong scan or
+    permutation drops or repeats some). Masses are powers of two apart per particle, so a
+    particle lost or doubled changes the sums far beyond rounding; fixed point equals the direct
+    splat bit for bit."""
+    if float_atomics and FLOAT_EXT not in gl.extensions:
+        pytest.skip(f"{FLOAT_EXT} not available")
+    R = 33                                            # 4^3 tiles of 8^3 cells
+    rng = np.random.default_rng(11)
+    n = 9000
+    cell = rng.integers(0, R - 1, size=(n, 3))
+    cell[1000:3000] = cell[1000]                      # 2000 in one cell: ranks past 256 in a chunk
+    cell[3000:3600] = (8, 8, 8)                       # a tile's first cell, the last one's next
+    cell[3600:4200] = (7, 7, 7)
+    p = np.zeros((n, 4), np.float32)
+    p[:, :3] = (cell + rng.uniform(0.05, 0.95, size=(n, 3))) / (R - 1)
+    p[:, 3] = 2.0 ** -rng.integers(0, 12, n)          # inverse masses 1 .. 2^-11
+    p[::53, 3] = 0.0                                  # pinned (pinned_mass 1)
+    v = np.zeros((n, 4), np.float32)
+    v[:, :3] = rng.normal(size=(n, 3))
+    pb, vb = upload(gl, p, v)
+    bounds = GridBounds(gl).set([0, 0, 0], [1, 1, 1])
+    grids = []
+    for kw in (dict(splat="direct"), dict(splat="binned", cell_sort=True, chunk=chunk)):
+        gf = GridFriction(gl, R, "atomic", float_atomics=float_atomics, **kw)
+        gf.splat(pb, vb, n, bounds)
+        grids.append(gf.read_grid())
+        if kw["splat"] == "binned":
+            assert gf.cell_sort and gf.chunk == (chunk or gf.chunk)
+            starts = np.frombuffer(gf._tiles.read(), np.uint32)[gf.num_tiles:2 * gf.num_tiles + 1]
+            edges = set(starts.tolist())
+            spanning = sum(len({e for e in edges if c < e < c + gf.chunk}) > 0 for c in range(0, n, gf.chunk))
+            assert spanning >= 2                     # chunks over several tile segments
+        gf.release()
+    direct, cells = grids
+    if float_atomics:
+        scale = direct["density"].max()
+        np.testing.assert_allclose(cells["density"], direct["density"], rtol=1e-5, atol=1e-6 * scale)
+        np.testing.assert_allclose(cells["momentum"], direct["momentum"], rtol=1e-4,
+                                   atol=1e-5 * np.abs(direct["momentum"]).max())
+    else:
+        np.testing.assert_array_equal(cells["density"], direct["density"])
+        np.testing.assert_array_equal(cells["momentum"], direct["momentum"])

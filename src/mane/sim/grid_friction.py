@@ -32,6 +32,13 @@ Each step, on the GPU only:
          summed in registers while it stays in one cell, and goes to the tile when the cell
          changes: fewer shared atomics (faster: docs/performance.md), the same sums up to float
          rounding.
+         ``cell_sort`` has each work group walk its chunk in cell order: per tile segment of the
+         chunk, a shared histogram of the particles' cells within the tile (512), its scan and
+         a shared permutation (16-bit offsets in the chunk), then each invocation sums a
+         contiguous run of the cell-ordered particles, mostly of one cell, so a run of register
+         sums spans a cell: about one flush of 32 shared atomics a run instead of about one a
+         particle. The tile sort itself is unchanged. On by default where the sorted copies are made
+         (from ``SORTED_COPY_MIN`` particles) with float sums.
        * ``"direct"``: one invocation per particle, 32 global atomics (64 in fixed point)
          (``splat_atomic.comp``).
    - ``method="raster"``: Woodhouse's ``optimised_gpu`` splat. Each particle's 8 corners are
@@ -86,6 +93,32 @@ SORTED_COPY_MIN = 20_000_000  # binned splat: particles from which the scatter c
 CHUNK = 512           # binned splat: sorted particles per work group (H200, splat stage at 1M / 2M
                       # guides x 32 from the sorted copies: 2.98 / 5.91 ms at 512, 3.95 / 7.86 at
                       # 256, 2.83 / 5.58 at 1024, 2.84 / 5.61 at 2048; docs/performance.md)
+CELL_RUN = 16         # cell-ordered binned splat: slots per invocation (its chunk is 256 x this). H200,
+                      # 1M / 2M guides x 32, splat stage: tile order 2.94 / 5.84 ms, cell order at runs
+                      # of 16 1.78 / 3.30, of 32 2.96 / 5.37 (31 KB of shared memory a group: fewer
+                      # groups resident); docs/performance.md
+MAX_CELL_CHUNK = 256 * 32   # cell-ordered chunks at most (its shared permutation: 2 bytes a slot)
+SOFTWARE_CELL_CHUNK = 512  # cell-ordered chunks by default on llvmpipe (its loop limiter, as for
+                           # SOFTWARE_MAX_CHUNK: the cell walk loops more a tile segment)
+SPREAD_FLUSH = True   # cell-ordered binned splat: each lane starts its flush of a run's 32 shared
+                      # atomics at another (corner, word), so a warp's lanes in one cell do not meet
+
+
+def _shared_limit(ctx) -> int:
+    """GL_MAX_COMPUTE_SHARED_MEMORY_SIZE, bytes (GL 4.3's minimum, 32 KiB, where unreadable)."""
+    try:
+        from ..gpu.capabilities import get_capabilities
+
+        return int(get_capabilities(ctx).limits.get("max_compute_shared_memory_size") or 32768)
+    except Exception:
+        return 32768
+
+
+def cell_splat_shared_bytes(chunk: int, float_atomics: bool) -> int:
+    """Shared memory of the cell-ordered splat stage: the node tile ((TILE_CELLS + 1)^3 nodes of
+    4 floats or 8 fixed-point words), the 512 cell counts, the 256 scan sums and the permutation
+    (2 bytes a slot)."""
+    return (TILE_CELLS + 1) ** 3 * (4 if float_atomics else 8) * 4 + (TILE_CELLS ** 3 + 256) * 4 + chunk * 2
 
 
 def _extensions(ctx) -> frozenset:
@@ -152,14 +185,28 @@ class GridFriction:
     resolution are in this unit). pinned_mass: kg a pinned particle (w = 0) brings to the
     grid (0 leaves pinned particles out). bounds_*: settings of the GridBounds made when
     ``apply`` gets no ``bounds``.
+
+    Binned splat only: ``chunk``: sorted slots per work group (default ``CHUNK``; with
+    ``cell_sort`` 256 x ``CELL_RUN``, shortened until the splat's shared memory fits, or
+    ``SOFTWARE_CELL_CHUNK`` on llvmpipe; a multiple of 256 up to ``MAX_CELL_CHUNK``). ``aggregate``:
+    register sums of a run's particles in one cell (float atomics only; on there by default).
+    ``sorted_copy``: the scatter copies the particles in sorted order for the splat (default from
+    ``SORTED_COPY_MIN`` particles on). ``cell_sort``: each work group walks its chunk in cell
+    order. None (the default): the splats that make the sorted copy do, with float sums
+    (``copy_cell_sort``, chunks of ``copy_chunk``); True: every splat does, and it turns the
+    sorted copy on whatever the size (the cell order reads a
+    chunk's slots out of order, cheap in the copies; ``sorted_copy=False`` still works, reading
+    them through the order). It pays only with ``aggregate``; with fixed-point sums it is correct
+    (the same exact sums) but no faster.
     """
 
     def __init__(self, ctx, resolution: int = 32, method: str = "atomic", *,
                  mass_unit: float = 1.0, pinned_mass: float = 1.0,
                  bounds_margin: float = 0.0, bounds_relative_margin: float = 0.05,
                  bounds_cubic: bool = True, float_atomics: bool | None = None,
-                 splat: str | None = None, chunk: int = CHUNK, vertex_layer: bool | None = None,
-                 aggregate: bool | None = None, sorted_copy: bool | None = None):
+                 splat: str | None = None, chunk: int | None = None, vertex_layer: bool | None = None,
+                 aggregate: bool | None = None, sorted_copy: bool | None = None,
+                 cell_sort: bool | None = None):
         from ..gpu.glsl import compute_shader, program
 
         resolution = int(resolution)
@@ -192,6 +239,12 @@ class GridFriction:
         self.splat_schedule = None
         self.vertex_layer = False
         self.aggregate = False
+        # True: every binned splat in cell order (the sorted copy forced on); None: the splats that
+        # make the sorted copy, with float sums (where it was measured); False: none
+        self.cell_sort = cell_sort if cell_sort is None else bool(cell_sort)
+        if self.cell_sort and (method != "atomic" or splat == "direct"):
+            raise UsageError("GridFriction(cell_sort=True) orders the binned splat's chunks by cell; it needs "
+                             "method='atomic' and splat='binned'")
         if method == "atomic":
             has_float = FLOAT_ATOMICS_EXTENSION in exts
             if float_atomics is None:
@@ -208,8 +261,28 @@ class GridFriction:
             if splat == "binned" and tiles_axis > MAX_TILES_AXIS:
                 raise UsageError(f"the binned splat takes resolutions up to "
                                  f"{MAX_TILES_AXIS * TILE_CELLS + 1}; use splat='direct'")
+            if self.cell_sort and splat != "binned":
+                raise UsageError(f"GridFriction(cell_sort=True) needs the binned splat, which takes "
+                                 f"resolutions up to {MAX_TILES_AXIS * TILE_CELLS + 1}")
+            explicit_chunk = chunk is not None
+            cell_chunk = int(chunk) if explicit_chunk else None
+            if not explicit_chunk:
+                # 256 x CELL_RUN, or the longest multiple of 256 whose shared memory fits (fixed
+                # point's node tile is twice float's: 23 KB; llvmpipe allows 32 KB, NVIDIA 48 KB)
+                limit = _shared_limit(ctx)
+                cell_chunk = SOFTWARE_CELL_CHUNK if is_software_renderer(ctx) else 256 * CELL_RUN
+                while cell_chunk > 256 and cell_splat_shared_bytes(cell_chunk, self.float_atomics) > limit:
+                    cell_chunk -= 256
+                chunk = cell_chunk if self.cell_sort else CHUNK
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
+            if self.cell_sort and (int(chunk) % 256 or int(chunk) > MAX_CELL_CHUNK):
+                raise UsageError(f"GridFriction(cell_sort=True) takes a chunk that is a multiple of 256 "
+                                 f"up to {MAX_CELL_CHUNK}, got {chunk}")
+            if self.cell_sort and cell_splat_shared_bytes(int(chunk), self.float_atomics) > _shared_limit(ctx):
+                raise UsageError(f"GridFriction(cell_sort=True, chunk={chunk}) needs "
+                                 f"{cell_splat_shared_bytes(int(chunk), self.float_atomics)} bytes of shared "
+                                 f"memory, more than this OpenGL's {_shared_limit(ctx)}; use a smaller chunk")
             if int(chunk) > SOFTWARE_MAX_CHUNK and is_software_renderer(ctx):
                 raise UsageError(f"GridFriction chunk {int(chunk)} is over {SOFTWARE_MAX_CHUNK} on a CPU rasteriser, "
                                  f"which stops a shader after 65,535 loop iterations and would drop particles")
@@ -227,8 +300,17 @@ class GridFriction:
                 self._order_capacity = 0
                 # float sums only; on by default there
                 self.aggregate = self.float_atomics and (aggregate is None or bool(aggregate))
+                # the sorted-copy path's splat in cell order: always with cell_sort, and by default
+                # with float sums (H200, 1M guides x 32: friction splat 5.02 -> 3.84 ms, the step
+                # 9.5 -> 8.3; docs/performance.md)
+                fits = (cell_chunk % 256 == 0 and cell_chunk <= MAX_CELL_CHUNK
+                        and cell_splat_shared_bytes(cell_chunk, self.float_atomics) <= _shared_limit(ctx))
+                self.copy_cell_sort = bool(self.cell_sort) or (self.cell_sort is None and self.aggregate and fits)
+                self.copy_chunk = cell_chunk if self.copy_cell_sort else self.chunk
                 binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
                               CHUNK=self.chunk, AGGREGATE=int(self.aggregate))
+                if self.cell_sort:
+                    binned.update(CELL_SORT=1, SPREAD_FLUSH=int(SPREAD_FLUSH))
                 self._stages = {name: compute_shader(ctx, HERE / "splat_binned.comp",
                                                      dict(binned, **{f"STAGE_{name.upper()}": 1}))
                                 for name in ("count", "scan", "scatter", "splat")}
@@ -305,8 +387,10 @@ class GridFriction:
 
     def uses_sorted_copy(self, n: int) -> bool:
         """Whether the binned splat of ``n`` particles copies them in sorted order first:
-        ``sorted_copy`` when given, else from ``SORTED_COPY_MIN`` particles on."""
-        return self.sorted_copy if self.sorted_copy is not None else n >= SORTED_COPY_MIN
+        ``sorted_copy`` when given, else with ``cell_sort`` or from ``SORTED_COPY_MIN`` particles on."""
+        if self.sorted_copy is not None:
+            return self.sorted_copy
+        return bool(self.cell_sort) or n >= SORTED_COPY_MIN
 
     def _binned_splat(self, n: int, masses: dict) -> None:
         """count -> scan -> scatter -> splat (splat_binned.comp); leaves the sums in the accumulator."""
@@ -317,9 +401,11 @@ class GridFriction:
             if self._copy_stages is None:
                 from ..gpu.glsl import compute_shader
 
+                copy_defines = dict(self._binned_defines, SORTED_COPY=1, CHUNK=self.copy_chunk)
+                if self.copy_cell_sort:
+                    copy_defines.update(CELL_SORT=1, SPREAD_FLUSH=int(SPREAD_FLUSH))
                 self._copy_stages = dict(stages, **{name: compute_shader(
-                    ctx, HERE / "splat_binned.comp", dict(self._binned_defines, SORTED_COPY=1,
-                                                          **{f"STAGE_{name.upper()}": 1}))
+                    ctx, HERE / "splat_binned.comp", dict(copy_defines, **{f"STAGE_{name.upper()}": 1}))
                     for name in ("scatter", "splat")})
             stages = self._copy_stages
         if self._order_capacity < n or (copy and self._sorted is None):   # (re)made together
@@ -347,7 +433,7 @@ class GridFriction:
             sh = stages[name]
             set_uniforms(sh, num_particles=n, **masses)
             count = {"count": groups(n, per_group), "scan": 1, "scatter": groups(n, per_group),
-                     "splat": groups(n, self.chunk)}[name]
+                     "splat": groups(n, self.copy_chunk if copy else self.chunk)}[name]
             self._run(name, sh, count)
             storage_barrier(ctx)
 

@@ -46,7 +46,7 @@ MAX_GRAVITY = 1000.0
 """Largest |gravity| accepted, m/s^2 (about 100 g): beyond it speeds overflow float32 within steps."""
 
 
-GRID_OPTIONS = ("float_atomics", "splat", "chunk", "vertex_layer", "aggregate", "sorted_copy")
+GRID_OPTIONS = ("float_atomics", "splat", "chunk", "vertex_layer", "aggregate", "sorted_copy", "cell_sort")
 """Keyword arguments of ``GridFriction`` that ``SolverTuning.grid_options`` may set."""
 
 
@@ -90,8 +90,8 @@ class SolverTuning:
         the friction pass only pads it. False leaves the reduction to the friction pass.""")
     grid_options: dict = setting(factory=dict, keys=GRID_OPTIONS,
         help="""keyword arguments of the friction pass's ``GridFriction`` (``float_atomics``,
-        ``splat``, ``chunk``, ``vertex_layer``, ``aggregate``, ``sorted_copy``; GridFriction checks their
-        values).""")
+        ``splat``, ``chunk``, ``vertex_layer``, ``aggregate``, ``sorted_copy``, ``cell_sort``;
+        GridFriction checks their values).""")
 
     def __post_init__(self) -> None:
         validate(self, "solver.")

@@ -28,6 +28,27 @@
 //                  the two stages differently) goes straight to the accumulator. AGGREGATE (float
 //                  atomics only): runs of particles in one cell are summed in registers first.
 //
+// CELL_SORT (the splat only; the tile sort above is unchanged): a work group walks each tile
+// segment of its chunk in cell order rather than slot order. In slot order a strand's
+// consecutive points rarely share a cell, so a run of register sums (AGGREGATE) is short; in
+// cell order an invocation's run mostly lies in one cell and flushes its 32 shared atomics about
+// once a run. Per segment (CHUNK = 256 x CELL_RUN slots at most):
+//   1. each invocation takes slots pos + r * 256 + lid (r < CELL_RUN: coalesced), computes the
+//      particle's cell within the tile (0..511) and its rank in that cell with one shared
+//      atomicAdd on s_cells (a histogram), keeping (cell << 16 | rank) in registers; a particle
+//      whose stencil falls outside the tile (the guard: it cannot, unless the compiler rounds the
+//      count stage and this one differently) goes straight to the accumulator here;
+//   2. an exclusive scan of the 512 counts in shared memory -> each cell's first position;
+//   3. s_perm[cell's start + rank] = slot - pos (16 bits each, two a word, atomicOr into a
+//      cleared array: CHUNK <= 65536);
+//   4. each invocation walks a contiguous run of the cell-ordered positions, reading each
+//      particle from its slot (within the chunk: cache-friendly with the sorted copies).
+// Which cell a particle is counted in only decides the order: the walk recomputes each
+// particle's stencil and its runs and the tile guard use that, so the sums do not depend on
+// the two computations agreeing. With SPREAD_FLUSH a warp's lanes, mostly in one cell, start
+// their 32 shared atomics at different (corner, word) pairs (lane & 31), so they do not meet on
+// the same shared word at once.
+//
 // A particle that brings no mass (pinned with pinned_mass 0) or whose position is not finite is
 // not binned (the direct splat would clamp a NaN onto some node; the NaN guard resets it anyway).
 // In fixed point the shared sums are the same 64-bit words as the direct splat's, so the result is
@@ -172,6 +193,12 @@ void main() {
 #undef AGGREGATE
 #define AGGREGATE 0
 #endif
+#ifndef CELL_SORT
+#define CELL_SORT 0
+#endif
+#ifndef SPREAD_FLUSH
+#define SPREAD_FLUSH 0
+#endif
 layout(local_size_x = 256) in;
 #define TN (TILE_CELLS + 1)
 #define TILE_NODES uint(TN * TN * TN)
@@ -184,6 +211,18 @@ shared float s_acc[TILE_NODES * 4u];
 shared uint s_acc[TILE_NODES * 8u];
 #endif
 #define S_ACC(w, j) s_acc[(w) * TILE_NODES + (j)]
+#if CELL_SORT
+#if TILE_CELLS != 8 || (CHUNK % 256) != 0 || CHUNK > 65536
+#error "CELL_SORT: 8^3 cells a tile (two an invocation in the scan), CHUNK a multiple of 256 up to 65536"
+#endif
+#define CELL_RUN (CHUNK / 256)
+#define TILE_CELL_COUNT 512u
+const uint OUTSIDE = 0xffffffffu;
+shared uint s_cells[TILE_CELL_COUNT];   // per cell of the tile: counts, then first positions
+shared uint s_scan[256];
+shared uint s_perm[CHUNK / 2];          // cell-ordered position k -> slot - pos, 16 bits each
+#define PERM_SLOT(k) ((s_perm[(k) >> 1] >> (((k) & 1u) * 16u)) & 0xffffu)
+#endif
 
 // The position (w: inverse mass) and the velocity of the particle at sorted slot `slot`.
 void slot_particle(uint slot, out vec4 p, out vec3 v) {
@@ -196,6 +235,35 @@ void slot_particle(uint slot, out vec4 p, out vec3 v) {
     v = velocities[i].xyz;
 #endif
 }
+
+#if CELL_SORT
+// The position (w: inverse mass) of the particle at sorted slot `slot`.
+vec4 slot_position(uint slot) {
+#if SORTED_COPY
+    return sorted_p[slot];
+#else
+    return positions[ORDER(slot)];
+#endif
+}
+
+bool in_tile(ivec3 local) {
+    return all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
+}
+
+// The particle at sorted slot `slot` straight to the accumulator (its stencil is outside the tile).
+void particle_to_accumulator(uint slot) {
+    vec4 p;
+    vec3 v;
+    slot_particle(slot, p, v);
+    float m = particle_mass(p.w, pinned_mass, inv_mass_unit);
+    NodeStencil s = node_stencil(p.xyz);
+    for (int c = 0; c < 8; ++c) {
+        ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
+        float mw = m * corner_weight(s.frac, corner);
+        if (mw != 0.0) acc_add(node_index(s.base + corner), mw, mw * v);
+    }
+}
+#endif
 
 void tile_add(uint j, float m, vec3 mv) {
 #if ACC_FLOAT
@@ -245,6 +313,29 @@ void run_clear(inout vec4 run[8]) {
 void run_flush(vec4 run[8], ivec3 base, ivec3 origin) {
     ivec3 local = base - origin;
     bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
+#if SPREAD_FLUSH
+    if (inside) {
+        // lane l starts at corner l & 7 and word (l >> 3) & 3: the 8 corners rotated by s and each
+        // corner's 4 words by u in registers (constant indices: selects, not a dynamically indexed
+        // array in local memory), then corner (c + s) & 7's word (k + u) & 3 is r[c][k]
+        uint lane = gl_LocalInvocationID.x;
+        int s = int(lane & 7u), u = int((lane >> 3) & 3u);
+        vec4 r[8] = run;
+        if ((s & 1) != 0) r = vec4[8](r[1], r[2], r[3], r[4], r[5], r[6], r[7], r[0]);
+        if ((s & 2) != 0) r = vec4[8](r[2], r[3], r[4], r[5], r[6], r[7], r[0], r[1]);
+        if ((s & 4) != 0) r = vec4[8](r[4], r[5], r[6], r[7], r[0], r[1], r[2], r[3]);
+        for (int c = 0; c < 8; ++c) {
+            if (r[c].x == 0.0) continue;       // no mass at this corner (before the words turn)
+            vec4 a = (u & 1) != 0 ? r[c].yzwx : r[c];
+            a = (u & 2) != 0 ? a.zwxy : a;
+            int cc = (c + s) & 7;
+            ivec3 l = local + ivec3(cc & 1, (cc >> 1) & 1, (cc >> 2) & 1);
+            uint j = uint(l.x + TN * (l.y + TN * l.z));
+            for (int k = 0; k < 4; ++k) atomicAdd(S_ACC(uint((k + u) & 3), j), a[k]);
+        }
+        return;
+    }
+#endif
     for (int c = 0; c < 8; ++c) {
         vec4 a = run[c];
         if (a.x == 0.0) continue;
@@ -302,20 +393,69 @@ void main() {
 #else
         for (uint j = lid; j < TILE_NODES * 8u; j += 256u) s_acc[j] = 0u;
 #endif
+#if CELL_SORT
+        for (uint j = lid; j < TILE_CELL_COUNT; j += 256u) s_cells[j] = 0u;
+        for (uint j = lid; j < uint(CHUNK) / 2u; j += 256u) s_perm[j] = 0u;
         barrier();
-        // each invocation takes a contiguous run of slots: neighbouring slots are mostly
-        // neighbouring particles of one strand (same cell), so interleaving them across lanes
-        // would make a warp's shared atomics collide on the same node
-        uint per = (seg_end - pos + 255u) / 256u;
-        uint run_end = min(seg_end, pos + (lid + 1u) * per);
+        // 1. each slot's cell within the tile and its rank there (registers: constant indices
+        //    once the loop is unrolled)
+        uint key[CELL_RUN];                    // cell << 16 | rank, or OUTSIDE
+        for (uint r = 0u; r < uint(CELL_RUN); ++r) {
+            uint slot = pos + r * 256u + lid;
+            key[r] = OUTSIDE;
+            if (slot < seg_end) {
+                ivec3 local = node_stencil(slot_position(slot).xyz).base - origin;
+                if (in_tile(local)) {
+                    uint c = uint(local.x + TILE_CELLS * (local.y + TILE_CELLS * local.z));
+                    key[r] = (c << 16) | atomicAdd(s_cells[c], 1u);
+                } else {
+                    particle_to_accumulator(slot);   // the guard: not in the walk
+                }
+            }
+        }
+        barrier();
+        // 2. exclusive scan of the 512 counts: two an invocation, a Hillis-Steele scan of the pairs
+        uint c0 = s_cells[2u * lid], c1 = s_cells[2u * lid + 1u];
+        s_scan[lid] = c0 + c1;
+        barrier();
+        for (uint off = 1u; off < 256u; off <<= 1) {
+            uint add = lid >= off ? s_scan[lid - off] : 0u;
+            barrier();
+            s_scan[lid] += add;
+            barrier();
+        }
+        uint inclusive = s_scan[lid];
+        s_cells[2u * lid] = inclusive - c1 - c0;
+        s_cells[2u * lid + 1u] = inclusive - c1;
+        uint walk = s_scan[255];               // particles of the segment in the tile
+        barrier();
+        // 3. the permutation: cell-ordered position -> slot - pos
+        for (uint r = 0u; r < uint(CELL_RUN); ++r) {
+            if (key[r] == OUTSIDE) continue;
+            uint k = s_cells[key[r] >> 16] + (key[r] & 0xffffu);
+            atomicOr(s_perm[k >> 1], (r * 256u + lid) << ((k & 1u) * 16u));
+        }
+        barrier();
+#define WALK_SLOT(k) (pos + PERM_SLOT(k))
+#else
+        barrier();
+        uint walk = seg_end - pos;
+#define WALK_SLOT(k) (pos + (k))
+#endif
+        // each invocation takes a contiguous run of slots (CELL_SORT: of cell-ordered positions):
+        // neighbouring slots are mostly neighbouring particles of one strand (same cell), so
+        // interleaving them across lanes would make a warp's shared atomics collide on the same node
+        uint per = (walk + 255u) / 256u;
+        uint k_end = min(walk, (lid + 1u) * per);
 #if AGGREGATE
         ivec3 cell = ivec3(-1);
         vec4 run[8];                           // per corner: (m w, m w v) of the run
         run_clear(run);
-        for (uint slot = pos + lid * per; slot < run_end; ++slot) run_particle(slot, cell, run, origin);
+        for (uint k = lid * per; k < k_end; ++k) run_particle(WALK_SLOT(k), cell, run, origin);
         if (cell.x >= 0) run_flush(run, cell, origin);
 #else
-        for (uint slot = pos + lid * per; slot < run_end; ++slot) {
+        for (uint k = lid * per; k < k_end; ++k) {
+            uint slot = WALK_SLOT(k);
             vec4 p;
             vec3 v;
             slot_particle(slot, p, v);
@@ -323,7 +463,12 @@ void main() {
             NodeStencil s = node_stencil(p.xyz);
             ivec3 local = s.base - origin;     // in [0, TILE_CELLS - 1]^3
             bool inside = all(greaterThanEqual(local, ivec3(0))) && all(lessThan(local, ivec3(TILE_CELLS)));
-            for (int c = 0; c < 8; ++c) {
+            for (int q = 0; q < 8; ++q) {
+#if SPREAD_FLUSH
+                int c = (q + int(lid)) & 7;    // lanes of one cell start at different corners
+#else
+                int c = q;
+#endif
                 ivec3 corner = ivec3(c & 1, (c >> 1) & 1, (c >> 2) & 1);
                 float mw = m * corner_weight(s.frac, corner);
                 if (mw == 0.0) continue;
@@ -333,6 +478,7 @@ void main() {
             }
         }
 #endif
+#undef WALK_SLOT
         barrier();
         for (uint j = lid; j < TILE_NODES; j += 256u) {
             ivec3 l = ivec3(int(j) % TN, (int(j) / TN) % TN, int(j) / (TN * TN));
