@@ -114,6 +114,16 @@ def _shared_limit(ctx) -> int:
         return 32768
 
 
+def _cell_chunk_problem(ctx, chunk: int, float_atomics: bool) -> str | None:
+    """Why the cell-ordered splat cannot take chunks of ``chunk`` slots here, or None."""
+    if chunk % 256 or chunk > MAX_CELL_CHUNK:
+        return f"takes a chunk that is a multiple of 256 up to {MAX_CELL_CHUNK}"
+    need, limit = cell_splat_shared_bytes(chunk, float_atomics), _shared_limit(ctx)
+    if need > limit:
+        return f"needs {need} bytes of shared memory, more than this OpenGL's {limit}; use a smaller chunk"
+    return None
+
+
 def cell_splat_shared_bytes(chunk: int, float_atomics: bool) -> int:
     """Shared memory of the cell-ordered splat stage: the node tile ((TILE_CELLS + 1)^3 nodes of
     4 floats or 8 fixed-point words), the 512 cell counts, the 256 scan sums and the permutation
@@ -264,9 +274,9 @@ class GridFriction:
             if self.cell_sort and splat != "binned":
                 raise UsageError(f"GridFriction(cell_sort=True) needs the binned splat, which takes "
                                  f"resolutions up to {MAX_TILES_AXIS * TILE_CELLS + 1}")
-            explicit_chunk = chunk is not None
-            cell_chunk = int(chunk) if explicit_chunk else None
-            if not explicit_chunk:
+            if chunk is not None:
+                cell_chunk = int(chunk)
+            else:
                 # 256 x CELL_RUN, or the longest multiple of 256 whose shared memory fits (fixed
                 # point's node tile is twice float's: 23 KB; llvmpipe allows 32 KB, NVIDIA 48 KB)
                 limit = _shared_limit(ctx)
@@ -276,13 +286,9 @@ class GridFriction:
                 chunk = cell_chunk if self.cell_sort else CHUNK
             if int(chunk) < 256:
                 raise UsageError("GridFriction chunk must be >= 256 particles")
-            if self.cell_sort and (int(chunk) % 256 or int(chunk) > MAX_CELL_CHUNK):
-                raise UsageError(f"GridFriction(cell_sort=True) takes a chunk that is a multiple of 256 "
-                                 f"up to {MAX_CELL_CHUNK}, got {chunk}")
-            if self.cell_sort and cell_splat_shared_bytes(int(chunk), self.float_atomics) > _shared_limit(ctx):
-                raise UsageError(f"GridFriction(cell_sort=True, chunk={chunk}) needs "
-                                 f"{cell_splat_shared_bytes(int(chunk), self.float_atomics)} bytes of shared "
-                                 f"memory, more than this OpenGL's {_shared_limit(ctx)}; use a smaller chunk")
+            cell_problem = _cell_chunk_problem(ctx, cell_chunk, self.float_atomics)
+            if self.cell_sort and cell_problem:
+                raise UsageError(f"GridFriction(cell_sort=True, chunk={cell_chunk}) {cell_problem}")
             if int(chunk) > SOFTWARE_MAX_CHUNK and is_software_renderer(ctx):
                 raise UsageError(f"GridFriction chunk {int(chunk)} is over {SOFTWARE_MAX_CHUNK} on a CPU rasteriser, "
                                  f"which stops a shader after 65,535 loop iterations and would drop particles")
@@ -303,9 +309,8 @@ class GridFriction:
                 # the sorted-copy path's splat in cell order: always with cell_sort, and by default
                 # with float sums (H200, 1M guides x 32: friction splat 5.02 -> 3.84 ms, the step
                 # 9.5 -> 8.3; docs/performance.md)
-                fits = (cell_chunk % 256 == 0 and cell_chunk <= MAX_CELL_CHUNK
-                        and cell_splat_shared_bytes(cell_chunk, self.float_atomics) <= _shared_limit(ctx))
-                self.copy_cell_sort = bool(self.cell_sort) or (self.cell_sort is None and self.aggregate and fits)
+                self.copy_cell_sort = bool(self.cell_sort) or (self.cell_sort is None and self.aggregate
+                                                               and cell_problem is None)
                 self.copy_chunk = cell_chunk if self.copy_cell_sort else self.chunk
                 binned = dict(acc_defines, TILE_CELLS=TILE_CELLS, TILES_AXIS=tiles_axis, PPT=PPT,
                               CHUNK=self.chunk, AGGREGATE=int(self.aggregate))
