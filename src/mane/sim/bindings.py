@@ -32,8 +32,7 @@ B_ACCUMULATOR = 2         # splat accumulator (fixed-point or float atomics)
 B_GRID = 3                # the normalised grid (velocity, density)
 B_TILES = 4               # splat_binned.comp's bins
 B_ORDER = 5
-B_SORTED = 6              # splat_binned.comp's particle positions copied in sorted order
-B_SORTED_VELOCITIES = 8   # and their velocities
+B_SORTED = 6              # splat_binned.comp's particle positions and velocities copied in sorted order
 # the grid's box (bounds.GridBounds): B_BOUNDS for every grid kernel; the strand solver, whose
 # B_ROOT_FRAMES holds 7, reads the grid and its box at B_GATHER_GRID / B_GATHER_BOUNDS
 B_BOUNDS = GPU_BOUNDS    # where mane.gpu.bounds writes the box

@@ -16,8 +16,8 @@ Each step, on the GPU only:
          m/s); the sums are exact and independent of order; a node holds up to 2^31 mass units.
      and in one of two schedules (``splat=``):
        * ``"binned"`` (default up to 129^3 nodes): particles are counted and sorted by tile of
-         8^3 cells (3 small dispatches; at scale the scatter also copies each particle's
-         position and velocity to its sorted slot), then each work group sums a balanced chunk
+         8^3 cells (3 small dispatches; at scale the scatter copies each particle's position
+         and velocity, side by side, to its sorted slot instead of writing the order), then each work group sums a balanced chunk
          of sorted particles, read contiguously from those copies, into its tile's 9^3 nodes
          in shared memory and adds only the touched nodes to the accumulator
          (``splat_binned.comp``).
@@ -71,8 +71,8 @@ from ..gpu.context import is_software_renderer
 from ..gpu.entry_points import gl_entry
 from .bounds import (BOUNDS_BINDING, GridBounds, check_particle_buffers, groups, is_state,
                      set_uniforms, storage_barrier)
-from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_SORTED,
-                       B_SORTED_VELOCITIES, B_TILES, TEX_SPLAT)
+from .bindings import (B_ACCUMULATOR, B_GRID, B_ORDER, B_PARTICLE_VELOCITIES, B_POSITIONS, B_SORTED, B_TILES,
+                       TEX_SPLAT)
 
 HERE = Path(__file__).resolve().parent
 METHODS = ("atomic", "raster")
@@ -302,7 +302,7 @@ class GridFriction:
             if splat == "binned":
                 self.num_tiles = tiles_axis ** 3
                 self._tiles = ctx.buffer(bytes((3 * self.num_tiles + 1) * 4))
-                self._order = self._sorted = self._sorted_v = None
+                self._order = self._sorted = None
                 self._order_capacity = 0
                 # float sums only; on by default there
                 self.aggregate = self.float_atomics and (aggregate is None or bool(aggregate))
@@ -418,21 +418,20 @@ class GridFriction:
 
             self._release_order()
             capacity = max(n, 1024)
-            if copy:   # the order (8 bytes a particle) and the sorted positions and velocities (16 each)
+            record = 32   # the sorted copy: a particle's position and velocity, side by side
+            if copy:   # and the order (8 bytes a particle)
                 what = f"the friction splat's sorted copy of {n} particles"
                 reduce = "Use fewer strands or points per strand"
-                check_allocation(ctx, capacity * 40, what, ssbo=False, reduce=reduce)
-                check_allocation(ctx, capacity * 16, what, reduce=reduce)     # each buffer's size
+                check_allocation(ctx, capacity * (8 + record), what, ssbo=False, reduce=reduce)
+                check_allocation(ctx, capacity * record, what, reduce=reduce)     # the copies' buffer
             self._order_capacity = capacity
             self._order = ctx.buffer(reserve=2 * capacity * 4)
             if copy:
-                self._sorted = ctx.buffer(reserve=capacity * 16)
-                self._sorted_v = ctx.buffer(reserve=capacity * 16)
+                self._sorted = ctx.buffer(reserve=capacity * record)
         self._tiles.bind_to_storage_buffer(B_TILES)
         self._order.bind_to_storage_buffer(B_ORDER)
         if copy:
             self._sorted.bind_to_storage_buffer(B_SORTED)
-            self._sorted_v.bind_to_storage_buffer(B_SORTED_VELOCITIES)
         per_group = 256 * PPT
         for name in ("count", "scan", "scatter", "splat"):
             sh = stages[name]
@@ -527,10 +526,10 @@ class GridFriction:
 
     def _release_order(self) -> None:
         """The binned splat's order and sorted copies, released (made again when next needed)."""
-        for b in (self._order, self._sorted, self._sorted_v):
+        for b in (self._order, self._sorted):
             if b is not None:
                 b.release()
-        self._order = self._sorted = self._sorted_v = None
+        self._order = self._sorted = None
         self._order_capacity = 0
 
     def release(self) -> None:

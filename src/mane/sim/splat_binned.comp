@@ -15,7 +15,9 @@
 //                  START(NUM_TILES) = particles binned; clears the counts for the next step
 //   STAGE_SCATTER  per particle: its rank in the group's shared histogram plus the group's slot
 //                  range (one atomicAdd on CURSOR(t) per touched tile) -> ORDER(slot) = particle,
-//                  and (SORTED_COPY) its position and velocity copied to slot in the sorted buffers
+//                  or (SORTED_COPY) its position and velocity copied to slot in the sorted buffers
+//                  (the splat then reads only those: ORDER is left unwritten, 4 scattered bytes a
+//                  particle fewer)
 //   STAGE_SPLAT    balanced chunks of CHUNK sorted slots per work group, read through ORDER or
 //                  (SORTED_COPY) from the sorted copies in slot order (contiguous: the particles
 //                  of a tile come from strands all over the buffers, and gathering them through
@@ -64,9 +66,16 @@ layout(std430, binding = B_ORDER) buffer Order { uint order[]; };
 #define SORTED_COPY 0
 #endif
 #if SORTED_COPY
-// the position (w: inverse mass) and the velocity of the particle at each slot
-layout(std430, binding = B_SORTED) buffer SortedPositions { vec4 sorted_p[]; };
-layout(std430, binding = B_SORTED_VELOCITIES) buffer SortedVelocities { vec4 sorted_v[]; };
+// the position (w: inverse mass) and the velocity of the particle at each slot, side by side: one
+// 32-byte record a particle (two buffers of 16-byte halves with the order written too, and a
+// packed 28-byte record, were slower to write: docs/performance.md)
+layout(std430, binding = B_SORTED) buffer Sorted { vec4 sorted_pv[]; };
+void copy_write(uint slot, vec4 p, vec4 v) {
+    sorted_pv[2u * slot] = p;
+    sorted_pv[2u * slot + 1u] = v;
+}
+vec4 copy_position(uint slot) { return sorted_pv[2u * slot]; }
+vec3 copy_velocity(uint slot) { return sorted_pv[2u * slot + 1u].xyz; }
 #endif
 #include "grid_accum.glsl"
 #include "grid_nodes.glsl"
@@ -179,10 +188,10 @@ void main() {
     for (uint r = 0u; r < uint(PPT); ++r)
         if (tile[r] != NO_TILE) {
             uint i = first + r * 256u, slot = s_hist[tile[r]] + rank[r];
-            ORDER(slot) = i;
 #if SORTED_COPY
-            sorted_p[slot] = positions[i];
-            sorted_v[slot] = velocities[i];
+            copy_write(slot, positions[i], velocities[i]);
+#else
+            ORDER(slot) = i;
 #endif
         }
 }
@@ -227,8 +236,8 @@ shared uint s_perm[CHUNK / 2];          // cell-ordered position k -> slot - pos
 // The position (w: inverse mass) and the velocity of the particle at sorted slot `slot`.
 void slot_particle(uint slot, out vec4 p, out vec3 v) {
 #if SORTED_COPY
-    p = sorted_p[slot];
-    v = sorted_v[slot].xyz;
+    p = copy_position(slot);
+    v = copy_velocity(slot);
 #else
     uint i = ORDER(slot);
     p = positions[i];
@@ -240,7 +249,7 @@ void slot_particle(uint slot, out vec4 p, out vec3 v) {
 // The position (w: inverse mass) of the particle at sorted slot `slot`.
 vec4 slot_position(uint slot) {
 #if SORTED_COPY
-    return sorted_p[slot];
+    return copy_position(slot);
 #else
     return positions[ORDER(slot)];
 #endif
