@@ -86,5 +86,8 @@ TEX_LUT_DUAL = 7          # the shading model's tables (shading/__init__.py)
 TEX_LUT_M = 24
 TEX_LUT_N = 25
 TEX_LUT_CHIANG = 26
+TEX_RSM_FLUX = 27           # the skin's reflective shadow map (passes/skin_bounce.py)
+TEX_RSM_GEOM = 28
+TEX_RSM_DOM = 29
 
 TABLE = register_bindings(Path(__file__).parent, globals())

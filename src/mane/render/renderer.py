@@ -9,7 +9,9 @@
 
 Passes (reads -> writes): frames (strands -> frames), shadow_map (head [+hair] -> shadow_map),
 deep_opacity (strands -> dom), adsm (strands -> adsm), opacity_maps (strands -> osm),
-density (strands or the simulator's grid -> density), head (head, maps -> hdr), hair (strands, maps -> hdr),
+density (strands or the simulator's grid -> density), skin_bounce (head, maps -> skin_rsm: the
+skin's reflective shadow map, with settings.skin_bounce and a head), head (head, maps -> hdr),
+hair (strands, maps, skin_rsm -> hdr),
 resolve (hdr -> output).
 """
 from __future__ import annotations
@@ -30,7 +32,7 @@ from .camera import Camera, look_at, orthographic, perspective
 from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
-                     ResolvePass, ShadowMapPass)
+                     ResolvePass, ShadowMapPass, SkinBouncePass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
 from .passes.expand import ExpandPass
 from .passes.frames import FramesPass
@@ -134,7 +136,7 @@ class Renderer(GpuOwner):
             self.warnings.append(unsupported_reason(self))
         self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
-                                   HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
+                                   SkinBouncePass(self), HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
                                    ResolvePass(self)]
         self.last_frame: Frame | None = None
         self._released = False

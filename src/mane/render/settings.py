@@ -183,6 +183,11 @@ class RenderSettings:
         help="""How far the scalp's albedo (the head's "scalp" vertex weight) is tinted from skin_color
         toward the hair's colour: the look of the undrawn hair covering a real scalp between the
         drawn strands. 0: the scalp is skin (what a path tracer of the drawn strands sees).""")
+    skin_bounce: float = setting(1.0, lo=0.0, hi=100.0, slider=(0.0, 4.0),
+        help="""Scale of the light the head's skin reflects onto the hair (one bounce of light 0: a
+        reflective shadow map of the head gathered by every shaded hair point, scattered as the
+        fibre scatters diffuse light; mane.render.passes.skin_bounce). 1: the physical amount
+        (Lambertian skin_color); 0: off. Nothing without a drawn head (docs/quality.md, item (10)).""")
     root_darkening: float = setting(0.0, lo=0.0, hi=1.0, slider=(0.0, 1.0),
         help="""How much darker a strand's root is than the rest of it (the hair's radiance times
         1 - root_darkening at the root, rising smoothly to 1 by a quarter of the strand): a painted

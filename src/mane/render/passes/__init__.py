@@ -9,5 +9,6 @@ from .head_pass import HeadPass
 from .opacity_maps import OpacityMapsPass
 from .resolve import ResolvePass
 from .shadow_map import ShadowMapPass
+from .skin_bounce import SkinBouncePass
 
-__all__ = ["Frame", "Pass", "View", "ShadowMapPass", "DeepOpacityPass", "ADSMPass", "OpacityMapsPass", "DensityPass", "ExtraShadowsPass", "HeadPass", "HairPass", "ResolvePass"]
+__all__ = ["Frame", "Pass", "View", "ShadowMapPass", "DeepOpacityPass", "ADSMPass", "OpacityMapsPass", "DensityPass", "ExtraShadowsPass", "SkinBouncePass", "HeadPass", "HairPass", "ResolvePass"]

@@ -13,8 +13,8 @@ import numpy as np
 from ...gpu.glsl import program
 from ...gpu import uniforms
 from ...gpu.uniforms import write_uniform
-from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST,
-                        TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
+from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST, TEX_RSM_DOM,
+                        TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
 from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
@@ -45,6 +45,24 @@ def shadow_defines(settings, pcf: int | None = None) -> dict:
     scattering's deep-opacity box, ``ms_shadow_footprint``)."""
     return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1),
             "PCF": int(settings.pcf if pcf is None else pcf), "MS_FOOTPRINT": int(settings.ms_shadow_footprint)}
+
+
+SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per shaded point (skin_bounce.py)
+
+
+def skin_bounce_active(renderer) -> bool:
+    """Whether the frame has the skin's bounce (skin_bounce.py): settings.skin_bounce > 0 and
+    a head drawn."""
+    s = renderer.settings
+    return float(s.skin_bounce) > 0.0 and renderer.head is not None and bool(s.draw_head)
+
+
+def bounce_defines(renderer) -> dict:
+    """The hair shading programs' skin-bounce defines: SKIN_BOUNCE 1 and SKIN_BOUNCE_SAMPLES
+    where the term is on, else SKIN_BOUNCE 0 (the programs as they were without it)."""
+    if not skin_bounce_active(renderer):
+        return {"SKIN_BOUNCE": 0}
+    return {"SKIN_BOUNCE": 1, "SKIN_BOUNCE_SAMPLES": SKIN_BOUNCE_SAMPLES}
 
 
 class Target(NamedTuple):
@@ -165,6 +183,8 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "VERTEX_SHADOWS": int(s.hair_shadow_lookup == "vertex" and pass_id == PASS_SHADE and geometry_file is None),
     }
     defines.update(shading.defines())
+    if pass_id == PASS_SHADE:
+        defines.update(bounce_defines(renderer))
     defines.update(extra_defines or {})
     frag = shader_path("hair.frag")
     if fragment_file is not None:
@@ -272,6 +292,12 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         t["dom"].use(TEX_DOM)
     bind_shadow_methods(renderer, prog, frame)
     bind_extra_shadows(renderer, prog, frame)
+    rsm = t.get("skin_rsm")   # the skin's reflective shadow map (skin_bounce.py), where made
+    if rsm is not None and has_uniform(prog, "u_rsm_flux"):
+        rsm[0].use(TEX_RSM_FLUX)
+        rsm[1].use(TEX_RSM_GEOM)
+        rsm[2].use(TEX_RSM_DOM)
+        set_uniforms(prog, rsm[3])
 
 
 def _lighting_uniforms(renderer, frame: Frame) -> dict:

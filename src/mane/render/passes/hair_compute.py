@@ -51,7 +51,7 @@ from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
-from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, set_uniforms, set_view,
+from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, bounce_defines, set_uniforms, set_view,
                    shadow_defines)
 from . import depth_tiles, occlusion_tiles
 from .raster_segment import raster_defines
@@ -206,9 +206,10 @@ class HairComputePass(Pass):
         for hook in self.after_raster:
             hook(frame)
         with r.profiler.section("hair_shade"):
-            cs = self._programs.get("shade", (r.shading, r.settings), lambda: compute_shader(
-                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings)},
-                include_dirs=[RENDER_DIR]))
+            bounce = bounce_defines(r)
+            cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"]), lambda: compute_shader(
+                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
+                                                       **bounce}, include_dirs=[RENDER_DIR]))
             set_view(cs, frame.view)
             set_uniforms(cs, common)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)

@@ -12,6 +12,17 @@
 #if VERTEX_SHADOWS
 in vec4 g_vis;
 #endif
+// SKIN_BOUNCE (settings.skin_bounce > 0 and a head drawn: base.bounce_defines): light 0's light
+// reflected once by the head's skin (skin_bounce.glsl), scattered as the fibre scatters
+// isotropic light of the same fluence (hair_isotropic_albedo). 0: compiled out.
+#ifndef SKIN_BOUNCE
+#define SKIN_BOUNCE 0
+#endif
+
+
+#if SKIN_BOUNCE
+#include "skin_bounce.glsl"
+#endif
 
 uniform HairMaterial u_material;
 uniform float u_root_darkening;   // settings.root_darkening
@@ -41,6 +52,11 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
         vec3 radiance = u_light_radiance[i] * falloff;
         color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis_ms[i]));
     }
+
+
+#if SKIN_BOUNCE
+    color += (u_skin_bounce * 0.25 * INV_PI) * hair_isotropic_albedo(T, V, m) * skin_bounce_fluence(P);
+#endif
     // settings.root_darkening: a painted occlusion toward the root (0: none, the default)
     return color * (1.0 - u_root_darkening * (1.0 - smoothstep(0.0, 0.25, s)));
 }

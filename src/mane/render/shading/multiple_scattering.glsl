@@ -30,6 +30,25 @@ vec3 hair_ms_karis(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) 
 
 #include "dual_scattering.glsl"
 
+// The fibre's albedo for light arriving alike from every direction (isotropic radiance L_in):
+// L_out(V) = hair_isotropic_albedo(T, V, m) * L_in (the skin bounce's response, hair_radiance.glsl).
+// HAIR_MS_DUAL: the dual-scattering tables' sum_p Abar_p = 2 pi sum_p N^G_p at the eye's
+// |theta_o| (rows 5-7; for Chiang's fibre the full-circle average of its lobes, what the diffuse
+// part of hair_ms_dual scatters: the same response to the same kind of light). Else the
+// material's colour (Kajiya-Kay's diffuse, Karis's C).
+vec3 hair_isotropic_albedo(vec3 T, vec3 V, HairMaterial m) {
+#if HAIR_MULTIPLE_SCATTERING == HAIR_MS_DUAL
+    float size = float(textureSize(hair_dual_lut, 0).x);
+    float theta_o = hair_asin(dot(T, V));
+    float xd = clamp(abs(theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size - 1.0);
+    vec4 ng0 = hair_dual_fetch(xd, 5.0, size);
+    return TWO_PI * (m.specular * ng0.a + ng0.rgb + hair_dual_fetch(xd, 6.0, size).rgb
+                     + hair_dual_fetch(xd, 7.0, size).rgb);
+#else
+    return m.color;
+#endif
+}
+
 vec3 hair_multiple_scattering(vec3 T, vec3 V, vec3 L, HairMaterial m, float transmittance) {
 #if HAIR_MULTIPLE_SCATTERING == HAIR_MS_KARIS
     return hair_ms_karis(T, V, L, m, transmittance);

@@ -1,0 +1,216 @@
+"""settings.skin_bounce: the light the head's skin reflects onto the hair, a reflective shadow
+map of the head gathered per shaded hair point (mane/render/passes/skin_bounce.py,
+skin_bounce.glsl). The GLSL gather against its NumPy twin, the twin against the analytic
+fluence of a lit Lambertian plane, and the renderer: off and without a head nothing changes,
+with a head the hair beside the lit skin gains warm light."""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from mane.bench.fidelity import realtime_linear
+from mane.groom import Groom
+from mane.render import Camera, Light, Renderer, RenderSettings
+from mane.render.camera import look_at, orthographic
+from mane.render.passes import skin_bounce as sb
+
+# an orthographic light 0 looking down -y at the plane y = 0, 0.5 m wide
+VIEW = orthographic(0.25, 0.25, 0.1, 2.0) @ look_at(np.array([0.0, 1.0, 0.0]), np.array([0.0, 0.0, 0.0]),
+                                                    np.array([0.0, 0.0, -1.0]))
+EYE, FWD, WIDTH = np.array([0.0, 1.0, 0.0]), np.array([0.0, -1.0, 0.0]), 0.5
+
+
+def _plane_maps(n, flux=(1.0, 0.5, 0.25), bumpy=False, seed=0):
+    """(flux, geom, dom) level-0 maps of the plane y = 0 seen from EYE: depth 1 m; ``bumpy``: a
+    smooth varying flux, normal, depth, coverage and hair above it."""
+    rng = np.random.default_rng(seed)
+    u = (np.arange(n) + 0.5) / n
+    U, V = np.meshgrid(u, u)
+    f = np.zeros((n, n, 4), np.float32)
+    g = np.zeros((n, n, 4), np.float32)
+    d = np.zeros((n, n, 4), np.float32)
+    f[..., :3] = flux
+    f[..., 3] = 1.0
+    g[..., 1] = 1.0
+    g[..., 3] = 1.0
+    d[..., 3] = 0.9   # hair from 0.1 m above the plane
+    if bumpy:
+        f[..., :3] *= (1.0 + 0.5 * np.sin(7 * U + 3 * V))[..., None] * rng.uniform(0.5, 1.0, (n, n, 1))
+        cov = np.clip(1.2 - 2.5 * np.hypot(U - 0.5, V - 0.5), 0.0, 1.0) * (rng.uniform(size=(n, n)) > 0.1)
+        nx, nz = 0.3 * np.sin(5 * V), 0.3 * np.cos(4 * U)
+        nrm = np.stack([nx, np.ones_like(nx), nz], -1)
+        nrm /= np.linalg.norm(nrm, axis=-1, keepdims=True)
+        g[..., :3] = nrm
+        g[..., 3] = 1.0 + 0.05 * np.sin(6 * U) * np.cos(5 * V)
+        d[..., :3] = np.stack([0.2 * U, 0.5 * U + 0.2, 1.0 + V], -1)
+        for a in (f, g, d):
+            a *= cov[..., None]
+        f[..., 3] = cov
+    return f, g, d
+
+
+def test_plane_fluence_approaches_the_analytic_form_factor():
+    """A Lambertian plane reflecting B per unit area (radiance B / pi) gives a point at height h
+    the fluence 2 B (1 - h / sqrt(h^2 + R^2)) from the disc of radius R under it (the emitter's
+    cosine over d^2, no receiver cosine): the gather approaches it as its samples grow (the
+    area-regularised 1/d^2 and the mip levels' are the only approximations)."""
+    n = 256
+    f, g, _ = _plane_maps(n)
+    levels_f, levels_g = sb.mipmaps(f), sb.mipmaps(g)
+    errors = {}
+    for h in (0.01, 0.03, 0.1):
+        exact = 2.0 * (1.0 - h / math.hypot(h, sb.RADIUS))
+        for samples in (16, 64, 256):
+            table = sb.sample_table(WIDTH, samples=samples, size=n)
+            phi = sb.gather_numpy([[0.01, h, -0.02]], levels_f, levels_g, table, VIEW, EYE, FWD)[0]
+            assert np.allclose(phi / phi[0], (1.0, 0.5, 0.25), rtol=1e-9)
+            errors[(h, samples)] = phi[0] / exact - 1.0
+    for h in (0.01, 0.03, 0.1):
+        assert abs(errors[(h, 256)]) < 0.025, errors
+        assert abs(errors[(h, 256)]) < abs(errors[(h, 64)]) < abs(errors[(h, 16)]), errors
+    # the default 16 samples: the quadrature's bias, low (each sample a disc around its point)
+    assert -0.12 < errors[(0.03, 16)] < 0 and -0.04 < errors[(0.1, 16)] < 0, errors
+    # infinite plane: 2 B as R grows (the fluence of a hemisphere of radiance B / pi)
+    table = sb.sample_table(WIDTH, samples=256, radius=0.24, size=n)
+    phi = sb.gather_numpy([[0.0, 0.01, 0.0]], levels_f, levels_g, table, VIEW, EYE, FWD)[0, 0]
+    assert abs(phi / (2.0 * (1.0 - 0.01 / math.hypot(0.01, 0.24))) - 1.0) < 0.05, phi   # 1.917: 0.96 of 2 B
+
+
+def test_plane_behind_hair_is_attenuated_by_the_columns_opacity():
+    """With deep opacity layers in the skin's column, a point above the hair gets the plane's
+    light through all of it, a point below the hair (between it and the skin) through none."""
+    n = 64
+    f, g, d = _plane_maps(n)
+    d[..., :3] = (0.2, 0.4, 1.0)   # O1..O3 after z0 = 0.9 (0.1 m above the plane)
+    levels = [sb.mipmaps(a) for a in (f, g, d)]
+    table = sb.sample_table(WIDTH, size=n)
+    layers, density = (0.01, 0.03, 0.08), 3.0   # the skin 0.1 m past z0: behind all of it
+    def phi(h):
+        kw = dict(dom_levels=levels[2], layers=layers, density=density)
+        return (sb.gather_numpy([[0.0, h, 0.0]], levels[0], levels[1], table, VIEW, EYE, FWD, **kw)[0, 0],
+                sb.gather_numpy([[0.0, h, 0.0]], levels[0], levels[1], table, VIEW, EYE, FWD)[0, 0])
+    above, above_bare = phi(0.15)
+    below, below_bare = phi(0.05)
+    assert above == pytest.approx(above_bare * math.exp(-density * 1.0), rel=1e-6)
+    # 0.05 m above the plane: 0.05 m past z0, in the third layer: O = 0.4 + 0.6 * 0.02 / 0.05
+    o = 0.4 + 0.6 * (0.05 - 0.03) / 0.05
+    assert below == pytest.approx(below_bare * math.exp(-density * (1.0 - o)), rel=1e-6)
+
+
+@pytest.mark.gpu
+def test_glsl_gather_matches_numpy(gl, tmp_path):
+    from mane.gpu.glsl import compute_shader
+    from mane.render.bindings import TABLE, TEX_RSM_DOM, TEX_RSM_FLUX, TEX_RSM_GEOM
+    from mane.render.passes.base import RENDER_DIR, HERE, set_uniforms
+
+    n = 64
+    maps = _plane_maps(n, bumpy=True)
+    texs = []
+    for a in maps:
+        t = gl.texture((n, n), 4, data=np.ascontiguousarray(a, np.float32).tobytes(), dtype="f4")
+        t.repeat_x = t.repeat_y = False
+        t.build_mipmaps(0, sb.mip_levels(n) - 1)
+        t.filter = (gl.LINEAR_MIPMAP_NEAREST, gl.LINEAR)
+        texs.append(t)
+    levels = [[np.frombuffer(t.read(level=k), np.float32).reshape(n >> k, n >> k, 4).astype(np.float64)
+               for k in range(sb.mip_levels(n))] for t in texs]
+    src = tmp_path / "skin_bounce_probe.comp"
+    src.write_text("""#version 430
+#include "common.glsl"
+#include "lighting.glsl"
+#include "skin_bounce.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };
+layout(std430, binding = 1) writeonly buffer Out { vec4 outv[]; };
+uniform int u_count;
+void main() {
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(u_count)) return;
+    outv[i] = vec4(skin_bounce_fluence(pts[i].xyz), 0.0);
+}
+""")
+    cs = compute_shader(gl, src, {**TABLE, "SHADOWS": 2, "PCF": 1, "SKIN_BOUNCE_SAMPLES": sb.SAMPLES},
+                        include_dirs=[HERE, RENDER_DIR])
+    rng = np.random.default_rng(1)
+    pts = np.c_[rng.uniform(-0.2, 0.2, 400), rng.uniform(0.005, 0.3, 400), rng.uniform(-0.2, 0.2, 400)]
+    table = sb.sample_table(WIDTH, size=n)
+    layers, density = (0.01, 0.03, 0.2), 3.0
+    set_uniforms(cs, {"u_rsm_view_proj": VIEW, "u_rsm_inv_view_proj": np.linalg.inv(VIEW), "u_rsm_eye": tuple(EYE),
+                      "u_rsm_dir": tuple(FWD), "u_rsm_samples": [tuple(map(float, r)) for r in table],
+                      "u_rsm_flux": TEX_RSM_FLUX, "u_rsm_geom": TEX_RSM_GEOM, "u_rsm_dom": TEX_RSM_DOM,
+                      "u_dom_layers": layers, "u_shadow_density": density, "u_count": len(pts)})
+    for t, unit in zip(texs, (TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_RSM_DOM)):
+        t.use(unit)
+    pbuf = gl.buffer(np.c_[pts, np.ones(len(pts))].astype(np.float32).tobytes())
+    obuf = gl.buffer(reserve=16 * len(pts))
+    pbuf.bind_to_storage_buffer(0)
+    obuf.bind_to_storage_buffer(1)
+    cs.run(math.ceil(len(pts) / 64))
+    gl.finish()
+    got = np.frombuffer(obuf.read(), np.float32).reshape(-1, 4)[:, :3]
+    want = sb.gather_numpy(pts.astype(np.float32).astype(np.float64), *levels[:2], table, VIEW, EYE, FWD,
+                           dom_levels=levels[2], layers=layers, density=density)
+    for o in (pbuf, obuf, *texs):
+        o.release()
+    assert want.max() > 0.1 and np.count_nonzero(want[:, 0] > 1e-3) > 300
+    scale = np.maximum(np.abs(want), 1e-3 * want.max())
+    assert np.max(np.abs(got - want) / scale) < 2e-3, np.max(np.abs(got - want) / scale)
+
+
+# ---------------------------------------------------------------- the renderer
+SIZE = (96, 96)
+
+
+def _scene():
+    from mane.grooming import grow
+    from mane.grooming.scene import default_head
+
+    head = default_head()
+    return grow(head, num_strands=60, style="curly", points_per_strand=12, seed=0), head
+
+
+def _render(gl, rasterizer, bounce, head=True, light=None):
+    groom, mesh = _scene()
+    s = RenderSettings(size=SIZE, rasterizer=rasterizer, ambient=0.0, background=(0, 0, 0), tone_mapping="none",
+                       exposure=1.0, strands_per_guide=8, strand_spread=0.0, scalp_tint=0.0, skin_bounce=bounce,
+                       draw_head=head)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(mesh)
+        cam = r.default_camera()
+        img = realtime_linear(r, cam, [light or Light("directional", (0.35, 0.8, 0.5), intensity=3.0)])
+        return img, r.get_pass("skin_bounce").enabled(r.last_frame)
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_bounce_lights_the_hair_warm(gl, rasterizer):
+    off, on_off = _render(gl, rasterizer, 0.0)
+    on, on_on = _render(gl, rasterizer, 1.0)
+    assert not on_off and on_on
+    hair = (on[..., 3] > 0.5) & (np.abs(on[..., :3] - off[..., :3]).sum(-1) > 0)
+    assert hair.sum() > 50
+    gain = (on[..., :3] - off[..., :3])[hair]
+    assert np.all(gain >= -1e-3)                       # only adds light
+    total = gain.sum(axis=0)
+    assert total.sum() > 0.02 * off[..., :3][hair].sum()   # a visible share of the hair's light
+    assert total[0] > total[1] > total[2]              # red: the skin's colour
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_no_head_or_off_changes_nothing(gl, rasterizer):
+    """Without a drawn head the term is not compiled in: the image is the same bit for bit."""
+    a, _ = _render(gl, rasterizer, 0.0, head=False)
+    b, enabled = _render(gl, rasterizer, 1.0, head=False)
+    assert not enabled
+    assert np.array_equal(a, b)
+
+
+def test_default_is_on():
+    assert RenderSettings().skin_bounce == 1.0
