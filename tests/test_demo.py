@@ -45,3 +45,14 @@ def test_demo_hair_preset_reaches_the_renderer():
     assert g.shading == "chiang" and g.shading_options["melanin"] == PRESETS["brown"]
     assert g.shading_options["multiple_scattering"] == "auto"
     assert main(["demo", "--hair", "green", "--headless", "--out", "/nonexistent/never"]) == 2
+
+
+def test_the_software_preset_leaves_the_skin_bounce_out():
+    """The skin's bounce gathers 48 texels a hair fragment (2.4-3x llvmpipe's hair pass) and has
+    no occlusion without deep opacity maps: the CPU rasteriser's preset turns it off, the GPU's
+    keeps the renderer's default."""
+    from mane.app.demo import GPU, SOFTWARE
+    from mane.render import RenderSettings
+
+    assert SOFTWARE.render_settings().skin_bounce == 0.0
+    assert GPU.render_settings().skin_bounce == RenderSettings().skin_bounce > 0.0

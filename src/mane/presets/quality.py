@@ -41,6 +41,8 @@ class Quality:
     """RenderSettings.geometry ("lines": GL lines, on llvmpipe half the cost of ribbons' triangles)."""
     hair_shadow_lookup: str = "fragment"
     """RenderSettings.hair_shadow_lookup ("vertex": at the strands' points, for a CPU rasteriser)."""
+    skin_bounce: float | None = None
+    """RenderSettings.skin_bounce; None: the renderer's default (the skin's bounce on)."""
 
     def render_settings(self, **changes):
         from ..grooming.scene import DEFAULT_SCENE_RENDER
@@ -52,7 +54,8 @@ class Quality:
                     geometry=self.geometry, hair_shadow_lookup=self.hair_shadow_lookup,
                     shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
                                      "multiple_scattering": self.multiple_scattering})
-        base.update({k: v for k, v in (("shadow_map_size", self.shadow_map_size), ("pcf", self.pcf)) if v is not None})
+        base.update({k: v for k, v in (("shadow_map_size", self.shadow_map_size), ("pcf", self.pcf),
+                                        ("skin_bounce", self.skin_bounce)) if v is not None})
         base.update(changes)
         return RenderSettings(**base)
 
@@ -69,7 +72,9 @@ SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6,
                    sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
                    multiple_scattering="none",   # Kajiya-Kay's diffuse term stands for it
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
-                   geometry="lines")             # sub-pixel strands: the same picture, half the hair pass
+                   geometry="lines",             # sub-pixel strands: the same picture, half the hair pass
+                   skin_bounce=0.0)              # 48 texel reads a fragment (2.4-3x the hair pass on
+                                                 # llvmpipe), and unoccluded without deep opacity maps
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting), CPU time a
 # frame (simulation + rendering, 2026-12-02, docs/quality.md): 2 strands per guide saves ~3%,

@@ -46,7 +46,7 @@ def mip_levels(size: int = RSM_SIZE) -> int:
 
 
 def sample_table(view_width: float, *, samples: int = SAMPLES, radius: float = RADIUS,
-                 size: int = RSM_SIZE, power: float = 1.0) -> np.ndarray:
+                 size: int = RSM_SIZE) -> np.ndarray:
     """(samples, 4) float32: each gather sample's (du, dv) offset in the map's uv, the area
     A_k (m^2 of the light's view) it stands for and its mip level. Sample k sits at
     r_k = radius (k + 1/2) / samples on a golden-angle spiral and stands for the annulus
@@ -54,9 +54,9 @@ def sample_table(view_width: float, *, samples: int = SAMPLES, radius: float = R
     A_k = pi radius^2 (2k + 1) / samples^2 (the areas sum to the disc's); its level's texel is
     the nearest power of two to sqrt(A_k). ``view_width``: the light view's width (m)."""
     k = np.arange(samples, dtype=np.float64)
-    r = radius * ((k + 0.5) / samples) ** power
+    r = radius * (k + 0.5) / samples
     a = k * GOLDEN_ANGLE
-    area = math.pi * radius * radius * (((k + 1.0) / samples) ** (2 * power) - (k / samples) ** (2 * power))
+    area = math.pi * radius * radius * (2.0 * k + 1.0) / (samples * samples)
     texel = view_width / size
     lod = np.clip(np.round(np.log2(np.sqrt(area) / texel)), 0, mip_levels(size) - 1)
     return np.stack([r * np.cos(a) / view_width, r * np.sin(a) / view_width, area, lod], axis=1).astype(np.float32)
@@ -150,7 +150,7 @@ class SkinBouncePass(Pass):
         return u
 
     def release(self) -> None:
-        for o in (self.fbo, self.flux, self.geom, self.depth):
+        for o in (self.fbo, self.flux, self.geom, self.dom, self.depth):
             if o is not None:
                 o.release()
         self.flux = self.geom = self.dom = self.depth = self.fbo = None
