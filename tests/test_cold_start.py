@@ -76,3 +76,66 @@ def test_groom_bbox_keeps_the_rows_signed_zero():
         lo, hi = g.bbox()
         assert lo.tobytes() == rows[0].tobytes() and hi.tobytes() == rows[1].tobytes()
     assert differed   # the test would catch the component-wise order alone
+
+
+@pytest.mark.parametrize("sync", [False, True])
+def test_the_cold_runs_first_frame_in_phases(gl, sync):
+    """The cold-start child's phases split the simulator (groom_check, rest_data, state_upload)
+    and the first frame: first_step + first_render + first_finish make first_frame, first_passes
+    holds a time per renderer pass (summing to first_render), the friction grid made in the step."""
+    from mane.bench import scale_bench
+
+    spec = dict(S=64, N=8, spg=2, size=[48, 32], steps=2, grid=8, sdf=8, render=True,
+                render_settings=dict(shadows="none", msaa=1), sync_first_frame=sync)
+    ph = scale_bench._cold_run(spec)["phases"]
+    for name in ("groom_check", "rest_data", "state_upload", "friction_grid", "first_step", "first_render",
+                 "first_passes", "first_finish", "first_frame"):
+        assert name in ph, (name, sorted(ph))
+    parts = ph["first_step"]["s"] + ph["first_render"]["s"] + ph["first_finish"]["s"]
+    assert parts == pytest.approx(ph["first_frame"]["s"], abs=2e-3)
+    from mane.render import Renderer
+
+    r = Renderer(ctx=gl, profile=False)
+    try:
+        names = [p.name for p in r.passes]
+    finally:
+        r.release()
+    assert [n for n, _ in ph["first_passes"]["items"]] == names
+    assert ph["first_passes"]["s"] == pytest.approx(ph["first_render"]["s"], abs=2e-3)
+    assert ph["first_step"]["n"] == ph["first_render"]["n"] == 1
+
+
+def test_a_new_state_copies_its_rest_positions_on_the_gpu(gl, monkeypatch):
+    """At the bind pose (the head where it was bound) the positions are the rest positions'
+    bytes: a new state copies them on the GPU (no upload of positions or prev_positions); away
+    from it, written from the CPU as before."""
+    from mane.sim import Simulator, SimSettings
+    from mane.sim.state import StateBuffer
+
+    groom, _ = _scalp(100, 12)
+    written = []
+    orig = StateBuffer.write
+    monkeypatch.setattr(StateBuffer, "write", lambda self, *a, **k: (written.append(id(self)), orig(self, *a, **k))[1])
+    sim = Simulator(groom, (), SimSettings(), gl, points_per_strand=12)
+    try:
+        st = sim.state
+        ids = {id(st.buffers[n]): n for n in st.buffers}
+        names = {ids[i] for i in written if i in ids}
+        assert "positions" not in names and "prev_positions" not in names and "rest_positions" in names
+        rest = st.read("rest_positions")
+        np.testing.assert_array_equal(st.read("positions"), rest)
+        np.testing.assert_array_equal(st.read("prev_positions"), rest)
+        assert not st.read("velocities").any() and not st.read("corrections").any()
+        pts = groom.as_padded().reshape(-1, 3)
+        np.testing.assert_array_equal(rest[:, :3], pts)
+        # away from the bind pose: the CPU's transform, written
+        m = np.eye(4)
+        m[:3, 3] = (0.01, 0.02, -0.03)
+        sim.set_head_transform(m)
+        written.clear()
+        sim.reset()
+        assert {ids[i] for i in written if i in ids} >= {"positions", "prev_positions"}
+        want = (pts.astype(np.float64) + m[:3, 3]).astype(np.float32)
+        np.testing.assert_array_equal(st.read("positions")[:, :3], want)
+    finally:
+        sim.release()

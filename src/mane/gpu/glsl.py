@@ -281,7 +281,8 @@ def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
     key = _key("compute", [path], defines, include_dirs)
     shader = _cached(ctx, key)
     if shader is None:
-        src = load_source(path, defines, include_dirs)
+        with phase("shader_source"):
+            src = load_source(path, defines, include_dirs)
         shader = _store(ctx, key, [src], _compile(ctx, "compute shader", {"compute": src},
                                                   lambda: ctx.compute_shader(src.text)))
     return shader
@@ -304,7 +305,8 @@ def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
         prog = _cached(ctx, key)
         if prog is not None:
             return prog
-    sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
+    with phase("shader_source"):
+        sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
     prog = _compile(ctx, "program", sources, lambda: ctx.program(
         **{k: s.text for k, s in sources.items()}, varyings=tuple(varyings)))
     if cache:
