@@ -139,3 +139,23 @@ def test_a_new_state_copies_its_rest_positions_on_the_gpu(gl, monkeypatch):
         np.testing.assert_array_equal(st.read("positions")[:, :3], want)
     finally:
         sim.release()
+
+
+def test_libegl_is_loaded_without_find_library(gl, monkeypatch):
+    """The capabilities' query (the simulator's first memory check) and the GL entry points load
+    libEGL.so.1 by name; ``ctypes.util.find_library`` (a subprocess: ldconfig, and where that
+    misses a C compiler and the linker) only when that fails."""
+    import ctypes.util
+
+    from mane.gpu import capabilities
+
+    asked = []
+    real = ctypes.util.find_library
+    monkeypatch.setattr(ctypes.util, "find_library", lambda name: asked.append(name) or real(name))
+    monkeypatch.setattr(capabilities._EGL, "_lib", None)
+    monkeypatch.setattr(capabilities, "_egl_get_proc", None)
+    assert capabilities._EGL.lib() is not None and capabilities._egl_proc_address() is not None
+    assert asked == []
+    monkeypatch.setattr(capabilities._EGL, "_lib", None)
+    monkeypatch.setattr(ctypes, "CDLL", lambda name, *a, **k: (_ for _ in ()).throw(OSError(name)))
+    assert capabilities._EGL.lib() is None and asked == ["EGL"]   # the fallback, asked once
