@@ -159,3 +159,30 @@ def test_libegl_is_loaded_without_find_library(gl, monkeypatch):
     monkeypatch.setattr(capabilities._EGL, "_lib", None)
     monkeypatch.setattr(ctypes, "CDLL", lambda name, *a, **k: (_ for _ in ()).throw(OSError(name)))
     assert capabilities._EGL.lib() is None and asked == ["EGL"]   # the fallback, asked once
+
+
+def test_a_headless_context_names_its_libraries(gl, monkeypatch):
+    """glcontext's EGL backend gets libGL.so.1 and libEGL.so.1 by name (no find_library: an
+    ldconfig subprocess for each library at each GL version tried); its own search where they do
+    not load or GLCONTEXT_LINUX_LIB* name others."""
+    import ctypes
+    import ctypes.util
+
+    from mane.gpu import context
+
+    asked = []
+    real = ctypes.util.find_library
+    monkeypatch.setattr(ctypes.util, "find_library", lambda name: asked.append(name) or real(name))
+    ctx = context.headless_context()
+    try:
+        assert ctx.version_code >= context.MIN_GL_VERSION
+    finally:
+        ctx.release()
+        gl.__enter__()   # the shared context current again
+    assert asked == []
+    assert context._egl_libraries("egl") == context.EGL_LIBRARIES
+    monkeypatch.setenv("GLCONTEXT_LINUX_LIBGL", "libOpenGL.so.0")
+    assert context._egl_libraries("egl") == {}
+    monkeypatch.delenv("GLCONTEXT_LINUX_LIBGL")
+    monkeypatch.setattr(ctypes, "CDLL", lambda name, *a, **k: (_ for _ in ()).throw(OSError(name)))
+    assert context._egl_libraries("egl") == {}
