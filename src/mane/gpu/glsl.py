@@ -88,7 +88,7 @@ def _hoist_extensions(body: list[tuple[str, int, int]]) -> list[tuple[str, int, 
     hoisted, rest, depth = [], [], 0
     for i, item in enumerate(body):
         text = item[0]
-        if i >= start:
+        if i >= start and "#" in text:   # each pattern needs a '#': most lines skip the three
             if _IF.match(text):
                 depth += 1
             elif _ENDIF.match(text):
@@ -151,6 +151,9 @@ def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
         files.append(file)
         out: list[tuple[str, int, int]] = []
         for number, line in enumerate(lines, start=1):
+            if "#" not in line:   # neither an include nor a #version: most lines, no pattern tried
+                out.append((line, index, number))
+                continue
             m = _INCLUDE.match(line)
             if not m:
                 if index and _VERSION.match(line):
