@@ -186,3 +186,19 @@ def test_a_headless_context_names_its_libraries(gl, monkeypatch):
     monkeypatch.delenv("GLCONTEXT_LINUX_LIBGL")
     monkeypatch.setattr(ctypes, "CDLL", lambda name, *a, **k: (_ for _ in ()).throw(OSError(name)))
     assert context._egl_libraries("egl") == {}
+
+
+@pytest.mark.parametrize("chunk", [3, 2048])
+def test_mean_strand_length_in_blocks_is_the_whole(monkeypatch, chunk):
+    """The renderer's mean guide length (the coverage LOD's) reduced block by block is the
+    one-block figure bit for bit (each guide's sum is its own; the mean over the same lengths)."""
+    from mane.render import coverage_lod
+
+    monkeypatch.setattr(coverage_lod, "LENGTH_CHUNK", chunk)
+    rng = np.random.default_rng(3)
+    for S in (1, 2, 3, 4, 7, 2047, 2048, 2049, 4100):
+        p = rng.normal(size=(S, int(rng.integers(2, 40)), 3)).astype(np.float32)
+        whole = float(np.linalg.norm(np.diff(p.astype(np.float64), axis=1), axis=-1).sum(axis=1).mean())
+        assert coverage_lod.mean_strand_length(p) == whole, S
+    assert coverage_lod.mean_strand_length(np.zeros((0, 5, 3), np.float32)) == 0.0
+    assert coverage_lod.mean_strand_length(np.zeros((4, 1, 3), np.float32)) == 0.0
