@@ -62,3 +62,13 @@ def test_a_compile_is_a_phase(gl):
         glsl.compute_shader(gl, HERE / "sdf_collide.comp")
     d = rec.as_dict()["compile"]
     assert d["n"] == 1 and d["items"][0][0] == "sdf_collide.comp"
+
+
+def test_add_counts_seconds_measured_elsewhere():
+    with phases.recording() as a:
+        phases.add("pass", 0.25, "hair")
+        with phases.recording() as b:
+            phases.add("pass", 0.5, "resolve")
+    phases.add("lost", 1.0)   # none open: nothing
+    assert a.as_dict()["pass"] == {"s": 0.75, "n": 2, "items": [["hair", 0.25], ["resolve", 0.5]]}
+    assert b.as_dict() == {"pass": {"s": 0.5, "n": 1, "items": [["resolve", 0.5]]}}

@@ -16,6 +16,14 @@ from mane.render.passes.scan_form import FormChooser
 KEY = object()   # stands for the settings object
 
 
+@pytest.fixture(autouse=True)
+def _own_disk_cache(tmp_path, monkeypatch):
+    """Every test its own empty disk cache: the tuner keeps its decisions there
+    (scan_form_memory.py), and a test's probe must not be skipped by another's."""
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path))
+    monkeypatch.delenv("MANE_NO_CACHE", raising=False)
+
+
 def run(chooser, ms, frames, sizes=(1000, 1), key=KEY, lag=0):
     """Drive ``chooser`` for ``frames`` frames, each timed frame's result (``ms[form]``, or
     ms(form, frame) when callable) delivered ``lag`` frames later; the forms used, in order."""
@@ -307,3 +315,113 @@ def test_a_frame_that_raised_loses_its_time_only(gl, monkeypatch):
         site.end()
     assert not site.chooser.probing and site.current() == 1
     assert site.chooser.medians == [2.0, 1.0]
+
+
+# --------------------------------------------------------------------------- decisions kept on disk
+def _settle_site(gl, name, ms, sizes=(100, 1), key=KEY):
+    site = scan_form.ScanFormSite(gl, name)
+    site.timer = FakeTimer(site, ms, pool=4, lag=0)
+    forms = []
+    for _ in range(30):
+        forms.append(site.begin(key, sizes))
+        site.end()
+        if site.chooser.probes:
+            break
+    assert site.chooser.probes == 1 and not site.chooser.probing
+    return site, forms
+
+
+def test_a_kept_decision_starts_a_fresh_site_on_it(gl, monkeypatch):
+    """A probe's decision is kept on disk; a fresh site (a second launch) with the same key starts
+    on it at its first frame (no probe, no first use of the other form); another size, site or
+    no cache: it probes as before."""
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    default = raster_segment.balance_for(gl)
+    other = 1 - default
+    ms = {default: 2.0, other: 1.0}          # the fixed rule's form slower: the probe switches
+    first, forms = _settle_site(gl, "hair", ms)
+    assert first.chooser.choice == other and default in forms and not first.chooser.recalled
+
+    fresh = scan_form.ScanFormSite(gl, "hair")
+    fresh.timer = FakeTimer(fresh, ms, pool=4, lag=0)
+    got = []
+    for _ in range(10):
+        got.append(fresh.begin(KEY, (100, 1)))
+        fresh.end()
+    assert got == [other] * 10                 # its first frame already on the kept form
+    assert not fresh.chooser.probing and fresh.chooser.recalled and fresh.chooser.probes == 0
+    assert fresh.chooser.medians == [ms[0], ms[1]]
+    assert fresh.stats()["recalled"] is True and fresh.current() == other
+
+    for name, sizes in (("hair", (1000, 1)), ("hair", (100, 2)), ("dom", (100, 1))):
+        site = scan_form.ScanFormSite(gl, name)
+        site.timer = FakeTimer(site, ms, pool=4, lag=0)
+        assert site.begin(KEY, sizes) == default and site.chooser.probing, (name, sizes)
+        site.end()
+
+    monkeypatch.setenv("MANE_NO_CACHE", "1")   # the cache off: nothing recalled (nor kept)
+    site = scan_form.ScanFormSite(gl, "hair")
+    site.timer = FakeTimer(site, ms, pool=4, lag=0)
+    assert site.begin(KEY, (100, 1)) == default and site.chooser.probing
+
+
+def test_a_kept_decision_is_still_checked(gl, monkeypatch):
+    """A recalled form is watched against its kept median: a watched frame RESCALE x off probes
+    again, and the new decision replaces the kept one for the next run."""
+    monkeypatch.setattr(scan_form, "TUNE", True)
+    monkeypatch.setattr(scan_form, "SAMPLES", 2)
+    monkeypatch.setattr(scan_form, "WATCH", 3)
+    monkeypatch.setattr(raster_segment, "FORCED", None)
+    default = raster_segment.balance_for(gl)
+    other = 1 - default
+    _settle_site(gl, "dom", {default: 2.0, other: 1.0})
+    # the next run's GPU finds the kept form 5x slower than its median, the other faster
+    site = scan_form.ScanFormSite(gl, "dom")
+    site.timer = FakeTimer(site, {default: 2.0, other: 5.0}, pool=4, lag=0)
+    forms = []
+    for _ in range(30):
+        forms.append(site.begin(KEY, (100, 1)))
+        site.end()
+    assert forms[0] == other and site.chooser.recalled
+    assert site.chooser.probes == 1 and site.chooser.choice == default
+    fresh = scan_form.ScanFormSite(gl, "dom")
+    fresh.timer = FakeTimer(fresh, {default: 2.0, other: 5.0}, pool=4, lag=0)
+    assert fresh.begin(KEY, (100, 1)) == default and fresh.chooser.recalled
+
+
+def test_memory_key_covers_gpu_driver_settings_and_sizes():
+    from mane.render.passes import scan_form_memory as mem
+
+    class Ctx:
+        def __init__(self, **info):
+            self.info = {"GL_RENDERER": "NVIDIA H200/PCIe/SSE2", "GL_VENDOR": "NVIDIA Corporation",
+                         "GL_VERSION": "4.6.0 NVIDIA 580.159.04", **info}
+
+    base = mem.key(Ctx(), "hair", "settings", (1000, 1))
+    assert base == mem.key(Ctx(), "hair", "settings", (1000, 1))
+    others = [mem.key(Ctx(GL_VERSION="4.6.0 NVIDIA 590.1"), "hair", "settings", (1000, 1)),
+              mem.key(Ctx(GL_RENDERER="NVIDIA A100"), "hair", "settings", (1000, 1)),
+              mem.key(Ctx(), "dom", "settings", (1000, 1)), mem.key(Ctx(), "hair", "other", (1000, 1)),
+              mem.key(Ctx(), "hair", "settings", (1001, 1)), mem.key(Ctx(), "hair", "settings", (1000, 2))]
+    assert base not in others and len(set(others)) == len(others)
+    mem.remember(base, 1, [2.0, 1.0])
+    assert mem.recall(base) == (1, [2.0, 1.0])
+    assert mem.recall(others[0]) is None
+    mem.remember(others[0], 0, [None, 1.0])      # an incomplete probe is not kept
+    assert mem.recall(others[0]) is None
+
+
+def test_a_second_renderer_starts_on_the_kept_forms(gl, monkeypatch):
+    """A renderer made after another decided (a second launch, its cache warm) draws its first
+    frame with the kept forms at both sites, and the same images."""
+    default = raster_segment.balance_for(gl)
+    other = 1 - default
+    first, _ = _frames_alternating(gl, monkeypatch, {default: 2.0, other: 1.0}, {default: 1.0, other: 3.0})
+    assert first[-1]["forms"] == (other, default)
+    second, stats = _frames_alternating(gl, monkeypatch, {default: 2.0, other: 1.0}, {default: 1.0, other: 3.0},
+                                        frames=2)
+    assert [f["forms"] for f in second] == [(other, default)] * 2
+    for f in second:
+        np.testing.assert_array_equal(f["image"], first[0]["image"])

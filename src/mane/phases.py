@@ -9,6 +9,7 @@ steady frame go.
         ...
     with phases.phase("compile", "hair_raster.comp"):   # ``items``: (what, seconds) each time
         ...
+    phases.add("pass", 0.004, "hair")        # seconds the caller measured itself
 
 A phase adds its seconds and one count to every recording open at the time; with none open it
 costs one list check. Phases nest (a program compiled during the first frame counts in both
@@ -57,6 +58,13 @@ def phase(name: str, item: str | None = None):
         dt = time.perf_counter() - t
         for rec in _open:
             rec.add(name, dt, item)
+
+
+def add(name: str, seconds: float, item: str | None = None) -> None:
+    """Seconds measured by the caller (between two callbacks, say) as phase ``name`` in every open
+    recording; ``item`` as ``phase``'s."""
+    for rec in _open:
+        rec.add(name, seconds, item)
 
 
 @contextmanager

@@ -58,10 +58,10 @@ import json
 import math
 import sys
 import time
-from contextlib import nullcontext
 
 import numpy as np
 
+from ..phases import add as add_phase
 from ..phases import phase, recording
 from .common import Skip, stats
 from .scale_rows import SCALE_CONFIG, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
@@ -503,8 +503,13 @@ PHASE_NOTE = ("phases: wall seconds and counts in the child, in order: python_st
               "spawned to the run's start: the interpreter and this module's imports), imports, context, "
               "head_mesh, colliders, groom, simulator, renderer, set_strands, set_head, first_frame, "
               "to_steady (the frames after the first up to the first steady one); nested in those: compile "
-              "(each program's compile + link, n programs), sdf_bake (disk cache or bake), shading_tables "
-              "(disk cache or NumPy)")
+              "(each program's compile + link, n programs), shader_source (reading and preprocessing their "
+              "sources), sdf_bake (disk cache or bake), shading_tables (disk cache or NumPy), groom_check, "
+              "rest_data (the rest state in NumPy) and state_upload (its buffers written) in the simulator, "
+              "friction_grid (made in the first step); the first frame split into first_step (the "
+              "simulation step's issue), first_render (the render's issue; first_passes: the seconds up to "
+              "each pass's end, per pass) and first_finish (the wait for the GPU); with sync_first_frame "
+              "a finish after the step and after each pass, so that the GPU's part lands in them")
 
 
 def _cold_run(spec: dict) -> dict:
@@ -544,7 +549,9 @@ def _cold_frames(spec: dict) -> dict:
         ends, walls = [], []
         for i in range(steps):
             t = time.perf_counter()
-            with phase("first_frame") if i == 0 else nullcontext():
+            if i == 0:
+                _first_frame(loop, ctx, render, bool(spec.get("sync_first_frame", False)))
+            else:
                 loop.step()
                 if render:
                     loop.render()
@@ -557,6 +564,36 @@ def _cold_frames(spec: dict) -> dict:
     return dict(context_s=context_s, build_s=built_s, sim_build_s=loop.sim_build_s,
                 render_build_s=loop.render_build_s, frame_ends_s=[round(e, 6) for e in ends],
                 **steady(ends, walls))
+
+
+def _first_frame(loop, ctx, render: bool, sync: bool) -> None:
+    """The cold run's first frame in phases (``PHASE_NOTE``): first_step, first_render (with each
+    pass's seconds in first_passes), first_finish; ``sync``: a finish after the step and after
+    each pass, so that the GPU's part lands in them rather than in first_finish."""
+    with phase("first_frame"):
+        with phase("first_step"):
+            loop.step()
+            if sync:
+                ctx.finish()
+        if render:
+            r = loop.renderer
+            last = [time.perf_counter()]
+
+            def on_pass(name: str) -> None:
+                if sync:
+                    ctx.finish()
+                now = time.perf_counter()
+                add_phase("first_passes", now - last[0], name)
+                last[0] = now
+
+            r.on_pass = on_pass
+            try:
+                with phase("first_render"):
+                    loop.render()
+            finally:
+                r.on_pass = None
+        with phase("first_finish"):
+            ctx.finish()
 
 
 def _main(argv) -> int:

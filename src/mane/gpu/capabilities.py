@@ -28,12 +28,20 @@ _procs: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 _egl_get_proc = None
 
 
+def egl_library_names():
+    """libEGL's names to load, in order: ``libEGL.so.1``, then what ``ctypes.util.find_library``
+    finds, asked only when the first fails to load (it runs ``ldconfig -p``, and where that
+    misses, a C compiler and the linker: a subprocess or three in a cold start)."""
+    yield "libEGL.so.1"
+    yield ctypes.util.find_library("EGL")
+
+
 def _egl_proc_address():
     """``eglGetProcAddress`` from libEGL.so.1, or None."""
     global _egl_get_proc
     if _egl_get_proc is None:
         fn = False
-        for name in ("libEGL.so.1", ctypes.util.find_library("EGL")):
+        for name in egl_library_names():
             if not name:
                 continue
             try:
@@ -269,7 +277,7 @@ class _EGL:
     def lib(cls):
         if cls._lib is None:
             cls._lib = False
-            for name in ("libEGL.so.1", ctypes.util.find_library("EGL")):
+            for name in egl_library_names():
                 if not name:
                     continue
                 try:

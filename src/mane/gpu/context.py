@@ -26,6 +26,28 @@ HOW_TO_GET_GL = (
 )
 
 
+EGL_LIBRARIES = {"libgl": "libGL.so.1", "libegl": "libEGL.so.1"}
+"""The libraries glcontext's EGL backend loads, named: without names it asks
+``ctypes.util.find_library`` for each on every attempt (``ldconfig -p`` in a subprocess, and
+where that misses a C compiler and the linker)."""
+
+
+def _egl_libraries(backend: str) -> dict:
+    """glcontext's ``libgl`` and ``libegl`` for the EGL backend: the usual names where both load
+    (and no GLCONTEXT_LINUX_LIBGL / _LIBEGL setting names others), else nothing (its own search)."""
+    import ctypes
+    import os
+
+    if backend != "egl" or os.environ.get("GLCONTEXT_LINUX_LIBGL") or os.environ.get("GLCONTEXT_LINUX_LIBEGL"):
+        return {}
+    try:
+        for name in EGL_LIBRARIES.values():
+            ctypes.CDLL(name)
+    except OSError:
+        return {}
+    return dict(EGL_LIBRARIES)
+
+
 def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
     """A new standalone (window-less) context through EGL, OpenGL ``require`` core at least."""
     try:
@@ -35,9 +57,10 @@ def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
     # Drivers such as NVIDIA's give exactly the version asked for, so ask for the newest
     # first (4.6 brings what 4.3 lacks) and step down to ``require``.
     ctx, error = None, None
+    libraries = _egl_libraries(backend)
     for version in [v for v in (460, 450, 440, 430) if v > require] + [require]:
         try:
-            ctx = moderngl.create_context(standalone=True, backend=backend, require=version)
+            ctx = moderngl.create_context(standalone=True, backend=backend, require=version, **libraries)
             break
         except Exception as exc:
             error = exc

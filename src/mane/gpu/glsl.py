@@ -88,7 +88,7 @@ def _hoist_extensions(body: list[tuple[str, int, int]]) -> list[tuple[str, int, 
     hoisted, rest, depth = [], [], 0
     for i, item in enumerate(body):
         text = item[0]
-        if i >= start:
+        if i >= start and "#" in text:   # each pattern needs a '#': most lines skip the three
             if _IF.match(text):
                 depth += 1
             elif _ENDIF.match(text):
@@ -151,6 +151,9 @@ def load_source(path, defines: dict | None = None, include_dirs=()) -> Source:
         files.append(file)
         out: list[tuple[str, int, int]] = []
         for number, line in enumerate(lines, start=1):
+            if "#" not in line:   # neither an include nor a #version: most lines, no pattern tried
+                out.append((line, index, number))
+                continue
             m = _INCLUDE.match(line)
             if not m:
                 if index and _VERSION.match(line):
@@ -281,7 +284,8 @@ def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
     key = _key("compute", [path], defines, include_dirs)
     shader = _cached(ctx, key)
     if shader is None:
-        src = load_source(path, defines, include_dirs)
+        with phase("shader_source"):
+            src = load_source(path, defines, include_dirs)
         shader = _store(ctx, key, [src], _compile(ctx, "compute shader", {"compute": src},
                                                   lambda: ctx.compute_shader(src.text)))
     return shader
@@ -304,7 +308,8 @@ def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
         prog = _cached(ctx, key)
         if prog is not None:
             return prog
-    sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
+    with phase("shader_source"):
+        sources = {k: load_source(v, defines, include_dirs) for k, v in stages.items()}
     prog = _compile(ctx, "program", sources, lambda: ctx.program(
         **{k: s.text for k, s in sources.items()}, varyings=tuple(varyings)))
     if cache:

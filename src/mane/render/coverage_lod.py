@@ -144,12 +144,22 @@ def lod_plan(view, size, boxes, *, strands_per_guide: int, guides: int, mean_len
     return LodPlan(tuple(depths), tuple(kept), int(strands_per_guide), tuple(lengths))
 
 
+LENGTH_CHUNK = 2048
+"""guides per block of ``mean_strand_length`` (its float64 temporaries stay in cache)."""
+
+
 def mean_strand_length(points: np.ndarray) -> float:
-    """Mean polyline length of (S, N, 3) guide points."""
-    p = np.asarray(points, np.float64)
-    if p.shape[0] == 0 or p.shape[1] < 2:
+    """Mean polyline length of (S, N, 3) guide points: each guide's length in float64, block by
+    block (a guide's sum is its own, so the blocks change nothing), then their mean."""
+    points = np.asarray(points)
+    S = points.shape[0]
+    if S == 0 or points.shape[1] < 2:
         return 0.0
-    return float(np.linalg.norm(np.diff(p, axis=1), axis=-1).sum(axis=1).mean())
+    lengths = np.empty(S)
+    for lo in range(0, S, LENGTH_CHUNK):
+        p = np.asarray(points[lo:lo + LENGTH_CHUNK], np.float64)
+        lengths[lo:lo + len(p)] = np.linalg.norm(np.diff(p, axis=1), axis=-1).sum(axis=1)
+    return float(lengths.mean())
 
 
 def mean_width(settings) -> float:

@@ -526,9 +526,12 @@ class Renderer(GpuOwner):
         return p
 
     def default_camera(self, azimuth: float = 25.0, elevation: float = 12.0, **kw) -> Camera:
+        """The default framing; ``points`` (default: ``framing_points()``, which reads the guides
+        back from the GPU) are what it fits, None: the box alone (no read-back)."""
         lo, hi = self.framing_bbox()
         w, h = self.settings.size
-        kw.setdefault("points", self.framing_points())
+        if "points" not in kw:   # not setdefault: its argument would read the guides back regardless
+            kw["points"] = self.framing_points()
         return Camera.framing(lo, hi, azimuth=azimuth, elevation=elevation, aspect=w / h, **kw)
 
     # ------------------------------------------------------------------ targets

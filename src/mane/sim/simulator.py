@@ -60,6 +60,7 @@ from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler
+from ..phases import phase
 from . import head_motion
 from .bindings import B_GATHER_BOUNDS, B_GATHER_GRID, TEX_SDF_FIRST
 from .colliders import Collider, MeshCollider, pack_colliders
@@ -143,7 +144,8 @@ class Simulator(GpuOwner):
         self.ctx = ctx if ctx is not None else get_context()
         self.settings = settings if settings is not None else SimSettings()
         self.groom = self._prepare(groom, points_per_strand)
-        _check_coordinates(self.groom)
+        with phase("groom_check"):
+            _check_coordinates(self.groom)
         self.colliders = list(colliders)
         for c in self.colliders:
             if not isinstance(c, (Collider, MeshCollider)):
@@ -589,7 +591,9 @@ class Simulator(GpuOwner):
                 self._deferred.settle()
             if self._grid is not None:
                 self._grid.release()
-            self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method, **self.settings.solver.grid_options)
+            with phase("friction_grid"):
+                self._grid = GridFriction(self.ctx, s.grid_resolution, s.grid_method,
+                                          **self.settings.solver.grid_options)
             self._grid_key = key
         return self._grid
 

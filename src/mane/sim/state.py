@@ -32,6 +32,7 @@ import numpy as np
 
 from ..errors import GPUMemoryError, GroomError, UsageError
 from ..gpu.buffers import DeviceBuffer, as_device, check_allocation
+from ..phases import phase
 from . import bindings
 
 MAX_POINTS_PER_STRAND = 64
@@ -330,29 +331,37 @@ class SimState:
 
     def upload_rest(self) -> np.ndarray:
         """Write every rest-derived buffer; returns the rest positions written ((P, 4) float32)."""
-        data = rest_data(self.base_rest, self.length_scale, self.inv_mass)
-        for name, arr in data.items():
-            self.buffers[name].write(arr)   # C-contiguous float32: written as it is, no bytes copy
+        with phase("rest_data"):
+            data = rest_data(self.base_rest, self.length_scale, self.inv_mass)
+        with phase("state_upload"):
+            for name, arr in data.items():
+                self.buffers[name].write(arr)   # C-contiguous float32: written as it is, no bytes copy
         return data["rest_positions"]
 
     def reset(self, rest: np.ndarray | None = None) -> None:
         """Every particle at its rest position under the current head transform, at rest.
-        ``rest``: the rest_positions buffer's contents when the caller has them (else read back)."""
+        ``rest``: the rest_positions buffer's contents when the caller has them (else read back,
+        unless the head is where it was bound: then the buffer is copied on the GPU)."""
         self.take_pending()
-        if rest is None:
-            rest = self.read("rest_positions")
-        if np.array_equal(self.head, np.eye(4)):
-            pos = rest            # exact: x @ I + 0 in float64 rounds back to x
-        else:
-            pos = np.empty_like(rest)
-            pos[:, :3] = transform_points(self.head, rest[:, :3])
-            pos[:, 3] = rest[:, 3]
-        pos = np.ascontiguousarray(pos, dtype=np.float32)
-        self.buffers["positions"].write(pos)
-        self.buffers["prev_positions"].write(pos)
-        self.buffers["velocities"].clear()
-        self.buffers["corrections"].clear()
-        self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
+        with phase("state_upload"):
+            if np.array_equal(self.head, np.eye(4)):
+                # exact: x @ I + 0 in float64 rounds back to x, so the positions are the rest
+                # positions' bytes: copied on the GPU (no upload, no read-back)
+                src = self.buffers["rest_positions"]
+                for name in ("positions", "prev_positions"):
+                    self.ctx.copy_buffer(self.buffers[name], src)
+            else:
+                if rest is None:
+                    rest = self.read("rest_positions")
+                pos = np.empty_like(rest)
+                pos[:, :3] = transform_points(self.head, rest[:, :3])
+                pos[:, 3] = rest[:, 3]
+                pos = np.ascontiguousarray(pos, dtype=np.float32)
+                self.buffers["positions"].write(pos)
+                self.buffers["prev_positions"].write(pos)
+            self.buffers["velocities"].clear()
+            self.buffers["corrections"].clear()
+            self.buffers["guard"].write(np.zeros(4, np.uint32).tobytes())
         self.time, self.steps, self.accumulator, self.last_dt = 0.0, 0, 0.0, 0.0
         self.collider_worlds = None
         self.mesh_worlds = self.mesh_prev_worlds = None

@@ -25,6 +25,11 @@ median (a camera move from the crowd to a close-up). Times are pairs of GL_TIMES
 from a fixed pool per site (``QueryTimer``), read only once available, a few frames late: the
 CPU never waits, and a frame that finds the pool in use runs untimed.
 
+A decision is kept on disk (scan_form_memory.py: keyed by the site, the GPU and driver, the
+settings, the sizes and the forms' code): a site's first tuned frame in a later run with the
+same key starts settled on it (``FormChooser.settle``), watched as after a probe of its own,
+instead of probing both forms over its first frames.
+
 Off (the fixed rule, raster_segment.balance_for) where ``raster_segment.FORCED`` (or
 ``MANE_RASTER_BALANCE``) forces a form, on CPU rasterisers (llvmpipe: the per-thread form, and
 its timer queries are unreliable), where the GL timer queries cannot be loaded, and while
@@ -38,7 +43,7 @@ from collections import deque
 from statistics import median
 
 from ...gpu.capabilities import get_capabilities   # cached per context
-from . import raster_segment
+from . import raster_segment, scan_form_memory
 
 SAMPLES = 5       # timed frames per form a probe, compared by their medians
 MARGIN = 0.05     # the other form must be this much faster (of the form in use's median) to switch
@@ -68,6 +73,7 @@ class FormChooser:
         self.choice = int(bool(default))
         self.medians = [None, None]   # the last probe's, ms
         self.probes = 0               # probes decided
+        self.recalled = False         # started settled on a kept decision (settle)
         self.epoch = 0
         self.probing = True
         self._key = self._sizes = None
@@ -76,6 +82,18 @@ class FormChooser:
         self._out = [0, 0]            # timed frames in flight this probe
         self._last = self.choice      # the form last timed (the probe alternates)
         self._since = 0               # frames since the last decision
+
+    def settle(self, key, sizes, form: int, medians) -> None:
+        """Start settled on ``form`` for ``key`` and ``sizes`` (a decision an earlier run kept:
+        scan_form_memory.py), with its ``medians`` (ms per form): no probe, the form watched
+        against its median and probed again as after a probe of this chooser's own."""
+        self._key, self._sizes = key, tuple(sizes)
+        self.choice = int(bool(form))
+        self.medians = [None if m is None else float(m) for m in medians]
+        self._warm[self.choice] = True
+        self.probing = False
+        self.recalled = True
+        self._since = 0
 
     # ------------------------------------------------------------------ a frame
     def next(self, key, sizes, can_time: bool = True) -> tuple[int, tuple | None]:
@@ -216,6 +234,8 @@ class ScanFormSite:
         self._timer_ok = None
         self._software = None    # a CPU rasteriser (asked once)
         self.form = None         # the form of the last frame's dispatches
+        self._kept = None        # (file name, form) of the decision on disk as last recalled or kept
+        self._decided = 0        # the chooser's probes already kept
 
     def tuning(self) -> bool:
         """Whether this frame's form is the tuner's (else the fixed rule's, balance_for)."""
@@ -244,6 +264,12 @@ class ScanFormSite:
         chooser = self.chooser
         if chooser is None:
             chooser = self.chooser = FormChooser(raster_segment.balance_for(self.ctx))
+            name = scan_form_memory.key(self.ctx, self.name, key, sizes)
+            kept = scan_form_memory.recall(name)
+            if kept is not None:
+                chooser.settle(key, sizes, *kept)
+            self._kept = (name, None if kept is None else kept[0])
+            self._decided = chooser.probes
         timer, pending = self.timer, self._pending
         if self._open is not None:   # the last frame raised before end(): its time is lost
             slot, ticket = self._open
@@ -256,6 +282,9 @@ class ScanFormSite:
             ms = timer.read(slot)
             if ticket is not None:
                 chooser.record(ticket, ms)
+        if chooser.probes != self._decided:   # a probe decided: kept for the next run
+            self._decided = chooser.probes
+            self._keep(chooser)
         form, ticket = chooser.next(key, sizes, timer.free())
         self.form = form
         if ticket is not None:
@@ -265,6 +294,14 @@ class ScanFormSite:
             else:
                 self._open = (slot, ticket)
         return form
+
+    def _keep(self, chooser: FormChooser) -> None:
+        """Keep the chooser's decision on disk under its probe's key (when it is another than the
+        one kept there: once a decision, not every re-probe that confirms it)."""
+        name = scan_form_memory.key(self.ctx, self.name, chooser._key, chooser._sizes)
+        if self._kept != (name, chooser.choice):
+            scan_form_memory.remember(name, chooser.choice, chooser.medians)
+            self._kept = (name, chooser.choice)
 
     def end(self) -> None:
         if self._open is not None:
@@ -278,6 +315,7 @@ class ScanFormSite:
         if c is not None:
             out["probing"] = c.probing
             out["probes"] = c.probes
+            out["recalled"] = c.recalled
             out["ms"] = {FORM_NAMES[f]: (None if c.medians[f] is None else round(c.medians[f], 4)) for f in (0, 1)}
         return out
 
@@ -285,6 +323,7 @@ class ScanFormSite:
         if self.timer is not None and hasattr(self.timer, "release"):
             self.timer.release()
         self.timer, self.chooser, self._timer_ok, self._open = None, None, None, None
+        self._kept, self._decided = None, 0
         self._pending.clear()
 
 
