@@ -171,11 +171,11 @@ def _scene():
     return grow(head, num_strands=60, style="curly", points_per_strand=12, seed=0), head
 
 
-def _render(gl, rasterizer, bounce, head=True, light=None):
+def _render(gl, rasterizer, bounce, head=True, light=None, pipeline="compute"):
     groom, mesh = _scene()
     s = RenderSettings(size=SIZE, rasterizer=rasterizer, ambient=0.0, background=(0, 0, 0), tone_mapping="none",
                        exposure=1.0, strands_per_guide=8, strand_spread=0.0, scalp_tint=0.0, skin_bounce=bounce,
-                       draw_head=head)
+                       draw_head=head, pipeline=pipeline)
     r = Renderer(s, ctx=gl, profile=False)
     try:
         r.set_strands(groom)
@@ -200,6 +200,26 @@ def test_bounce_lights_the_hair_warm(gl, rasterizer):
     total = gain.sum(axis=0)
     assert total.sum() > 0.02 * off[..., :3][hair].sum()   # a visible share of the hair's light
     assert total[0] > total[1] > total[2]              # red: the skin's colour
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("pipeline", ["compute", "tessellation"])
+def test_the_raster_units_gather_at_the_points_as_at_the_fragments(gl, monkeypatch, pipeline):
+    """The hardware rasteriser gathers the bounce at the strands' points (hair_pull.vert, or
+    hair.geom with tessellation) and interpolates it along each segment (BOUNCE_AT_POINTS); the
+    field varies over centimetres, so the light it adds agrees with the gather at every fragment
+    per channel within 2 % (measured 0.3 %; at half the bounce at the points, 50 %)."""
+    from mane.render.passes import base
+
+    gains = []
+    for at_points in (False, True):
+        monkeypatch.setattr(base, "BOUNCE_AT_POINTS", at_points)
+        off, _ = _render(gl, "hardware", 0.0, pipeline=pipeline)
+        on, _ = _render(gl, "hardware", 1.0, pipeline=pipeline)
+        gains.append((on[..., :3] - off[..., :3]).reshape(-1, 3).sum(axis=0))
+    fragments, points = gains
+    assert np.all(fragments > 0.1)
+    np.testing.assert_allclose(points, fragments, rtol=0.02)
 
 
 @pytest.mark.gpu

@@ -48,6 +48,9 @@ def shadow_defines(settings, pcf: int | None = None) -> dict:
 
 
 SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per shaded point (skin_bounce.py)
+# the raster units' shading pass gathers the bounce at the strand points (hair_pull.vert,
+# hair.geom) and interpolates it, not at every fragment (the compute rasteriser shades per pixel)
+BOUNCE_AT_POINTS = True
 
 
 def skin_bounce_active(renderer) -> bool:
@@ -185,6 +188,7 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     defines.update(shading.defines())
     if pass_id == PASS_SHADE:
         defines.update(bounce_defines(renderer))
+        defines["VERTEX_BOUNCE"] = int(defines["SKIN_BOUNCE"] == 1 and geometry_file is None and BOUNCE_AT_POINTS)
     defines.update(extra_defines or {})
     frag = shader_path("hair.frag")
     if fragment_file is not None:

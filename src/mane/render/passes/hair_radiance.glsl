@@ -18,10 +18,14 @@ in vec4 g_vis;
 #ifndef SKIN_BOUNCE
 #define SKIN_BOUNCE 0
 #endif
-
-
+#ifndef VERTEX_BOUNCE
+#define VERTEX_BOUNCE 0
+#endif
 #if SKIN_BOUNCE
 #include "skin_bounce.glsl"
+#if VERTEX_BOUNCE
+in vec3 g_bounce;   // skin_bounce_fluence at the strand's points (hair_pull.vert, hair.geom), interpolated
+#endif
 #endif
 
 uniform HairMaterial u_material;
@@ -55,7 +59,12 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
 
 
 #if SKIN_BOUNCE
-    color += (u_skin_bounce * 0.25 * INV_PI) * hair_isotropic_albedo(T, V, m) * skin_bounce_fluence(P);
+#if VERTEX_BOUNCE
+    vec3 bounce = g_bounce;
+#else
+    vec3 bounce = skin_bounce_fluence(P);
+#endif
+    color += (u_skin_bounce * 0.25 * INV_PI) * hair_isotropic_albedo(T, V, m) * bounce;
 #endif
     // settings.root_darkening: a painted occlusion toward the root (0: none, the default)
     return color * (1.0 - u_root_darkening * (1.0 - smoothstep(0.0, 0.25, s)));

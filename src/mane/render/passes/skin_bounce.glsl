@@ -25,6 +25,12 @@
 // the same fluence (hair_isotropic_albedo, the multiple-scattering term's diffuse response):
 //     L_bounce = u_skin_bounce * albedo(theta_o) * phi / (4 pi)
 // skin_bounce.py's gather_numpy is this function's twin (tests/test_render_skin_bounce.py).
+// Needs lighting.glsl (the deep opacity map's uniforms and dom_opacity). VERTEX_BOUNCE (the
+// hardware rasteriser's shading pass: base.hair_program): hair_pull.vert / hair.geom gather at the
+// strand's points and the fragments interpolate g_bounce along the segment (the field varies over
+// centimetres: the samples stand for 4 mm to 6 cm of skin), instead of 48 texel reads a fragment.
+#include "common.glsl"
+#include "lighting.glsl"
 #ifndef SKIN_BOUNCE_SAMPLES
 #define SKIN_BOUNCE_SAMPLES 16
 #endif
