@@ -48,9 +48,9 @@ def test_demo_hair_preset_reaches_the_renderer():
 
 
 def test_the_software_preset_leaves_the_skin_bounce_out():
-    """The skin's bounce gathers 48 texels a hair fragment (2.4-3x llvmpipe's hair pass) and has
-    no occlusion without deep opacity maps: the CPU rasteriser's preset turns it off, the GPU's
-    keeps the renderer's default."""
+    """The skin's bounce has no occlusion by the hair without deep opacity maps (the software
+    preset casts a shadow map): the CPU rasteriser's preset turns it off, the GPU's keeps the
+    renderer's default."""
     from mane.app.demo import GPU, SOFTWARE
     from mane.render import RenderSettings
 
