@@ -206,9 +206,10 @@ def test_bounce_lights_the_hair_warm(gl, rasterizer):
 @pytest.mark.parametrize("pipeline", ["compute", "tessellation"])
 def test_the_raster_units_gather_at_the_points_as_at_the_fragments(gl, monkeypatch, pipeline):
     """The hardware rasteriser gathers the bounce at the strands' points (hair_pull.vert, or
-    hair.geom with tessellation) and interpolates it along each segment (BOUNCE_AT_POINTS); the
-    field varies over centimetres, so the light it adds agrees with the gather at every fragment
-    per channel within 2 % (measured 0.3 %; at half the bounce at the points, 50 %)."""
+    hair.geom with tessellation) and interpolates it along each segment (BOUNCE_AT_POINTS True;
+    by default on CPU rasterisers); the field varies over centimetres, so the light it adds agrees
+    with the gather at every fragment per channel within 2 % (measured 0.3 %; at half the bounce at
+    the points, 50 %)."""
     from mane.render.passes import base
 
     gains = []
