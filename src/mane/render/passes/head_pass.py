@@ -11,6 +11,22 @@ def scalp_albedo(skin, hair, tint: float) -> tuple:
     return tuple((1.0 - tint) * k + tint * c for k, c in zip(skin, hair))
 
 
+class SkinColors:
+    """The skin's and the scalp's colour uniforms of a renderer (made again when the skin colour,
+    the hair's or the scalp tint changes): the head pass's and the skin bounce's map."""
+
+    def __init__(self):
+        self._memo = None   # ((skin colour, hair colour, scalp tint), their uniforms)
+
+    def uniforms(self, renderer) -> dict:
+        skin, hair, tint = renderer.settings.skin_color, renderer.hair_color(), float(renderer.settings.scalp_tint)
+        memo = self._memo
+        if memo is None or memo[0] != (skin, hair, tint):
+            u = {"u_skin": tuple(skin), "u_scalp_color": scalp_albedo(skin, hair, tint)}
+            memo = self._memo = ((skin, hair, tint), u)
+        return memo[1]
+
+
 class HeadPass(Pass):
     name = "head"
     reads = ("head", "shadow_map", "dom")
@@ -19,7 +35,7 @@ class HeadPass(Pass):
     def __init__(self, renderer):
         super().__init__(renderer)
         self._programs = ProgramMemo()
-        self._colors = None   # ((skin colour, hair colour, scalp tint), their uniforms)
+        self._colors = SkinColors()
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.head is not None and self.renderer.settings.draw_head
@@ -35,17 +51,7 @@ class HeadPass(Pass):
         ctx.disable(ctx.BLEND)
         set_view(prog, frame.view)
         bind_lighting(r, prog, frame)
-        set_uniforms(prog, self._color_uniforms())
+        set_uniforms(prog, self._colors.uniforms(r))
         # the back faces of a closed head culled: on a CPU rasteriser (llvmpipe, the software
         # preset) 41 -> 26 ms a frame, the same picture
         r.draw_head(prog, cull_back=True)
-
-    def _color_uniforms(self) -> dict:
-        """The skin's and the scalp's colours (made again when the skin colour or the hair's changes)."""
-        r = self.renderer
-        skin, hair, tint = r.settings.skin_color, r.hair_color(), float(r.settings.scalp_tint)
-        memo = self._colors
-        if memo is None or memo[0] != (skin, hair, tint):
-            u = {"u_skin": tuple(skin), "u_scalp_color": scalp_albedo(skin, hair, tint)}
-            memo = self._colors = ((skin, hair, tint), u)
-        return memo[1]

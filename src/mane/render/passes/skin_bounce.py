@@ -34,7 +34,7 @@ from ...gpu.glsl import ProgramMemo, program
 from ..bindings import TEX_RSM_DOM, TEX_RSM_FLUX, TEX_RSM_GEOM
 from .base import (SKIN_BOUNCE_SAMPLES as SAMPLES, Frame, Pass, bind_lighting, set_uniforms, set_view, shader_path,
                    shadow_defines, skin_bounce_active)
-from .head_pass import scalp_albedo
+from .head_pass import SkinColors
 
 RSM_SIZE = 128      # texels per side over light 0's view (the scene's bounding sphere): ~5 mm on a head
 RADIUS = 0.10       # m: the gather's radius in light 0's view plane
@@ -80,6 +80,7 @@ class SkinBouncePass(Pass):
         self._programs = ProgramMemo()
         self.flux = self.geom = self.dom = self.depth = self.fbo = None
         self._uniforms = None   # ((light view, settings), uniforms)
+        self._colors = SkinColors()
 
     def enabled(self, frame: Frame) -> bool:
         return skin_bounce_active(self.renderer)
@@ -111,8 +112,7 @@ class SkinBouncePass(Pass):
             ctx.disable(ctx.BLEND)
             set_view(prog, lv)
             bind_lighting(r, prog, frame)
-            skin, hair, tint = s.skin_color, r.hair_color(), float(s.scalp_tint)
-            set_uniforms(prog, self._colors(skin, hair, tint))
+            set_uniforms(prog, self._colors.uniforms(r))
             dom_box = max(1, int(s.shadow_map_size) // RSM_SIZE)
             set_uniforms(prog, {"u_rsm_dom_box": dom_box})
             r.draw_head(prog, cull_back=True)
@@ -122,13 +122,6 @@ class SkinBouncePass(Pass):
             t.filter = (ctx.LINEAR_MIPMAP_NEAREST, ctx.LINEAR)
         r.hdr_fbo().use()
         frame.targets["skin_rsm"] = (self.flux, self.geom, self.dom, self.uniforms(lv))
-
-    def _colors(self, skin, hair, tint) -> dict:
-        key = ("colors", skin, hair, tint)
-        memo = self.__dict__.get("_color_memo")
-        if memo is None or memo[0] != key:
-            memo = self._color_memo = (key, {"u_skin": tuple(skin), "u_scalp_color": scalp_albedo(skin, hair, tint)})
-        return memo[1]
 
     def uniforms(self, lv) -> dict:
         """The gather's uniforms for light view ``lv`` (kept while it and the settings are the same)."""
