@@ -95,6 +95,11 @@ class FormChooser:
         self.recalled = True
         self._since = 0
 
+    @property
+    def measured_on(self) -> tuple:
+        """(key, sizes) of the dispatch the chooser's decision was measured on."""
+        return self._key, self._sizes
+
     # ------------------------------------------------------------------ a frame
     def next(self, key, sizes, can_time: bool = True) -> tuple[int, tuple | None]:
         """(form, ticket or None) for this frame; ``can_time`` False: no timer free, so untimed."""
@@ -298,7 +303,7 @@ class ScanFormSite:
     def _keep(self, chooser: FormChooser) -> None:
         """Keep the chooser's decision on disk under its probe's key (when it is another than the
         one kept there: once a decision, not every re-probe that confirms it)."""
-        name = scan_form_memory.key(self.ctx, self.name, chooser._key, chooser._sizes)
+        name = scan_form_memory.key(self.ctx, self.name, *chooser.measured_on)
         if self._kept != (name, chooser.choice):
             scan_form_memory.remember(name, chooser.choice, chooser.medians)
             self._kept = (name, chooser.choice)
