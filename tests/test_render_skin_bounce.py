@@ -171,11 +171,11 @@ def _scene():
     return grow(head, num_strands=60, style="curly", points_per_strand=12, seed=0), head
 
 
-def _render(gl, rasterizer, bounce, head=True, light=None, pipeline="compute"):
+def _render(gl, rasterizer, bounce, head=True, light=None, pipeline="compute", oit="none"):
     groom, mesh = _scene()
     s = RenderSettings(size=SIZE, rasterizer=rasterizer, ambient=0.0, background=(0, 0, 0), tone_mapping="none",
                        exposure=1.0, strands_per_guide=8, strand_spread=0.0, scalp_tint=0.0, skin_bounce=bounce,
-                       draw_head=head, pipeline=pipeline)
+                       draw_head=head, pipeline=pipeline, oit=oit)
     r = Renderer(s, ctx=gl, profile=False)
     try:
         r.set_strands(groom)
@@ -188,10 +188,13 @@ def _render(gl, rasterizer, bounce, head=True, light=None, pipeline="compute"):
 
 
 @pytest.mark.gpu
-@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
-def test_bounce_lights_the_hair_warm(gl, rasterizer):
-    off, on_off = _render(gl, rasterizer, 0.0)
-    on, on_on = _render(gl, rasterizer, 1.0)
+@pytest.mark.parametrize("rasterizer,oit", [("compute", "none"), ("hardware", "none"), ("compute", "a_buffer"),
+                                            ("hardware", "a_buffer")])
+def test_bounce_lights_the_hair_warm(gl, rasterizer, oit):
+    """The bounce adds warm light to the hair, with the default blending and with transparency
+    (the compute rasteriser's OIT shades in its own kernels)."""
+    off, on_off = _render(gl, rasterizer, 0.0, oit=oit)
+    on, on_on = _render(gl, rasterizer, 1.0, oit=oit)
     assert not on_off and on_on
     hair = (on[..., 3] > 0.5) & (np.abs(on[..., :3] - off[..., :3]).sum(-1) > 0)
     assert hair.sum() > 50

@@ -59,7 +59,7 @@ from ...gpu.glsl import compute_shader
 from ..bindings import (B_EXPANDED, B_OIT_BEHIND, B_OIT_BEHIND_OPTICAL, B_OIT_COUNTER, B_OIT_FRONT,
                         B_OIT_HEADS, B_OIT_MEASURE, B_OIT_NODES, B_OIT_RECORDS, B_OIT_SLOT_IDS, B_OIT_SLOTS,
                         B_OIT_TAIL, IMG_HDR, TEX_SCENE_DEPTH)
-from ..passes.base import RENDER_DIR, Frame, bind_lighting, set_uniform, set_view, shadow_defines
+from ..passes.base import RENDER_DIR, Frame, bind_lighting, bounce_defines, set_uniform, set_view, shadow_defines
 from ..passes import depth_tiles
 from ..passes.raster_segment import raster_defines
 from .a_buffer import COUNTER_WORDS, PPLLMethod
@@ -150,6 +150,7 @@ class ComputeOit(OitMethod):
         if shading:
             d.update(self.r.shading.defines())
             d.update(shadow_defines(self.settings))
+            d.update(bounce_defines(self.r))
         d.update(extra)
         return d
 
