@@ -19,7 +19,7 @@ import weakref
 from dataclasses import dataclass, field
 
 from ..errors import GLFeatureError
-from .context import is_software_renderer, renderer_name
+from .context import EGL_LIBRARIES, is_software_renderer, renderer_name
 
 # --------------------------------------------------------------------------- GL functions
 
@@ -32,7 +32,7 @@ def egl_library_names():
     """libEGL's names to load, in order: ``libEGL.so.1``, then what ``ctypes.util.find_library``
     finds, asked only when the first fails to load (it runs ``ldconfig -p``, and where that
     misses, a C compiler and the linker: a subprocess or three in a cold start)."""
-    yield "libEGL.so.1"
+    yield EGL_LIBRARIES["libegl"]
     yield ctypes.util.find_library("EGL")
 
 
