@@ -9,8 +9,10 @@ skin's albedo), most on the curls beside the neck (docs/quality.md, items (7) an
     pass "skin_bounce" (after the shadow maps, before the head and the hair): the head drawn from
     light 0 (head.vert, skin_rsm.frag) into RSM_SIZE^2 texels of flux, normal and light depth,
     mipmapped; frame.targets["skin_rsm"]
-    hair shading (hair_radiance.glsl, both rasterisers): skin_bounce.glsl's gather, SAMPLES
-    samples within RADIUS of the shaded point, times the fibre's isotropic albedo / 4 pi
+    hair shading (hair_radiance.glsl, both rasterisers and the transparency methods): skin_bounce.glsl's
+    gather, SAMPLES samples within RADIUS of the shaded point, times the fibre's isotropic albedo
+    / 4 pi (on CPU rasterisers the raster units' pass gathers at the strand points:
+    base.BOUNCE_AT_POINTS)
 
 The hair between the skin and the shaded point: with deep opacity maps (the default) the map
 keeps, per texel, the deep opacity layers averaged over its footprint, and each sample's light
@@ -18,7 +20,7 @@ is attenuated by exp(-shadow_density * (O(skin) - O(point's light depth))) of it
 the hair over the skin that the light toward a point above it crosses (the crown's fibres over
 the scalp); light going sideways (the neck to the curls beside it) is not attenuated by the hair
 it crosses at the point's depth, which that column does not hold. Without it mane's bounce
-was 2.0x the path tracer's over the curly head's hair (2.8x at the crown), with it 1.04x.
+was 2.0x the path tracer's over the curly head's hair (2.8x at the crown), with it 1.13x.
 
 Compiled in (the SKIN_BOUNCE define, base.bounce_defines) only where the term is on: skin_bounce > 0
 and a head drawn; otherwise the hair programs are the ones they were, and the frame is bit for bit
