@@ -120,8 +120,9 @@ class SkinBouncePass(Pass):
             r.draw_head(prog, cull_back=True)
         levels = mip_levels() - 1
         for t in (self.flux, self.geom, self.dom):
+            # moderngl leaves the filter trilinear; the gather's levels are whole numbers, so that
+            # reads each sample's level alone (no filter to set again every frame)
             t.build_mipmaps(0, levels)
-            t.filter = (ctx.LINEAR_MIPMAP_NEAREST, ctx.LINEAR)
         r.hdr_fbo().use()
         frame.targets["skin_rsm"] = (self.flux, self.geom, self.dom, self.uniforms(lv))
 
