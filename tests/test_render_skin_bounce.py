@@ -198,7 +198,13 @@ def test_bounce_lights_the_hair_warm(gl, rasterizer, oit):
     hair = (on[..., 3] > 0.5) & (np.abs(on[..., :3] - off[..., :3]).sum(-1) > 0)
     assert hair.sum() > 50
     gain = (on[..., :3] - off[..., :3])[hair]
-    assert np.all(gain >= -1e-3)                       # only adds light
+    if oit == "none":
+        assert np.all(gain >= -1e-3)                   # only adds light
+    else:
+        # the compute A-buffer blends equal-depth fragments in an order that varies from run to run
+        # (two renders of the same frame differ by up to 0.007 on llvmpipe): what it takes from a
+        # pixel here and there stays under 1 % of what the bounce adds
+        assert -gain[gain < 0].sum() <= 0.01 * gain[gain > 0].sum()
     total = gain.sum(axis=0)
     assert total.sum() > 0.02 * off[..., :3][hair].sum()   # a visible share of the hair's light
     assert total[0] > total[1] > total[2]              # red: the skin's colour
