@@ -144,6 +144,25 @@ def lod_plan(view, size, boxes, *, strands_per_guide: int, guides: int, mean_len
     return LodPlan(tuple(depths), tuple(kept), int(strands_per_guide), tuple(lengths))
 
 
+def light_strand_step(view, size: int, box, strands: int, mean_length: float, mean_width: float,
+                      lod_depth: float) -> int:
+    """The deep opacity map's own LOD: every m-th expanded strand drawn into a ``size`` x ``size``
+    light map (opacity x m), m = floor(D / lod_depth) with D the map's depth complexity
+    (``depth_complexity`` in the light's ``view``, the strands at least a texel wide, as the
+    compute scan conversion draws them); 1 (every strand) while D < 2 lod_depth, with lod_depth
+    0, or without an estimate. The expanded strands' order holds no pattern that a stride would
+    pick out (a guide's strands are independent offsets, its first k kept by the coverage LOD),
+    so each strand is drawn with probability 1 / m at m times the opacity: the same expected
+    opacity per texel and layer, m times fewer samples visited."""
+    if not lod_depth > 0 or strands <= 0:
+        return 1
+    lo, hi = box
+    d, visible = depth_complexity(view, (size, size), box_corners(lo, hi), strands, mean_length, mean_width, 1.0)
+    if not visible or not np.isfinite(d):
+        return 1
+    return max(1, int(d // float(lod_depth)))
+
+
 LENGTH_CHUNK = 2048
 """guides per block of ``mean_strand_length`` (its float64 temporaries stay in cache)."""
 

@@ -832,9 +832,11 @@ class Renderer(GpuOwner):
         full = len(plan.kept) * self.rendered_strands
         drawn = self.get_pass("expand").strands if self.get_pass("expand").buffer is not None else None
         d = [x for x in plan.depth if np.isfinite(x)]
+        dom = next((p for p in self.passes if p.name == "deep_opacity"), None)
+        step = dom.last_step if dom is not None else None
         return {"lod_depth": float(self.settings.lod_depth), "instances": len(plan.kept),
                 "lod_depth_complexity": (max(d) if d else None), "lod_keep_fraction": plan.keep_fraction(),
-                "strands_expanded": drawn, "strands_full": full}
+                "strands_expanded": drawn, "strands_full": full, "dom_strand_step": step}
 
     def _single_sample(self) -> None:
         for key in ("hdr_depth", "hdr", "hdr_resolved"):

@@ -78,8 +78,12 @@ class RenderSettings:
         strands of each guide are expanded and drawn (in every pass, the shadow maps too), each
         widened by what was dropped, so that coverage and opacity stay the same in expectation,
         and where strands are thinned and look short, with fewer segments. The default (64) leaves the default scenes untouched (50k strands at 1920x1080: D = 16)
-        and thins 1M strands there (D = 326) to a fifth. 0: off. Single-strand interpolation
-        with pipeline="compute" only.""")
+        and thins 1M strands there (D = 326) to a fifth. The compute rasteriser's deep opacity
+        map thins again by how the light sees the kept strands (a texel wide at least): past
+        2 lod_depth strands over a texel, every m-th strand, m = floor(D_light / lod_depth), at m
+        times the opacity (coverage_lod.light_strand_step; the 50k-strand target frame's
+        D_light = 29: untouched). 0: off. Single-strand interpolation with pipeline="compute"
+        only (the map's stride: the compute rasteriser, every interpolation).""")
     # --- strand multiplication
     strands_per_guide: int = setting(16, lo=1, hi=4096, slider=(1, 128),
         help="""Rendered strands per guide (the guide itself is strand 0). Beyond 64 (the tessellation

@@ -14,6 +14,8 @@ uniform int u_points_per_strand;
 uniform int u_num_segments;
 uniform vec3 u_dom_layers_abs;   // layer ends after z0 (m)
 uniform float u_strand_opacity;
+uniform int u_strand_step;       // every u_strand_step-th expanded strand (the map's LOD, deep_opacity.py)
+#define RASTER_STRAND(S) ((S) * u_strand_step)
 #include "raster_view.glsl"
 #define DOM_SCALE 65536.0
 

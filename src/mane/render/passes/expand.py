@@ -36,7 +36,7 @@ class ExpandPass(Pass):
         self.strands = 0       # rendered strands
         self._key = None
         self._key_memo = None   # (what key() was made of, by identity; the key)
-        self._dispatch_memo = None
+        self._dispatch_memo: dict = {}   # strand step -> (buffer shape, uniforms, work groups)
         self._programs = ProgramMemo()   # strand_expand.comp per (interpolation, mode, LOD)
 
     def enabled(self, frame: Frame) -> bool:
@@ -135,26 +135,30 @@ class ExpandPass(Pass):
         """Segments of the expanded strands (points - 1 a strand)."""
         return self.strands * max(self.points - 1, 0)
 
-    def dispatch_segments(self, cs) -> None:
+    def dispatch_segments(self, cs, strand_step: int = 1) -> None:
         """Run compute shader ``cs`` (local_size_x = LOCAL_SIZE) with one invocation per expanded
         segment: the buffer at B_EXPANDED, u_points_per_strand and u_num_segments set (the
-        compute rasteriser's scan conversions)."""
+        compute rasteriser's scan conversions). ``strand_step`` m > 1: the segments of every
+        m-th strand only (the kernel maps its strand S to S x m: raster_segment.glsl's
+        RASTER_STRAND)."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
-        uniforms, groups = self._dispatch_plan()
+        uniforms, groups = self._dispatch_plan(max(1, int(strand_step)))
         set_uniforms(cs, uniforms)
         if groups is not None:
             cs.run(*groups)
 
-    def _dispatch_plan(self) -> tuple:
-        """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape is
-        the same."""
+    def _dispatch_plan(self, step: int = 1) -> tuple:
+        """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape
+        and the stride are the same."""
         key = (self.points, self.strands)
-        memo = self._dispatch_memo
+        memo = self._dispatch_memo.get(step)
         if memo is None or memo[0] != key:
-            segments = int(self.segments)
-            memo = self._dispatch_memo = (key, {"u_points_per_strand": int(self.points), "u_num_segments": segments},
-                                          groups_1d(segments))
+            if len(self._dispatch_memo) >= 8:   # a moving camera's strides
+                self._dispatch_memo.clear()
+            segments = -(-int(self.strands) // step) * max(self.points - 1, 0)
+            memo = self._dispatch_memo[step] = (key, {"u_points_per_strand": int(self.points),
+                                                      "u_num_segments": segments}, groups_1d(segments))
         return memo[1], memo[2]
 
     def read(self) -> np.ndarray:

@@ -183,6 +183,9 @@ bool raster_span_culled(RasterSpan s, ivec2 size) {
 #ifndef RASTER_SEGMENT
 #define RASTER_SEGMENT(I)
 #endif
+#ifndef RASTER_STRAND
+#define RASTER_STRAND(S) (S)   // the expanded strand of the dispatch's strand S (dom_raster.comp: a stride)
+#endif
 #ifndef RASTER_BALANCE
 #error "RASTER_BALANCE must be defined (raster_segment.py)"
 #endif
@@ -198,7 +201,7 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     if (k >= u_num_segments) return false;
     int per = u_points_per_strand - 1;
     int strand = k / per;
-    i = strand * u_points_per_strand + (k - strand * per);
+    i = RASTER_STRAND(strand) * u_points_per_strand + (k - strand * per);
     vec4 p0 = expanded[2 * i];
     vec4 p1 = expanded[2 * i + 2];
     if (!(p0.w > 0.0 || p1.w > 0.0)) return false;   // a strand the distance LOD dropped
