@@ -139,12 +139,18 @@ class ExpandPass(Pass):
         """Run compute shader ``cs`` (local_size_x = LOCAL_SIZE) with one invocation per expanded
         segment: the buffer at B_EXPANDED, u_points_per_strand and u_num_segments set (the
         compute rasteriser's scan conversions)."""
+        groups = self.bind_segments(cs)
+        if groups is not None:
+            cs.run(*groups)
+
+    def bind_segments(self, cs) -> tuple[int, int] | None:
+        """dispatch_segments without the dispatch: the buffer bound and the uniforms set; the work
+        groups (x, y) it would run (None: no segments), for an indirect dispatch's arguments."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
         uniforms, groups = self._dispatch_plan()
         set_uniforms(cs, uniforms)
-        if groups is not None:
-            cs.run(*groups)
+        return groups
 
     def _dispatch_plan(self) -> tuple:
         """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape is
