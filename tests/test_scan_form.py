@@ -57,6 +57,31 @@ def test_picks_the_faster_form_by_median():
     assert c.choice == 1 and c.probes == 1
 
 
+@pytest.mark.parametrize("ms, choice", [({0: 3.0, 1: 2.0, 2: 1.0}, 2), ({0: 1.0, 1: 2.0, 2: 3.0}, 0),
+                                        ({0: 3.0, 1: 1.0, 2: 2.0}, 1), ({0: 3.0, 1: 2.0, 2: 1.95}, 1)])
+def test_three_forms_keep_the_fastest(ms, choice):
+    # the hair site: each form's first use untimed, then each timed in turn, the fastest median
+    # kept unless the one in use is within MARGIN of it (1.95 against 2.0: not switched)
+    c = FormChooser(1, forms=3, samples=3, margin=0.05)
+    forms = run(c, ms, 3 + 3 * 3 + 1)
+    assert forms[:3] == [1, 0, 2]
+    timed = forms[3:12]
+    assert all(timed.count(f) == 3 for f in (0, 1, 2))
+    assert all(len(set(timed[i:i + 3])) == 3 for i in (0, 3, 6))   # in turn
+    assert not c.probing and c.choice == choice and c.medians == [ms[0], ms[1], ms[2]]
+
+
+def test_three_forms_probe_again_and_follow_the_times():
+    c = FormChooser(1, forms=3, samples=2, reprobe=40, watch=0)
+    run(c, {0: 3.0, 1: 2.0, 2: 1.0}, 3 + 6 + 1)
+    assert c.choice == 2 and c.probes == 1
+    forms = run(c, {0: 1.0, 1: 2.0, 2: 3.0}, 60)   # the times turn: the re-probe after 40 frames follows
+    assert forms[:38] == [2] * 38 and c.probes == 2 and c.choice == 0
+    # a scene change probes all three at once, the new settings with first uses again
+    forms = run(c, {0: 3.0, 1: 1.0, 2: 2.0}, 3 + 6 + 1, key=object())
+    assert forms[:3] == [0, 1, 2] and c.choice == 1
+
+
 def test_median_ignores_one_outlier():
     # per-thread faster but for one hitch of 50 ms among its samples
     c = FormChooser(1, samples=5)
@@ -208,7 +233,7 @@ def test_site_never_waits_and_is_off_when_forced(gl, monkeypatch):
     monkeypatch.setattr(scan_form, "SAMPLES", 2)
     monkeypatch.setattr(raster_segment, "FORCED", None)
     site = scan_form.ScanFormSite(gl, "hair")
-    site.timer = FakeTimer(site, {0: 2.0, 1: 1.0}, pool=3, lag=None)   # results never come
+    site.timer = FakeTimer(site, {0: 2.0, 1: 1.0, 2: 3.0}, pool=3, lag=None)   # results never come
     forms = []
     for _ in range(12):
         forms.append(site.begin(KEY, (100, 1)))
@@ -223,9 +248,12 @@ def test_site_never_waits_and_is_off_when_forced(gl, monkeypatch):
         if not site.chooser.probing:
             break
     assert not site.chooser.probing and site.current() == 1 and site.stats()["form"] == "balanced"
-    assert site.stats()["ms"] == {"per_thread": 2.0, "balanced": 1.0}
+    assert site.stats()["ms"] == {"per_thread": 2.0, "balanced": 1.0, "tiled": 3.0}
     monkeypatch.setattr(raster_segment, "FORCED", 1)     # forced: no tuning
     assert not site.tuning() and site.begin(KEY, (100, 1)) == 1 and site.current() == 1
+    monkeypatch.setattr(raster_segment, "FORCED", 2)     # the tiled form: the hair site's alone
+    assert site.begin(KEY, (100, 1)) == 2 and site.stats()["form"] == "tiled"
+    assert scan_form.ScanFormSite(gl, "dom").begin(KEY, (100, 1)) == 1
     monkeypatch.setattr(raster_segment, "FORCED", None)
     monkeypatch.setattr(scan_form, "TUNE", False)        # off: the fixed rule
     assert site.begin(KEY, (100, 1)) == raster_segment.balance_for(gl)
@@ -278,10 +306,11 @@ def test_alternating_forms_give_identical_frames(gl, monkeypatch):
     from test_render_compute_balance import assert_cover_equal
 
     # per-thread faster at the hair site, balanced at the deep opacity maps'
-    frames, stats = _frames_alternating(gl, monkeypatch, {0: 1.0, 1: 2.0}, {0: 3.0, 1: 1.0})
+    # (the hair site's three forms: 3 first uses and 6 timed frames, decided at the 10th)
+    frames, stats = _frames_alternating(gl, monkeypatch, {0: 1.0, 1: 2.0, 2: 3.0}, {0: 3.0, 1: 1.0}, frames=10)
     hair_forms = [f["forms"][0] for f in frames]
     dom_forms = [f["forms"][1] for f in frames]
-    assert {0, 1} <= set(hair_forms[:6]) and {0, 1} <= set(dom_forms[:6])   # the probe switched forms
+    assert {0, 1, 2} <= set(hair_forms[:6]) and {0, 1} <= set(dom_forms[:6])   # the probe switched forms
     assert any(a != b for a, b in zip(hair_forms, hair_forms[1:]))
     assert hair_forms[-1] == 0 and dom_forms[-1] == 1
     assert stats["scan_form"] == {"hair": "per_thread", "dom": "balanced"} and stats["scan_form_by"] == "tuner"
@@ -340,7 +369,7 @@ def test_a_kept_decision_starts_a_fresh_site_on_it(gl, monkeypatch):
     monkeypatch.setattr(raster_segment, "FORCED", None)
     default = raster_segment.balance_for(gl)
     other = 1 - default
-    ms = {default: 2.0, other: 1.0}          # the fixed rule's form slower: the probe switches
+    ms = {default: 2.0, other: 1.0, 2: 3.0}   # the fixed rule's form slower: the probe switches
     first, forms = _settle_site(gl, "hair", ms)
     assert first.chooser.choice == other and default in forms and not first.chooser.recalled
 
@@ -352,7 +381,7 @@ def test_a_kept_decision_starts_a_fresh_site_on_it(gl, monkeypatch):
         fresh.end()
     assert got == [other] * 10                 # its first frame already on the kept form
     assert not fresh.chooser.probing and fresh.chooser.recalled and fresh.chooser.probes == 0
-    assert fresh.chooser.medians == [ms[0], ms[1]]
+    assert fresh.chooser.medians == [ms[0], ms[1], ms[2]]
     assert fresh.stats()["recalled"] is True and fresh.current() == other
 
     for name, sizes in (("hair", (1000, 1)), ("hair", (100, 2)), ("dom", (100, 1))):
@@ -411,6 +440,10 @@ def test_memory_key_covers_gpu_driver_settings_and_sizes():
     assert mem.recall(others[0]) is None
     mem.remember(others[0], 0, [None, 1.0])      # an incomplete probe is not kept
     assert mem.recall(others[0]) is None
+    mem.remember(others[1], 2, [2.0, 1.5, 1.0])  # a three-form site's: recalled with its count only
+    assert mem.recall(others[1], 3) == (2, [2.0, 1.5, 1.0]) and mem.recall(others[1]) is None
+    assert mem.recall(base, 3) is None
+    assert {"raster_tiles.glsl", "raster_tiles_scan.comp", "raster_tiles.py"} <= set(mem.CODE_FILES)
 
 
 def test_a_second_renderer_starts_on_the_kept_forms(gl, monkeypatch):
@@ -418,10 +451,10 @@ def test_a_second_renderer_starts_on_the_kept_forms(gl, monkeypatch):
     frame with the kept forms at both sites, and the same images."""
     default = raster_segment.balance_for(gl)
     other = 1 - default
-    first, _ = _frames_alternating(gl, monkeypatch, {default: 2.0, other: 1.0}, {default: 1.0, other: 3.0})
+    hair = {default: 2.0, other: 1.0, 2: 3.0}
+    first, _ = _frames_alternating(gl, monkeypatch, hair, {default: 1.0, other: 3.0}, frames=10)
     assert first[-1]["forms"] == (other, default)
-    second, stats = _frames_alternating(gl, monkeypatch, {default: 2.0, other: 1.0}, {default: 1.0, other: 3.0},
-                                        frames=2)
+    second, stats = _frames_alternating(gl, monkeypatch, hair, {default: 1.0, other: 3.0}, frames=2)
     assert [f["forms"] for f in second] == [(other, default)] * 2
     for f in second:
         np.testing.assert_array_equal(f["image"], first[0]["image"])

@@ -31,6 +31,9 @@ B_COVER = 10              # coverage sums
 B_RASTER_STATS = 11       # hair_raster.comp's optional counters
 B_AUX_OUT = 12            # aux_maps.comp's output
 B_DEPTH_TILES = 18        # the scene depth's tile map (depth_tiles.comp; hair_raster.comp, oit_raster.comp)
+B_TILE_COUNTS = 19        # the tiled scan conversion (raster_tiles.py): per-tile counts, then cursors
+B_TILE_INDEX = 20         # its indirect dispatches, list offsets and non-empty tiles
+B_TILE_ENTRIES = 21       # its per-tile lists of segments
 # deep opacity maps by the compute rasteriser (dom_raster.comp, dom_pack.comp, shadow_merge.comp)
 B_DOM_Z0 = 11
 B_DOM_LAYERS = 12

@@ -141,12 +141,18 @@ class ExpandPass(Pass):
         compute rasteriser's scan conversions). ``strand_step`` m > 1: the segments of every
         m-th strand only (the kernel maps its strand S to S x m: raster_segment.glsl's
         RASTER_STRAND)."""
+        groups = self.bind_segments(cs, strand_step)
+        if groups is not None:
+            cs.run(*groups)
+
+    def bind_segments(self, cs, strand_step: int = 1) -> tuple[int, int] | None:
+        """dispatch_segments without the dispatch: the buffer bound and the uniforms set; the work
+        groups (x, y) it would run (None: no segments), for an indirect dispatch's arguments."""
         self.ensure()
         self.buffer.bind_to_storage_buffer(B_EXPANDED)
         uniforms, groups = self._dispatch_plan(max(1, int(strand_step)))
         set_uniforms(cs, uniforms)
-        if groups is not None:
-            cs.run(*groups)
+        return groups
 
     def _dispatch_plan(self, step: int = 1) -> tuple:
         """dispatch_segments' uniforms and work groups, kept while the expanded buffer's shape

@@ -18,7 +18,10 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    rasterisers keep the per-thread form, 3-4x faster there (raster_segment.py). On GPUs the
    form of a frame is the renderer's tuner's (scan_form.py, site ``hair``: the whole section
    below timed in both forms, with the culls each form brings, and the faster kept), since
-   the per-thread form wins where segments are short and alike (a crowd of small heads). Head culling
+   the per-thread form wins where segments are short and alike (a crowd of small heads). A third
+   form, tiled (raster_tiles.py: segments binned to 32 x 32-sample tiles, each tile's visits in
+   shared memory, the 32-bit path's id pass folded in), is the tuner's third choice here, meant
+   for pixel-heavy close-ups; the same buffers bit for bit. Head culling
    (depth_tiles.py; ``depth_tiles`` section, a few microseconds): first a tile map of the head's
    depth, the max over each tile of about 8 x 8 pixels; then a segment whose bounding box lies at
    or behind the map at its nearest depth gets no columns, and a column (constant depth) at or
@@ -53,8 +56,8 @@ from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, bounce_defines, set_uniforms, set_view,
                    shadow_defines)
-from . import depth_tiles, occlusion_tiles
-from .raster_segment import raster_defines
+from . import depth_tiles, occlusion_tiles, raster_tiles
+from .raster_segment import TILED, raster_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
@@ -102,6 +105,7 @@ class HairComputePass(Pass):
         self.after_raster: list = []   # callables (frame) run on the filled sample buffers (render/aux_maps.py)
         self.tiles = depth_tiles.DepthTiles(self.ctx)   # the head's depth tile map (head culling)
         self.occlusion = occlusion_tiles.OcclusionTiles(self.ctx)   # the near hair's (hair culling)
+        self.raster_tiles = raster_tiles.RasterTiles(self.ctx)      # the tiled form's lists
 
     def enabled(self, frame: Frame) -> bool:
         r = self.renderer
@@ -134,7 +138,7 @@ class HairComputePass(Pass):
         self._key = key
 
     def bytes(self) -> int:
-        return sum(b.size for _, b in self._buffers)
+        return sum(b.size for _, b in self._buffers) + self.raster_tiles.bytes()
 
     # ------------------------------------------------------------------ frame
     def run(self, frame: Frame) -> None:
@@ -158,23 +162,28 @@ class HairComputePass(Pass):
         else:
             form = site.current()
         balance = raster_defines(ctx, form)
+        tiled = balance["RASTER_BALANCE"] == TILED
         cull = depth_tiles.cull_defines(ctx, form)
         hair_cull = occlusion_tiles.hair_cull(ctx, form)
         if hair_cull:   # both maps: segments and columns
             cull = {"RASTER_HEAD_CULL": 1, "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
+        if tiled:   # the bin culls segments against the map; columns by the tile's own bounds
+            cull = {**cull, "RASTER_CULL_COLUMNS": 0}
         if cull["RASTER_HEAD_CULL"]:
             with r.profiler.section("depth_tiles"):
                 self.tiles.update(depth, grid)
         # (RASTER_PASS, split side, tile map or None): one dispatch a pass, or with the hair cull
         # the near segments against the head's map, the occlusion map, the far ones against it
         head_map = self.tiles if cull["RASTER_HEAD_CULL"] else None
+        # (the tiled form's steps resolve the 32-bit path's ids themselves: no id pass)
+        one_pass = self.vis64 or tiled
         if hair_cull:
             steps = [(0, 1, self.tiles), "occlusion", (0, 2, self.occlusion)]
-            if not self.vis64:
+            if not one_pass:
                 steps.append((1, 0, self.occlusion))
             split = occlusion_tiles.split_depth(r, frame.view)
         else:
-            steps = [(p, 0, head_map) for p in ((0,) if self.vis64 else (0, 1))]
+            steps = [(p, 0, head_map) for p in ((0,) if one_pass else (0, 1))]
             split = 0.0
         with r.profiler.section("hair_raster"):
             for step in steps:
@@ -184,6 +193,9 @@ class HairComputePass(Pass):
                         self.occlusion.update(depth, grid, bufs[B_VIS], bufs[B_COVER], self.vis64)
                     continue
                 raster_pass, side, tiles = step
+                if tiled:
+                    self._tiled_step(frame, side, tiles, split, common, cull, stats is not None)
+                    continue
                 cs = self._programs.get(("raster", raster_pass, stats is not None),
                                         (balance["RASTER_BALANCE"], *cull.values()),
                                         lambda: compute_shader(ctx, shader_path("hair_raster.comp"), {
@@ -218,6 +230,57 @@ class HairComputePass(Pass):
             color.bind_to_image(IMG_HDR, read=True, write=True)
             w, h = r.settings.render_size
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
+            ctx.memory_barrier()
+
+    def _tiled_step(self, frame, side: int, tiles, split: float, common: dict, cull: dict, stats: bool) -> None:
+        """One raster step in the tiled form (raster_tiles.py): the bin's count, the lists' scan,
+        the scatter, the tiled raster over the non-empty tiles (indirect), and the balanced form's
+        dispatches (indirect: none of their work groups unless the lists overflowed). ``tiles``
+        the step's cull map (None: no cull), ``side`` its side of the depth split."""
+        r, ctx = self.renderer, self.ctx
+        expand = r.get_pass("expand")
+        rt = self.raster_tiles
+        rt.prepare(self.sample_size(), expand.segments)
+        _, depth = r.hdr_textures()
+        base = {"VIS64": int(self.vis64), **({"RASTER_STATS": 1} if stats else {})}
+
+        def program(name, defines):
+            return self._programs.get((name, stats), tuple(defines.values()), lambda: compute_shader(
+                ctx, shader_path("hair_raster.comp"), {**base, **defines}, include_dirs=[RENDER_DIR]))
+
+        def begin(cs):
+            set_view(cs, frame.view)
+            set_uniforms(cs, common)
+            depth.use(TEX_SCENE_DEPTH)
+            set_uniforms(cs, self._step_uniforms(side, split))
+            if tiles is not None:
+                tiles.bind(cs)
+            return expand.bind_segments(cs)
+
+        groups = None
+        for phase in (1, 2, 3):
+            cs = program(("tiled", phase), {"RASTER_BALANCE": TILED, **cull, "RASTER_PASS": 0,
+                                            "RASTER_TILED_PHASE": phase, **raster_tiles.defines()})
+            groups = begin(cs)
+            if groups is None:   # no segments
+                return
+            rt.bind(cs)
+            if phase == 3:
+                rt.dispatch_tiles(cs)
+            else:
+                cs.run(*groups)
+            ctx.memory_barrier()
+            if phase == 1:
+                rt.scan(groups)
+        # the balanced form where the lists overflowed (the 32-bit path's depths clearing the
+        # ids an earlier step left, then its id pass): the same buffers, slower
+        fallback_cull = {"RASTER_HEAD_CULL": int(tiles is not None), "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
+        for raster_pass in ((0,) if self.vis64 else (0, 1)):
+            reset = {"RASTER_RESET_ID": 1} if not self.vis64 and raster_pass == 0 else {}
+            cs = program(("fallback", raster_pass), {"RASTER_BALANCE": 1, **fallback_cull, "RASTER_PASS": raster_pass,
+                                                     **reset})
+            begin(cs)
+            rt.dispatch_fallback(cs)
             ctx.memory_barrier()
 
     # ------------------------------------------------------------------ statistics
@@ -299,6 +362,7 @@ class HairComputePass(Pass):
         self._release_buffers()
         self.tiles.release()
         self.occlusion.release()
+        self.raster_tiles.release()
 
 
 def unsupported_reason(renderer) -> str | None:

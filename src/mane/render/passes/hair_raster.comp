@@ -6,6 +6,11 @@
 // depth (depth_tiles.py), or the head's and the saturated near hair's (occlusion_tiles.py: the
 // segments split by depth between two dispatches).
 // RASTER_PASS 0: depth (and the 64-bit visibility) and coverage; 1: the 32-bit path's ids.
+// RASTER_BALANCE 2: the tiled form (raster_tiles.glsl, raster_tiles.py): RASTER_TILED_PHASE 1 and
+// 2 bin the segments to screen tiles, 3 visits a tile's samples in shared memory (depth, id and
+// coverage in one dispatch on both paths). RASTER_RESET_ID (32-bit path, RASTER_PASS 0): a visit
+// that lowers a sample's depth clears its id, so that the id pass after it sets it from this
+// dispatch's segments alone (the tiled form's fallback after a step that left ids).
 #include "hair_vis.glsl"
 layout(local_size_x = 128) in;
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
@@ -58,7 +63,11 @@ void visit(ivec2 q, float z, float cov) {
     if (key < vis[idx]) atomicMin(vis[idx], key);
     if (cover[idx] < COVER_SATURATED) atomicAdd(cover[idx], cover_units(cov));
 #elif RASTER_PASS == 0
+#ifdef RASTER_RESET_ID
+    if (zb < vis_depth[idx] && atomicMin(vis_depth[idx], zb) > zb) vis_id[idx] = 0u;
+#else
     if (zb < vis_depth[idx]) atomicMin(vis_depth[idx], zb);
+#endif
     if (cover[idx] < COVER_SATURATED) atomicAdd(cover[idx], cover_units(cov));
 #else
     if (vis_depth[idx] == zb) {
@@ -78,17 +87,28 @@ uniform int u_split_side;
 #define RASTER_VISIT(Q, Z, COV) visit(Q, Z, COV)
 #define RASTER_SEGMENT(I) g_id = uint(I)
 #include "raster_segment.glsl"
+#if RASTER_BALANCE == 2
+#include "raster_tiles.glsl"
+#endif
 
 void main() {
+#if RASTER_BALANCE == 2
+    raster_tiled_main();
+#if RASTER_STATS && RASTER_TILED_PHASE == 2
+    return;   // counted by phases 1 (segment culls) and 3 (visits)
+#endif
+#else
     raster_expanded_segment();   // every invocation (the balanced form shares the group's columns)
+#endif
 #if RASTER_STATS
     uint slot = (gl_WorkGroupID.x & 63u) * 4u;
 #if VIS64 || RASTER_PASS == 0
     atomicAdd(raster_stats[slot], g_scanned);
     atomicAdd(raster_stats[slot + 1u], g_written);
     atomicAdd(raster_stats[slot + 3u], g_culled);
-#else
-    atomicAdd(raster_stats[slot + 2u], g_id_atomics);
+#endif
+#if !VIS64 && (RASTER_PASS == 1 || RASTER_BALANCE == 2)
+    atomicAdd(raster_stats[slot + 2u], g_id_atomics);   // the tiled form: its walk 2's, in shared memory
 #endif
 #endif
 }

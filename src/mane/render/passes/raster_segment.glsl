@@ -176,7 +176,9 @@ bool raster_span_culled(RasterSpan s, ivec2 size) {
 // work group (local_size_x, every thread calling this, none returning before it) sets up its
 // segments, stores them and their column counts in shared memory, prefix-sums the counts and
 // deals the group's columns round-robin to its threads (each finds its column's segment by
-// binary search). Atomic min and integer add commute, so the buffers end bit-identical.
+// binary search). Atomic min and integer add commute, so the buffers end bit-identical; 2, the
+// tiled form (hair_raster.comp only: raster_tiles.glsl brings its own loops, calling
+// raster_thread_span, raster_span and raster_column_range).
 #ifndef RASTER_DEPTH
 #define RASTER_DEPTH window_z
 #endif
@@ -225,7 +227,7 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     return true;
 }
 
-#if RASTER_BALANCE
+#if RASTER_BALANCE == 1
 #define RASTER_GROUP int(gl_WorkGroupSize.x)
 shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
 shared vec4 rs_zh[gl_WorkGroupSize.x];      // za, zb, ha, hb
@@ -280,7 +282,7 @@ void raster_expanded_segment() {
         raster_column(t, t.x0 + j - start, u_raster_size);
     }
 }
-#else
+#elif RASTER_BALANCE == 0
 void raster_expanded_segment() {
     RasterSpan s;
     int i;

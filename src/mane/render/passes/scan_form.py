@@ -1,23 +1,27 @@
 """The scan-conversion form chosen per dispatch site by measurement (an autotuner, on GPUs).
 
-raster_segment.glsl has two forms (raster_segment.py, ``RASTER_BALANCE``) that leave the same
+raster_segment.glsl has forms (raster_segment.py, ``RASTER_BALANCE``) that leave the same
 buffers bit for bit: 1, load-balanced, 2-3x faster on the H200's close-ups and 1M strands; 0, a
-thread a segment, faster on the crowd of small alike heads (no imbalance to win back). No
-simple geometric rule told those apart, so each site times both forms and keeps the faster:
+thread a segment, faster on the crowd of small alike heads (no imbalance to win back); 2, tiled
+(raster_tiles.py: segments binned to screen tiles, each tile's visits in shared memory; the
+hair site only), meant for pixel-heavy close-ups. No simple geometric rule told those apart, so
+each site times its forms and keeps the fastest:
 
 ``hair``
-    hair_compute.py's whole raster section: the head's tile map, the dispatches and, in the
-    balanced form, the hair cull's split and occlusion map (occlusion_tiles.py) and the column
-    cull (depth_tiles.py), which follow the form.
+    hair_compute.py's whole raster section, three forms: the head's tile map, the dispatches
+    and, in the balanced and tiled forms, the hair cull's split and occlusion map
+    (occlusion_tiles.py) and the column cull (depth_tiles.py; the tiled form's own bounds),
+    which follow the form.
 ``dom``
     deep_opacity.py's two dom_raster.comp dispatches (the pack is the same in both forms).
 
 The OIT fill and the shadow map's hair depths keep the fixed rule (raster_segment.balance_for).
+CPU rasterisers keep the per-thread form everywhere (the tuner is off there).
 
 The protocol (``FormChooser``, pure Python): a probe first uses each form once untimed (its
-program compiles), then times them alternately until each has ``SAMPLES`` results, and keeps
-the faster median, switching from the form in use only when the other is ``MARGIN`` faster
-(the first probe starts from the fixed rule's form). Settled, it times the chosen form every
+program compiles), then times them in turn until each has ``SAMPLES`` results, and keeps the
+fastest median, switching from the form in use only when that one is ``MARGIN`` faster (the
+first probe starts from the fixed rule's form). Settled, it times the chosen form every
 ``WATCH`` frames and probes again after ``REPROBE`` frames, at once when the site's segment or
 instance count moves by more than ``RESCALE`` x from the probe's, when the settings object
 changes, or when a watched frame's time moves by more than ``RESCALE`` x from the chosen
@@ -53,33 +57,36 @@ WATCH = 30        # frames between timings of the chosen form while settled (0: 
 POOL = 8          # timestamp query pairs per site (the GPU may be this many timed frames behind)
 TUNE = None       # None: on GPUs with timer queries; True: everywhere (tests); False: off
 
-FORM_NAMES = ("per_thread", "balanced")
+FORM_NAMES = raster_segment.FORM_NAMES   # by RASTER_BALANCE
 SITES = ("hair", "dom")
+SITE_FORMS = {"hair": 3, "dom": 2}     # forms 0 .. n - 1 each site chooses among
 
 
 class FormChooser:
     """The choice of one site from the timings fed back to it (no GL). Each frame ``next(key,
     sizes)`` gives the form to dispatch and a ticket when that frame is to be timed; the time, when
     it arrives, goes back with ``record(ticket, ms)`` (None: lost). ``key`` is compared by
-    identity, then equality (the settings); ``sizes`` (segments, instances) by ratio."""
+    identity, then equality (the settings); ``sizes`` (segments, instances) by ratio; ``forms``
+    the number of forms (0 .. forms - 1)."""
 
-    def __init__(self, default: int, *, samples: int = None, margin: float = None, reprobe: int = None,
+    def __init__(self, default: int, *, forms: int = 2, samples: int = None, margin: float = None, reprobe: int = None,
                  rescale: float = None, watch: int = None):
         self.samples = max(1, int(SAMPLES if samples is None else samples))
         self.margin = float(MARGIN if margin is None else margin)
         self.reprobe = max(1, int(REPROBE if reprobe is None else reprobe))
         self.rescale = float(RESCALE if rescale is None else rescale)
         self.watch = int(WATCH if watch is None else watch)
-        self.choice = int(bool(default))
-        self.medians = [None, None]   # the last probe's, ms
+        self.forms = max(2, int(forms))
+        self.choice = min(max(int(default), 0), self.forms - 1)
+        self.medians = [None] * self.forms   # the last probe's, ms
         self.probes = 0               # probes decided
         self.recalled = False         # started settled on a kept decision (settle)
         self.epoch = 0
         self.probing = True
         self._key = self._sizes = None
-        self._warm = [False, False]
-        self._got = ([], [])
-        self._out = [0, 0]            # timed frames in flight this probe
+        self._warm = [False] * self.forms
+        self._got = tuple([] for _ in range(self.forms))
+        self._out = [0] * self.forms  # timed frames in flight this probe
         self._last = self.choice      # the form last timed (the probe alternates)
         self._since = 0               # frames since the last decision
 
@@ -88,7 +95,7 @@ class FormChooser:
         scan_form_memory.py), with its ``medians`` (ms per form): no probe, the form watched
         against its median and probed again as after a probe of this chooser's own."""
         self._key, self._sizes = key, tuple(sizes)
-        self.choice = int(bool(form))
+        self.choice = int(form)
         self.medians = [None if m is None else float(m) for m in medians]
         self._warm[self.choice] = True
         self.probing = False
@@ -107,7 +114,7 @@ class FormChooser:
             self._key, self._sizes = key, tuple(sizes)
         elif key is not self._key and key != self._key:
             self._key = key
-            self._warm = [False, False]   # new settings may compile new programs
+            self._warm = [False] * self.forms   # new settings may compile new programs
             self._probe(sizes)
         elif self._moved(sizes):
             self._probe(sizes)
@@ -119,20 +126,19 @@ class FormChooser:
                 if can_time and self.watch > 0 and self._since % self.watch == 0:
                     return self.choice, (self.epoch, self.choice, True)
                 return self.choice, None
-        for f in (self.choice, 1 - self.choice):   # first uses compile: untimed
+        n = self.forms
+        for f in (self.choice, *(g for g in range(n) if g != self.choice)):   # first uses compile: untimed
             if not self._warm[f]:
                 self._warm[f] = True
                 return f, None
         if not can_time:
             return self.choice, None
-        have = [len(self._got[f]) + self._out[f] for f in (0, 1)]
-        need = [f for f in (0, 1) if have[f] < self.samples]
+        have = [len(self._got[f]) + self._out[f] for f in range(n)]
+        need = [f for f in range(n) if have[f] < self.samples]
         if not need:   # all issued: wait for the results
             return self.choice, None
-        if len(need) == 2 and have[0] == have[1]:
-            f = 1 - self._last
-        else:
-            f = min(need, key=lambda g: have[g])
+        # the least timed, ties in turn after the form timed last
+        f = min(need, key=lambda g: (have[g], (g - self._last - 1) % n))
         self._out[f] += 1
         self._last = f
         return f, (self.epoch, f, False)
@@ -170,15 +176,15 @@ class FormChooser:
         self.epoch += 1
         self.probing = True
         self._sizes = tuple(sizes)
-        self._got = ([], [])
-        self._out = [0, 0]
+        self._got = tuple([] for _ in range(self.forms))
+        self._out = [0] * self.forms
         self._since = 0
 
     def _decide(self) -> None:
         m = [median(g) for g in self._got]
-        other = 1 - self.choice
-        if m[other] < m[self.choice] * (1.0 - self.margin):
-            self.choice = other
+        best = min(range(self.forms), key=lambda f: m[f])
+        if m[best] < m[self.choice] * (1.0 - self.margin):
+            self.choice = best
         self.medians = m
         self.probes += 1
         self.probing = False
@@ -232,6 +238,7 @@ class ScanFormSite:
     def __init__(self, ctx, name: str):
         self.ctx = ctx
         self.name = name
+        self.forms = SITE_FORMS[name]
         self.timer = None        # made on first use (tests put a fake one here)
         self.chooser = None      # FormChooser, made on the first tuned frame
         self._pending: deque = deque()   # (slot, ticket) stamped, not yet read
@@ -243,7 +250,7 @@ class ScanFormSite:
         self._decided = 0        # the chooser's probes already kept
 
     def tuning(self) -> bool:
-        """Whether this frame's form is the tuner's (else the fixed rule's, balance_for)."""
+        """Whether this frame's form is the tuner's (else the fixed rule's, form_for)."""
         if raster_segment.FORCED is not None or TUNE is False:
             return False
         if TUNE is None:
@@ -260,17 +267,17 @@ class ScanFormSite:
     def current(self) -> int:
         if self.tuning() and self.chooser is not None:
             return self.chooser.choice
-        return raster_segment.balance_for(self.ctx)
+        return raster_segment.form_for(self.ctx, self.forms)
 
     def begin(self, key, sizes) -> int:
         if not self.tuning():
-            self.form = raster_segment.balance_for(self.ctx)
+            self.form = raster_segment.form_for(self.ctx, self.forms)
             return self.form
         chooser = self.chooser
         if chooser is None:
-            chooser = self.chooser = FormChooser(raster_segment.balance_for(self.ctx))
+            chooser = self.chooser = FormChooser(raster_segment.form_for(self.ctx, self.forms), forms=self.forms)
             name = scan_form_memory.key(self.ctx, self.name, key, sizes)
-            kept = scan_form_memory.recall(name)
+            kept = scan_form_memory.recall(name, self.forms)
             if kept is not None:
                 chooser.settle(key, sizes, *kept)
             self._kept = (name, None if kept is None else kept[0])
@@ -321,7 +328,8 @@ class ScanFormSite:
             out["probing"] = c.probing
             out["probes"] = c.probes
             out["recalled"] = c.recalled
-            out["ms"] = {FORM_NAMES[f]: (None if c.medians[f] is None else round(c.medians[f], 4)) for f in (0, 1)}
+            out["ms"] = {FORM_NAMES[f]: (None if c.medians[f] is None else round(c.medians[f], 4))
+                         for f in range(c.forms)}
         return out
 
     def release(self) -> None:

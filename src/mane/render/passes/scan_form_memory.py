@@ -6,8 +6,8 @@ compiled).
 
 A decision is kept under a key of everything it was measured on: the site, the GPU and driver
 (GL_RENDERER, GL_VENDOR, GL_VERSION: NVIDIA's carries the driver's version), the settings (their
-repr), the dispatch's size signature (segments, instances; exactly) and the code of both forms
-(``CODE_FILES``). Another key is another file: nothing is recalled, the tuner probes as it
+repr), the dispatch's size signature (segments, instances; exactly) and the code of the forms
+(``CODE_FILES``); the decision holds the form and every form's median (the site's count). Another key is another file: nothing is recalled, the tuner probes as it
 always did. A recalled decision is still checked: the chooser starts settled on it with its
 medians (FormChooser.settle), times the chosen form every ``WATCH`` frames and probes again when
 a watched frame is ``RESCALE`` x off the median or after ``REPROBE`` frames; the new decision
@@ -24,9 +24,10 @@ from ... import disk_cache
 
 KIND = "scan_form"
 HERE = Path(__file__).resolve().parent
-# the code both forms run, and the tuner's own: an edit to any of them is another key
+# the code the forms run, and the tuner's own: an edit to any of them is another key
 CODE_FILES = ("scan_form.py", "raster_segment.py", "raster_segment.glsl", "hair_raster.comp", "dom_raster.comp",
-              "depth_tiles.comp", "occlusion_tiles.comp")
+              "depth_tiles.comp", "occlusion_tiles.comp", "raster_tiles.py", "raster_tiles.glsl",
+              "raster_tiles_scan.comp")
 _code: list = []   # the files' hash, once a process
 
 
@@ -46,17 +47,18 @@ def key(ctx, site: str, settings, sizes) -> str | None:
     return disk_cache.digest(KIND, site, gpu, repr(settings), tuple(int(s) for s in sizes), _code_hash())
 
 
-def recall(name: str | None) -> tuple[int, list] | None:
-    """(form, [per-thread median ms, balanced median ms]) kept under ``name``, or None."""
+def recall(name: str | None, forms: int = 2) -> tuple[int, list] | None:
+    """(form, [median ms of form 0, 1, ...]) kept under ``name`` for a site of ``forms`` forms,
+    or None."""
     if name is None:
         return None
     got = disk_cache.load(KIND, name)
-    if got is None or len(got) != 1 or got[0].shape != (3,):
+    if got is None or len(got) != 1 or got[0].shape != (1 + int(forms),):
         return None
-    form, m0, m1 = (float(v) for v in got[0])
-    if form not in (0.0, 1.0) or not all(math.isfinite(m) and m >= 0.0 for m in (m0, m1)):
+    form, *ms = (float(v) for v in got[0])
+    if form not in tuple(float(f) for f in range(forms)) or not all(math.isfinite(m) and m >= 0.0 for m in ms):
         return None
-    return int(form), [m0, m1]
+    return int(form), ms
 
 
 def remember(name: str | None, form: int, medians) -> None:
