@@ -62,11 +62,12 @@ GRID = True
 # CPU rasterisers a coarser one (64^3 cells cost llvmpipe ~0.5 s a frame, 32^3 50-75 ms)
 GRID_SIZE = (64, 64, 64)
 GRID_SIZE_SOFTWARE = (32, 32, 32)
+GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 
 def grid_size(renderer) -> tuple:
+    """The grid's cells (u, v, depth) on ``renderer``'s GPU: GRID_SIZE, or GRID_SIZE_SOFTWARE on a CPU rasteriser."""
     return tuple(GRID_SIZE_SOFTWARE if get_capabilities(renderer.ctx).is_software else GRID_SIZE)
-GOLDEN_ANGLE = math.pi * (3.0 - math.sqrt(5.0))
 
 
 def mip_levels(size: int = RSM_SIZE) -> int:
@@ -108,7 +109,7 @@ class SkinBouncePass(Pass):
         self._programs = ProgramMemo()
         self.flux = self.geom = self.dom = self.depth = self.fbo = self.grid = None
         self._uniforms = None   # ((light view, settings), uniforms)
-        self._box = None        # (light view, hair box, pad, grid box uniforms)
+        self._box = None        # (light view, gather's uniforms, hair box, pad, gather's and grid's uniforms)
         self._colors = SkinColors()
 
     def enabled(self, frame: Frame) -> bool:
