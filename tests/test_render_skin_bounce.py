@@ -359,13 +359,15 @@ def test_grid_follows_the_gather_at_the_hair_points(gl):
 @pytest.mark.gpu
 @pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
 def test_grid_renders_as_the_gather(gl, monkeypatch, rasterizer):
-    """The frame with the grid (llvmpipe: 32^3) against the gather at every shaded point (GRID
+    """The frame with the grid (llvmpipe: 32^3) against the gather at every shaded point (base.SKIN_BOUNCE_GRID
     False): the light the bounce adds within 15 % in each channel (measured 0.92x compute, 0.90x
     hardware: this sparse groom shows many roots, where the grid smooths the peak by the skin), and
     the hair pixels within 5 % on average (measured 2.6 %, 2.7 %)."""
+    from mane.render.passes import base
+
     imgs = {}
     for grid in (True, False):
-        monkeypatch.setattr(sb, "GRID", grid)
+        monkeypatch.setattr(base, "SKIN_BOUNCE_GRID", grid)
         imgs[grid], _ = _render(gl, rasterizer, 1.0)
     off, _ = _render(gl, rasterizer, 0.0)
     hair = (off[..., 3] > 0.5) & (np.abs(imgs[False][..., :3] - off[..., :3]).sum(-1) > 0)

@@ -48,6 +48,10 @@ def shadow_defines(settings, pcf: int | None = None) -> dict:
 
 
 SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per grid cell or shaded point (skin_bounce.py)
+# The skin bounce's gather evaluated once a frame at the cells of a grid in light 0's space
+# (skin_bounce_grid.comp) and read once, trilinear, by every shaded point; False: gathered at every
+# shaded point (kept for an A/B on GPUs; here, not in skin_bounce.py, which imports this module)
+SKIN_BOUNCE_GRID = True
 
 
 def skin_bounce_active(renderer) -> bool:
@@ -59,13 +63,11 @@ def skin_bounce_active(renderer) -> bool:
 
 def bounce_defines(renderer) -> dict:
     """The hair shading programs' skin-bounce defines: SKIN_BOUNCE 1, SKIN_BOUNCE_SAMPLES and
-    SKIN_BOUNCE_GRID (skin_bounce.GRID: read the grid, or gather at every shaded point) where the
+    SKIN_BOUNCE_GRID (read the grid, or gather at every shaded point) where the
     term is on, else SKIN_BOUNCE 0 (the programs as they were without it)."""
     if not skin_bounce_active(renderer):
         return {"SKIN_BOUNCE": 0}
-    from . import skin_bounce
-
-    return {"SKIN_BOUNCE": 1, "SKIN_BOUNCE_SAMPLES": SKIN_BOUNCE_SAMPLES, "SKIN_BOUNCE_GRID": int(skin_bounce.GRID)}
+    return {"SKIN_BOUNCE": 1, "SKIN_BOUNCE_SAMPLES": SKIN_BOUNCE_SAMPLES, "SKIN_BOUNCE_GRID": int(SKIN_BOUNCE_GRID)}
 
 
 class Target(NamedTuple):
@@ -297,7 +299,7 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
     bind_extra_shadows(renderer, prog, frame)
     rsm = t.get("skin_rsm")   # the skin's reflective shadow map and grid (skin_bounce.py), where made
     if rsm is not None:
-        if has_uniform(prog, "u_bounce_grid"):
+        if rsm[4] is not None and has_uniform(prog, "u_bounce_grid"):
             rsm[4].use(TEX_RSM_GRID)
             set_uniforms(prog, rsm[3])
         elif has_uniform(prog, "u_rsm_flux"):

@@ -27,7 +27,7 @@
 // skin_bounce.py's gather_numpy is this function's twin (tests/test_render_skin_bounce.py).
 // Needs lighting.glsl (the deep opacity map's uniforms and dom_opacity). The gather runs at the
 // cells of the grid (skin_bounce_grid.comp) that the shaded points read (skin_bounce_grid below),
-// or with skin_bounce.GRID False at every shaded point.
+// or with base.SKIN_BOUNCE_GRID False at every shaded point.
 #include "common.glsl"
 #include "lighting.glsl"
 #ifndef SKIN_BOUNCE_SAMPLES
@@ -86,7 +86,7 @@ vec3 skin_bounce_fluence(vec3 x) {
     return phi;
 }
 
-// SKIN_BOUNCE_GRID (skin_bounce.GRID): skin_bounce_fluence evaluated once a frame at the centres of
+// SKIN_BOUNCE_GRID (base.SKIN_BOUNCE_GRID): skin_bounce_fluence evaluated once a frame at the centres of
 // a grid in light 0's space (skin_bounce_grid.comp: u, v over the hair's footprint in the map, w
 // its light depth range) and read here once, trilinear; a point outside the grid gets its border
 // cells' value (clamp to edge).

@@ -9,12 +9,12 @@ skin's albedo), most on the curls beside the neck (docs/quality.md, items (7) an
 
     pass "skin_bounce" (after the shadow maps, before the head and the hair): the head drawn from
     light 0 (head.vert, skin_rsm.frag) into RSM_SIZE^2 texels of flux, normal and light depth,
-    mipmapped; then (GRID) skin_bounce_grid.comp: skin_bounce.glsl's gather, SAMPLES samples
+    mipmapped; then (base.SKIN_BOUNCE_GRID) skin_bounce_grid.comp: skin_bounce.glsl's gather, SAMPLES samples
     within RADIUS, at the centre of every cell of a grid_size() grid (GRID_SIZE, 64^3, on GPUs;
     GRID_SIZE_SOFTWARE, 32^3, on CPU rasterisers) over the padded hair box's footprint in the map
     (u, v) and its light depth range, into an RGBA16F 3D texture; frame.targets["skin_rsm"]
     hair shading (hair_radiance.glsl, both rasterisers and the transparency methods): the grid's
-    trilinear value at the shaded point (clamped to the grid's border outside it; GRID False:
+    trilinear value at the shaded point (clamped to the grid's border outside it; base.SKIN_BOUNCE_GRID False:
     the gather at the point), times the fibre's isotropic albedo / 4 pi
 
 The grid smooths the gather's field, which has centimetre structure near the skin (the hair's
@@ -49,15 +49,13 @@ import numpy as np
 from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import ProgramMemo, compute_shader, program
 from ..bindings import IMG_BOUNCE_GRID, TEX_RSM_DOM, TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_RSM_GRID
+from . import base
 from .base import (RENDER_DIR, SKIN_BOUNCE_SAMPLES as SAMPLES, Frame, Pass, bind_lighting, same_box, set_uniforms,
                    set_view, shader_path, shadow_defines, skin_bounce_active)
 from .head_pass import SkinColors
 
 RSM_SIZE = 128      # texels per side over light 0's view (the scene's bounding sphere): ~5 mm on a head
 RADIUS = 0.10       # m: the gather's radius in light 0's view plane
-# The gather evaluated once a frame at the cells of a grid in light 0's space (skin_bounce_grid.comp)
-# and read once, trilinear, by every shaded point; False: gathered at every shaded point (A/B)
-GRID = True
 # cells in u, v (over the hair's footprint in the map) and light depth (the hair's range along it);
 # CPU rasterisers a coarser one (64^3 cells cost llvmpipe ~0.5 s a frame, 32^3 50-75 ms)
 GRID_SIZE = (64, 64, 64)
@@ -153,7 +151,7 @@ class SkinBouncePass(Pass):
             t.build_mipmaps(0, levels)
         r.hdr_fbo().use()
         u = self.uniforms(lv)
-        if GRID:
+        if base.SKIN_BOUNCE_GRID and r.strands is not None:   # no hair: nothing reads it
             u = self._grid_uniforms(lv, u) if lv is not None else u
             self._build_grid(frame, u)
         frame.targets["skin_rsm"] = (self.flux, self.geom, self.dom, u, self.grid)
@@ -162,7 +160,8 @@ class SkinBouncePass(Pass):
         """The gather's uniforms ``gather`` and the grid's: its box (the padded hair box in light
         view ``lv``'s (u, v, depth)) and size; one dict kept while they are the same."""
         r = self.renderer
-        box, pad, size = r.hair_bbox(), r.strand_pad(), grid_size(r)
+        size = grid_size(r)
+        box, pad = r.hair_bbox(), r.strand_pad()
         memo = self._box
         if (memo is not None and memo[0] is lv and memo[1] is gather and same_box(memo[2], box) and memo[3] == pad
                 and memo[4]["u_grid_size"] == size):

@@ -1,5 +1,5 @@
 #version 430
-// The skin bounce's grid (skin_bounce.py, GRID): skin_bounce.glsl's gather evaluated at the centre
+// The skin bounce's grid (skin_bounce.py; base.SKIN_BOUNCE_GRID): skin_bounce.glsl's gather evaluated at the centre
 // of every cell, once a frame after the reflective shadow map is built. Cell (i, j, k) of the
 // u_grid_size grid stands for the point of light 0's view at map coordinates and light depth
 // u_bounce_grid_lo + ((i, j, k) + 1/2) / u_grid_size / u_bounce_grid_inv (the hair's footprint
