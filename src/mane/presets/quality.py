@@ -74,7 +74,8 @@ SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6,
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
                    geometry="lines",             # sub-pixel strands: the same picture, half the hair pass
                    skin_bounce=0.0)              # unoccluded by the hair without deep opacity maps (2x the
-                                                 # path tracer's bounce), and 8 % of the hair pass
+                                                 # path tracer's bounce), and its grid's build ~50-75 ms
+                                                 # a frame on llvmpipe
 GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # Cheapest loss first. On llvmpipe at 960x540 (3 lights, the key light casting), CPU time a
 # frame (simulation + rendering, 2026-12-02, docs/quality.md): 2 strands per guide saves ~3%,

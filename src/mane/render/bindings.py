@@ -72,6 +72,7 @@ IMG_DENSITY = 0           # the density volume written by density_resolve.comp
 IMG_OIT_HEADS = 0         # A-buffer heads (store_ppll.glsl, resolve_ppll.frag)
 IMG_OIT_FRONT = 1         # DBK front depths
 IMG_CLEAR = 0             # oit/clear.comp's image
+IMG_BOUNCE_GRID = 0       # the skin bounce's grid written by skin_bounce_grid.comp
 
 # texture units
 TEX_HDR = 0               # resolve.frag's input
@@ -92,5 +93,6 @@ TEX_LUT_CHIANG = 26
 TEX_RSM_FLUX = 27           # the skin's reflective shadow map (passes/skin_bounce.py)
 TEX_RSM_GEOM = 28
 TEX_RSM_DOM = 29
+TEX_RSM_GRID = 30          # the skin bounce's grid (skin_bounce_grid.comp)
 
 TABLE = register_bindings(Path(__file__).parent, globals())

@@ -10,12 +10,11 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import program
 from ...gpu import uniforms
 from ...gpu.uniforms import write_uniform
 from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST, TEX_RSM_DOM,
-                        TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
+                        TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_RSM_GRID, TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
 from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
@@ -48,20 +47,11 @@ def shadow_defines(settings, pcf: int | None = None) -> dict:
             "PCF": int(settings.pcf if pcf is None else pcf), "MS_FOOTPRINT": int(settings.ms_shadow_footprint)}
 
 
-SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per shaded point (skin_bounce.py)
-# Where the raster units' shading pass gathers the bounce: True at the strand points (hair_pull.vert,
-# hair.geom), interpolated along the segments (within 0.3 % of the per-fragment gather); False at
-# every fragment; None (the default): at the points on CPU rasterisers only. Measured on the target
-# frame's hair pass, bounce off -> per fragment / at the points: llvmpipe +141 % / +8 %, the H200
-# 16.8 -> 24.0 / 34.3 ms (the vertex stage's 48 dependent texel reads a vertex stall it). The
-# compute rasteriser gathers per shaded pixel.
-BOUNCE_AT_POINTS = None
-
-
-def bounce_at_points(renderer) -> bool:
-    if BOUNCE_AT_POINTS is not None:
-        return bool(BOUNCE_AT_POINTS)
-    return bool(get_capabilities(renderer.ctx).is_software)
+SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per grid cell or shaded point (skin_bounce.py)
+# The skin bounce's gather evaluated once a frame at the cells of a grid in light 0's space
+# (skin_bounce_grid.comp) and read once, trilinear, by every shaded point; False: gathered at every
+# shaded point (kept for an A/B on GPUs; here, not in skin_bounce.py, which imports this module)
+SKIN_BOUNCE_GRID = True
 
 
 def skin_bounce_active(renderer) -> bool:
@@ -72,11 +62,12 @@ def skin_bounce_active(renderer) -> bool:
 
 
 def bounce_defines(renderer) -> dict:
-    """The hair shading programs' skin-bounce defines: SKIN_BOUNCE 1 and SKIN_BOUNCE_SAMPLES
-    where the term is on, else SKIN_BOUNCE 0 (the programs as they were without it)."""
+    """The hair shading programs' skin-bounce defines: SKIN_BOUNCE 1, SKIN_BOUNCE_SAMPLES and
+    SKIN_BOUNCE_GRID (read the grid, or gather at every shaded point) where the
+    term is on, else SKIN_BOUNCE 0 (the programs as they were without it)."""
     if not skin_bounce_active(renderer):
         return {"SKIN_BOUNCE": 0}
-    return {"SKIN_BOUNCE": 1, "SKIN_BOUNCE_SAMPLES": SKIN_BOUNCE_SAMPLES}
+    return {"SKIN_BOUNCE": 1, "SKIN_BOUNCE_SAMPLES": SKIN_BOUNCE_SAMPLES, "SKIN_BOUNCE_GRID": int(SKIN_BOUNCE_GRID)}
 
 
 class Target(NamedTuple):
@@ -199,8 +190,6 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     defines.update(shading.defines())
     if pass_id == PASS_SHADE:
         defines.update(bounce_defines(renderer))
-        defines["VERTEX_BOUNCE"] = int(defines["SKIN_BOUNCE"] == 1 and geometry_file is None
-                                       and bounce_at_points(renderer))
     defines.update(extra_defines or {})
     frag = shader_path("hair.frag")
     if fragment_file is not None:
@@ -308,12 +297,16 @@ def bind_lighting(renderer, prog, frame: Frame) -> None:
         t["dom"].use(TEX_DOM)
     bind_shadow_methods(renderer, prog, frame)
     bind_extra_shadows(renderer, prog, frame)
-    rsm = t.get("skin_rsm")   # the skin's reflective shadow map (skin_bounce.py), where made
-    if rsm is not None and has_uniform(prog, "u_rsm_flux"):
-        rsm[0].use(TEX_RSM_FLUX)
-        rsm[1].use(TEX_RSM_GEOM)
-        rsm[2].use(TEX_RSM_DOM)
-        set_uniforms(prog, rsm[3])
+    rsm = t.get("skin_rsm")   # the skin's reflective shadow map and grid (skin_bounce.py), where made
+    if rsm is not None:
+        if rsm[4] is not None and has_uniform(prog, "u_bounce_grid"):
+            rsm[4].use(TEX_RSM_GRID)
+            set_uniforms(prog, rsm[3])
+        elif has_uniform(prog, "u_rsm_flux"):
+            rsm[0].use(TEX_RSM_FLUX)
+            rsm[1].use(TEX_RSM_GEOM)
+            rsm[2].use(TEX_RSM_DOM)
+            set_uniforms(prog, rsm[3])
 
 
 def _lighting_uniforms(renderer, frame: Frame) -> dict:

@@ -4,8 +4,7 @@
 // strip contains the curve and turns its face to the viewer as much as such a strip can. Widths below u_min_pixel_width pixels are
 // widened to it, and the fragment's alpha carries the true coverage (true width / drawn width).
 // GEOMETRY_LINES: a GL line strip instead (the baseline).
-// VERTEX_SHADOWS: the lights' visibility at both ends of the segment, interpolated along it;
-// VERTEX_BOUNCE: the skin's bounce (skin_bounce.glsl) likewise.
+// VERTEX_SHADOWS: the lights' visibility at both ends of the segment, interpolated along it.
 layout(lines) in;
 #if GEOMETRY_LINES
 layout(line_strip, max_vertices = 2) out;
@@ -28,15 +27,9 @@ uniform int u_ortho;          // 1: orthographic (directional shadow views)
 uniform float u_pixel_size;   // world size of a pixel at unit depth (perspective) or anywhere (ortho)
 uniform float u_min_pixel_width;
 
-#if VERTEX_SHADOWS || VERTEX_BOUNCE
-#include "lighting.glsl"
-#endif
 #if VERTEX_SHADOWS
+#include "lighting.glsl"
 out vec4 g_vis;
-#endif
-#if VERTEX_BOUNCE
-#include "skin_bounce.glsl"
-out vec3 g_bounce;
 #endif
 out vec3 g_pos;
 out vec3 g_tangent;
@@ -59,9 +52,6 @@ void main() {
     float alpha[2];
 #if VERTEX_SHADOWS
     vec4 vis[2] = vec4[2](light_visibilities(e_pos[0]), light_visibilities(e_pos[1]));
-#endif
-#if VERTEX_BOUNCE
-    vec3 bounce[2] = vec3[2](skin_bounce_fluence(e_pos[0]), skin_bounce_fluence(e_pos[1]));
 #endif
     for (int i = 0; i < 2; ++i) {
         vec3 P = e_pos[i];
@@ -99,9 +89,6 @@ void main() {
         g_strand = int(e_id[0]);
 #if VERTEX_SHADOWS
         g_vis = vis[i];
-#endif
-#if VERTEX_BOUNCE
-        g_bounce = bounce[i];
 #endif
 #if GEOMETRY_LINES
         g_pos = e_pos[i];

@@ -219,7 +219,7 @@ class HairComputePass(Pass):
             hook(frame)
         with r.profiler.section("hair_shade"):
             bounce = bounce_defines(r)
-            cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"]), lambda: compute_shader(
+            cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID")), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
                                                        **bounce}, include_dirs=[RENDER_DIR]))
             set_view(cs, frame.view)

@@ -6,16 +6,9 @@
 // coverage in g_alpha); GEOMETRY_LINES: a line strip through the points.
 // VERTEX_SHADOWS: the lights' visibility at the strand point (both ribbon vertices of a point
 // alike), interpolated along the segment (hair_radiance.glsl).
-// VERTEX_BOUNCE: the skin's bounce gathered at the strand point (skin_bounce.glsl), interpolated.
-#if VERTEX_SHADOWS || VERTEX_BOUNCE
-#include "lighting.glsl"
-#endif
 #if VERTEX_SHADOWS
+#include "lighting.glsl"
 out vec4 g_vis;
-#endif
-#if VERTEX_BOUNCE
-#include "skin_bounce.glsl"
-out vec3 g_bounce;
 #endif
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform int u_points_per_strand;
@@ -49,9 +42,6 @@ void main() {
     vec3 T = normalize(tr.xyz);
 #if VERTEX_SHADOWS
     g_vis = light_visibilities(P);
-#endif
-#if VERTEX_BOUNCE
-    g_bounce = skin_bounce_fluence(P);
 #endif
     float a = 1.0;
     float depth = max(dot(P - u_eye, u_view_dir), 1e-4);

@@ -13,19 +13,14 @@
 in vec4 g_vis;
 #endif
 // SKIN_BOUNCE (settings.skin_bounce > 0 and a head drawn: base.bounce_defines): light 0's light
-// reflected once by the head's skin (skin_bounce.glsl), scattered as the fibre scatters
-// isotropic light of the same fluence (hair_isotropic_albedo). 0: compiled out.
+// reflected once by the head's skin (skin_bounce.glsl: SKIN_BOUNCE_GRID, the grid's trilinear
+// value at P; else the gather at P), scattered as the fibre scatters isotropic light of the same
+// fluence (hair_isotropic_albedo). 0: compiled out.
 #ifndef SKIN_BOUNCE
 #define SKIN_BOUNCE 0
 #endif
-#ifndef VERTEX_BOUNCE
-#define VERTEX_BOUNCE 0
-#endif
 #if SKIN_BOUNCE
 #include "skin_bounce.glsl"
-#if VERTEX_BOUNCE
-in vec3 g_bounce;   // skin_bounce_fluence at the strand's points (hair_pull.vert, hair.geom), interpolated
-#endif
 #endif
 
 uniform HairMaterial u_material;
@@ -59,8 +54,8 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
 
 
 #if SKIN_BOUNCE
-#if VERTEX_BOUNCE
-    vec3 bounce = g_bounce;
+#if SKIN_BOUNCE_GRID
+    vec3 bounce = skin_bounce_grid(P);
 #else
     vec3 bounce = skin_bounce_fluence(P);
 #endif

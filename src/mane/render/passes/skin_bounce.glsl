@@ -25,10 +25,9 @@
 // the same fluence (hair_isotropic_albedo, the multiple-scattering term's diffuse response):
 //     L_bounce = u_skin_bounce * albedo(theta_o) * phi / (4 pi)
 // skin_bounce.py's gather_numpy is this function's twin (tests/test_render_skin_bounce.py).
-// Needs lighting.glsl (the deep opacity map's uniforms and dom_opacity). VERTEX_BOUNCE (the
-// hardware rasteriser's shading pass: base.hair_program): hair_pull.vert / hair.geom gather at the
-// strand's points and the fragments interpolate g_bounce along the segment (the field varies over
-// centimetres: the samples stand for 4 mm to 6 cm of skin), instead of 48 texel reads a fragment.
+// Needs lighting.glsl (the deep opacity map's uniforms and dom_opacity). The gather runs at the
+// cells of the grid (skin_bounce_grid.comp) that the shaded points read (skin_bounce_grid below),
+// or with base.SKIN_BOUNCE_GRID False at every shaded point.
 #include "common.glsl"
 #include "lighting.glsl"
 #ifndef SKIN_BOUNCE_SAMPLES
@@ -86,3 +85,19 @@ vec3 skin_bounce_fluence(vec3 x) {
     }
     return phi;
 }
+
+// SKIN_BOUNCE_GRID (base.SKIN_BOUNCE_GRID): skin_bounce_fluence evaluated once a frame at the centres of
+// a grid in light 0's space (skin_bounce_grid.comp: u, v over the hair's footprint in the map, w
+// its light depth range) and read here once, trilinear; a point outside the grid gets its border
+// cells' value (clamp to edge).
+uniform vec3 u_bounce_grid_lo;       // the grid's first corner in (u, v, light depth)
+uniform vec3 u_bounce_grid_inv;      // 1 / its extent
+#if SKIN_BOUNCE_GRID
+uniform sampler3D u_bounce_grid;
+
+vec3 skin_bounce_grid(vec3 x) {
+    vec4 c = u_rsm_view_proj * vec4(x, 1.0);
+    vec3 q = vec3(c.xy / c.w * 0.5 + 0.5, dot(x - u_rsm_eye, u_rsm_dir));
+    return textureLod(u_bounce_grid, (q - u_bounce_grid_lo) * u_bounce_grid_inv, 0.0).rgb;
+}
+#endif
