@@ -50,7 +50,8 @@ def shadow_defines(settings, pcf: int | None = None) -> dict:
 SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per grid cell or shaded point (skin_bounce.py)
 # The skin bounce's gather evaluated once a frame at the cells of a grid in light 0's space
 # (skin_bounce_grid.comp) and read once, trilinear, by every shaded point; False: gathered at every
-# shaded point (kept for an A/B on GPUs; here, not in skin_bounce.py, which imports this module)
+# shaded point (the oracle tests/test_render_skin_bounce.py holds the grid's frames against; H200: 0.7 ms slower in a
+# 1080p close-up, docs/quality.md item (10); here, not in skin_bounce.py, which imports this module)
 SKIN_BOUNCE_GRID = True
 
 

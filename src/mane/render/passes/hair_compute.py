@@ -202,13 +202,9 @@ class HairComputePass(Pass):
                                             **defines, **balance, **cull, "RASTER_PASS": raster_pass,
                                             **({"RASTER_STATS": 1} if stats is not None else {})},
                                             include_dirs=[RENDER_DIR]))
-                set_view(cs, frame.view)
-                set_uniforms(cs, common)
-                depth.use(TEX_SCENE_DEPTH)
-                set_uniforms(cs, self._step_uniforms(side, split))
-                if tiles is not None:
-                    tiles.bind(cs)
-                expand.dispatch_segments(cs)
+                groups = self._bind_step(cs, frame, common, depth, side, split, tiles)
+                if groups is not None:
+                    cs.run(*groups)
                 ctx.memory_barrier()
         site.end()
         if stats is not None:
@@ -232,6 +228,17 @@ class HairComputePass(Pass):
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()
 
+    def _bind_step(self, cs, frame, common: dict, depth, side: int, split: float, tiles):
+        """A raster step's kernel ready to run: the view, the uniforms, the head's depth, the
+        step's cull map and the expanded segments; the work groups of one a segment (None: none)."""
+        set_view(cs, frame.view)
+        set_uniforms(cs, common)
+        depth.use(TEX_SCENE_DEPTH)
+        set_uniforms(cs, self._step_uniforms(side, split))
+        if tiles is not None:
+            tiles.bind(cs)
+        return self.renderer.get_pass("expand").bind_segments(cs)
+
     def _tiled_step(self, frame, side: int, tiles, split: float, common: dict, cull: dict, stats: bool) -> None:
         """One raster step in the tiled form (raster_tiles.py): the bin's count, the lists' scan,
         the scatter, the tiled raster over the non-empty tiles (indirect), and the balanced form's
@@ -249,13 +256,7 @@ class HairComputePass(Pass):
                 ctx, shader_path("hair_raster.comp"), {**base, **defines}, include_dirs=[RENDER_DIR]))
 
         def begin(cs):
-            set_view(cs, frame.view)
-            set_uniforms(cs, common)
-            depth.use(TEX_SCENE_DEPTH)
-            set_uniforms(cs, self._step_uniforms(side, split))
-            if tiles is not None:
-                tiles.bind(cs)
-            return expand.bind_segments(cs)
+            return self._bind_step(cs, frame, common, depth, side, split, tiles)
 
         groups = None
         for phase in (1, 2, 3):

@@ -227,6 +227,19 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     return true;
 }
 
+// A span from what a work group keeps of it in shared memory (a, d; za, zb, ha, hb; ca, cb,
+// inv_cos; x0, steep, first point) and its column count: the balanced and tiled forms.
+RasterSpan raster_span_unpacked(vec4 ad, vec4 zh, vec3 c, ivec3 m, int columns) {
+    RasterSpan t;
+    t.a = ad.xy; t.d = ad.zw;
+    t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
+    t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
+    t.steep = m.y != 0;
+    t.x0 = m.x;
+    t.x1 = m.x + columns - 1;
+    return t;
+}
+
 #if RASTER_BALANCE == 1
 #define RASTER_GROUP int(gl_WorkGroupSize.x)
 shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
@@ -268,16 +281,8 @@ void raster_expanded_segment() {
         if (lo != cur) {   // a new segment for this thread: its span from shared memory
             cur = lo;
             start = lo > 0 ? rs_scan[src + lo - 1] : 0;
-            vec4 ad = rs_ad[lo], zh = rs_zh[lo];
-            vec3 c = rs_c[lo];
-            ivec3 m = rs_meta[lo];
-            t.a = ad.xy; t.d = ad.zw;
-            t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
-            t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
-            t.steep = m.y != 0;
-            t.x0 = m.x;
-            t.x1 = m.x + rs_scan[src + lo] - start - 1;
-            RASTER_SEGMENT(m.z);
+            t = raster_span_unpacked(rs_ad[lo], rs_zh[lo], rs_c[lo], rs_meta[lo], rs_scan[src + lo] - start);
+            RASTER_SEGMENT(rs_meta[lo].z);
         }
         raster_column(t, t.x0 + j - start, u_raster_size);
     }

@@ -297,16 +297,8 @@ void rt_walk(int walk, int begin, int end, ivec2 t0) {
             if (lo != cur) {
                 cur = lo;
                 start = lo > 0 ? rt_scan[src + lo - 1] : 0;
-                vec4 ad = rt_ad[lo], zh = rt_zh[lo];
-                vec3 c = rt_c[lo];
-                ivec3 m = rt_meta[lo];
-                t.a = ad.xy; t.d = ad.zw;
-                t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
-                t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
-                t.steep = m.y != 0;
-                t.x0 = m.x;
-                t.x1 = m.x + rt_scan[src + lo] - start - 1;
-                id = uint(m.z);
+                t = raster_span_unpacked(rt_ad[lo], rt_zh[lo], rt_c[lo], rt_meta[lo], rt_scan[src + lo] - start);
+                id = uint(rt_meta[lo].z);
             }
             int x = t.x0 + j - start;
             int y0, y1;

@@ -4,7 +4,8 @@ raster_segment.glsl has forms (raster_segment.py, ``RASTER_BALANCE``) that leave
 buffers bit for bit: 1, load-balanced, 2-3x faster on the H200's close-ups and 1M strands; 0, a
 thread a segment, faster on the crowd of small alike heads (no imbalance to win back); 2, tiled
 (raster_tiles.py: segments binned to screen tiles, each tile's visits in shared memory; the
-hair site only), meant for pixel-heavy close-ups. No simple geometric rule told those apart, so
+hair site only), 2.6x faster than balanced on the H200's 1M-strand close-up's raster, slower
+on the 100k one, at the default framing and on the target frame. No simple geometric rule told those apart, so
 each site times its forms and keeps the fastest:
 
 ``hair``
@@ -32,7 +33,7 @@ CPU never waits, and a frame that finds the pool in use runs untimed.
 A decision is kept on disk (scan_form_memory.py: keyed by the site, the GPU and driver, the
 settings, the sizes and the forms' code): a site's first tuned frame in a later run with the
 same key starts settled on it (``FormChooser.settle``), watched as after a probe of its own,
-instead of probing both forms over its first frames.
+instead of probing its forms over its first frames.
 
 Off (the fixed rule, raster_segment.balance_for) where ``raster_segment.FORCED`` (or
 ``MANE_RASTER_BALANCE``) forces a form, on CPU rasterisers (llvmpipe: the per-thread form, and
