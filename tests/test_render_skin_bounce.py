@@ -53,6 +53,26 @@ def _plane_maps(n, flux=(1.0, 0.5, 0.25), bumpy=False, seed=0):
     return f, g, d
 
 
+def _probe_source(tmp_path, function: str):
+    """A kernel writing ``function``(point) (skin_bounce.glsl) for each point at binding 0."""
+    path = tmp_path / f"{function}_probe.comp"
+    grid = "#define SKIN_BOUNCE_GRID 1\n" if function == "skin_bounce_grid" else ""
+    path.write_text(f"""#version 430
+{grid}#include "common.glsl"
+#include "lighting.glsl"
+#include "skin_bounce.glsl"
+layout(local_size_x = 64) in;
+layout(std430, binding = 0) readonly buffer Points {{ vec4 pts[]; }};
+layout(std430, binding = 1) writeonly buffer Out {{ vec4 outv[]; }};
+uniform int u_count;
+void main() {{
+    uint i = gl_GlobalInvocationID.x;
+    if (i >= uint(u_count)) return;
+    outv[i] = vec4({function}(pts[i].xyz), 0.0);
+}}
+""")
+    return path
+
 def test_plane_fluence_approaches_the_analytic_form_factor():
     """A Lambertian plane reflecting B per unit area (radiance B / pi) gives a point at height h
     the fluence 2 B (1 - h / sqrt(h^2 + R^2)) from the disc of radius R under it (the emitter's
@@ -117,21 +137,7 @@ def test_glsl_gather_matches_numpy(gl, tmp_path):
         texs.append(t)
     levels = [[np.frombuffer(t.read(level=k), np.float32).reshape(n >> k, n >> k, 4).astype(np.float64)
                for k in range(sb.mip_levels(n))] for t in texs]
-    src = tmp_path / "skin_bounce_probe.comp"
-    src.write_text("""#version 430
-#include "common.glsl"
-#include "lighting.glsl"
-#include "skin_bounce.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };
-layout(std430, binding = 1) writeonly buffer Out { vec4 outv[]; };
-uniform int u_count;
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= uint(u_count)) return;
-    outv[i] = vec4(skin_bounce_fluence(pts[i].xyz), 0.0);
-}
-""")
+    src = _probe_source(tmp_path, "skin_bounce_fluence")
     cs = compute_shader(gl, src, {**TABLE, "SHADOWS": 2, "PCF": 1, "SKIN_BOUNCE_SAMPLES": sb.SAMPLES},
                         include_dirs=[HERE, RENDER_DIR])
     rng = np.random.default_rng(1)
@@ -276,22 +282,7 @@ def test_glsl_grid_matches_numpy(gl, tmp_path):
         assert np.max(np.abs(got - want) / scale) < 3e-3, np.max(np.abs(got - want) / scale)
 
         # the lookup: random points over the grid's box and a little beyond it (clamped to its border)
-        probe = tmp_path / "skin_bounce_grid_probe.comp"
-        probe.write_text("""#version 430
-#define SKIN_BOUNCE_GRID 1
-#include "common.glsl"
-#include "lighting.glsl"
-#include "skin_bounce.glsl"
-layout(local_size_x = 64) in;
-layout(std430, binding = 0) readonly buffer Points { vec4 pts[]; };
-layout(std430, binding = 1) writeonly buffer Out { vec4 outv[]; };
-uniform int u_count;
-void main() {
-    uint i = gl_GlobalInvocationID.x;
-    if (i >= uint(u_count)) return;
-    outv[i] = vec4(skin_bounce_grid(pts[i].xyz), 0.0);
-}
-""")
+        probe = _probe_source(tmp_path, "skin_bounce_grid")
         cs = compute_shader(gl, probe, {**TABLE, "SHADOWS": 2, "PCF": 1}, include_dirs=[HERE, RENDER_DIR])
         rng = np.random.default_rng(2)
         q = box[0] + rng.uniform(-0.1, 1.1, (500, 3)) * (box[1] - box[0])
