@@ -1,5 +1,5 @@
 """The compute rasteriser's tiled scan conversion (raster_segment.FORCED = 2; passes/raster_tiles.py,
-raster_tiles.glsl): the segments binned to 32 x 32-sample screen tiles, each tile's samples
+raster_tiles.glsl): the segments binned to 16 x 16-sample screen tiles (raster_tiles.TILE_SHIFT), each tile's samples
 visited in shared memory. Its per-sample buffers must be bit-identical to the per-thread and
 balanced forms' (ids exactly, the coverage up to where a sample saturates: assert_cover_equal),
 with the same samples visited (count_samples' ``sample_visits``; its culls are its own), on:

@@ -19,7 +19,7 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
    form of a frame is the renderer's tuner's (scan_form.py, site ``hair``: the whole section
    below timed in both forms, with the culls each form brings, and the faster kept), since
    the per-thread form wins where segments are short and alike (a crowd of small heads). A third
-   form, tiled (raster_tiles.py: segments binned to 32 x 32-sample tiles, each tile's visits in
+   form, tiled (raster_tiles.py: segments binned to 16 x 16-sample tiles, each tile's visits in
    shared memory, the 32-bit path's id pass folded in), is the tuner's third choice here, meant
    for pixel-heavy close-ups; the same buffers bit for bit. Head culling
    (depth_tiles.py; ``depth_tiles`` section, a few microseconds): first a tile map of the head's

@@ -37,7 +37,8 @@ from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_TILE_COUNTS, B_TILE_ENTRIES, B_TILE_INDEX
 from .base import set_uniforms, shader_path
 
-TILE_SHIFT = 5           # a tile: 32 x 32 samples (12 KiB of depth, id and coverage in shared memory)
+TILE_SHIFT = 4           # a tile: 16 x 16 samples (H200, 1080p: the 100k close-up 7.35 ms against 9.15 at 32 x 32
+                         # and 9.59 at 8 x 8; the 1M close-up 14.18 / 16.61 / 24.75; docs/performance.md)
 # the index buffer's words (raster_tiles.glsl, raster_tiles_scan.comp): the tiled raster's and
 # the balanced fallback's indirect dispatches, the overflow flag, the step's entries, the
 # largest seen; from RT_HEADER the offsets (tiles + 1) and the non-empty tiles
