@@ -4,8 +4,9 @@ raster_segment.glsl has forms (raster_segment.py, ``RASTER_BALANCE``) that leave
 buffers bit for bit: 1, load-balanced, 2-3x faster on the H200's close-ups and 1M strands; 0, a
 thread a segment, faster on the crowd of small alike heads (no imbalance to win back); 2, tiled
 (raster_tiles.py: segments binned to screen tiles, each tile's visits in shared memory; the
-hair site only), 2.6x faster than balanced on the H200's 1M-strand close-up's raster, slower
-on the 100k one, at the default framing and on the target frame. No simple geometric rule told those apart, so
+hair site only): on the H200 with 16 x 16-sample tiles, frames 1.19x / 2.41x / 1.08x faster
+than balanced in the 100k- and 1M-strand close-ups and at 1M strands, 1.17x slower on the
+target frame. No simple geometric rule told those apart, so
 each site times its forms and keeps the fastest:
 
 ``hair``
