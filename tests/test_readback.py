@@ -84,4 +84,10 @@ def test_fence_waits_for_the_gpu(gl):
     f = fence.Fence()
     assert f.wait() >= 0.0 and f._sync is None   # released once passed
     assert np.frombuffer(buf.read(), np.float32)[-1] == (1 << 16) - 1
+    # asked without waiting: False while the GPU is behind it (not asserted: it may be done at
+    # once), True once the GPU is past it, then released
+    f = fence.Fence()
+    gl.finish()
+    assert f.done() and f._sync is None
+    assert fence.Fence().wait() >= 0.0
     buf.release()

@@ -179,6 +179,36 @@ def test_overflowing_lists_fall_back_exactly(gl, monkeypatch, hair_cull):
         assert stats["sample_visits"] >= s_ref["sample_visits"]
 
 
+def test_the_lists_grow_past_the_largest_total(gl, monkeypatch):
+    """Lists too small for the frame overflow (the balanced form draws the step) until a copy of
+    the largest total, read once the GPU is past it, grows them; then no step overflows."""
+    kw = SCENES["curtain_ball"]()
+    monkeypatch.setattr(raster_tiles, "ENTRIES_PER_SEGMENT", 0)   # the first capacity: a tile's worth
+    monkeypatch.setattr(raster_tiles, "MIN_CAPACITY", 1)
+    monkeypatch.setattr(raster_tiles, "CHECK_EVERY", 2)
+    monkeypatch.setattr(raster_segment, "FORCED", TILED)
+    monkeypatch.setattr(occlusion_tiles, "HAIR_CULL", False)
+    s = RenderSettings(**{"size": (96, 72), "msaa": 4, "shadows": "none", "rasterizer": "compute",
+                          "draw_head": kw.get("head") is not None,
+                          **{k: v for k, v in kw.items() if k not in ("groom", "head", "camera")}})
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(kw["groom"])
+        r.set_head(kw.get("head"))
+        cam = kw.get("camera") or r.default_camera(25.0, points=None)
+        rt = r.get_pass("hair_compute").raster_tiles
+        seen = []
+        for _ in range(12):
+            r.render(cam, LIGHTS)
+            seen.append((rt.capacity, rt.status()))
+        first, last = seen[0], seen[-1]
+        assert first[1]["overflow"] and first[1]["total"] > first[0]
+        assert not last[1]["overflow"] and last[0] >= last[1]["peak"] >= first[1]["total"]
+        assert last[0] <= int(raster_tiles.GROWTH * last[1]["peak"]) + 1   # grown to the rule, no further
+    finally:
+        r.release()
+
+
 def test_the_form_by_environment_and_site(gl, monkeypatch):
     from mane.errors import UsageError
 

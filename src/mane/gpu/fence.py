@@ -4,6 +4,7 @@ wait for the commands issued before it without waiting for those issued after.
     f = Fence()      # after the commands to wait for; flushes them to the GPU (glFlush)
     ...              # issue more work
     f.wait()         # blocks until the GPU has passed the fence; returns the seconds waited
+    f.done()         # or asks without waiting: True once it has
 
 Where the GL loader lacks the entry points, ``Fence()`` only flushes if it can and ``wait``
 returns at once (a later read of a buffer then waits in the driver, as without a fence).
@@ -56,6 +57,16 @@ class Fence:
         finally:
             self.release()
         return time.perf_counter() - t
+
+    def done(self) -> bool:
+        """Whether the GPU has passed the fence, without waiting (True without fences: a read
+        then waits in the driver, as without one)."""
+        if self._sync is None:
+            return True
+        if _gl()["wait"](self._sync, 0, 0) == GL_TIMEOUT_EXPIRED:
+            return False
+        self.release()
+        return True
 
     def release(self) -> None:
         if self._sync is not None:

@@ -156,8 +156,7 @@ class DeepOpacityPass(LightDepthPass):
             return memo[3]
         step = 1
         if r.strands is not None and expand.strands > 0:
-            guides = r.strands.num_guides * len(r.instance_transforms()) * int(s.strands_per_guide)
-            widen = guides / expand.strands if s.interpolation_mode == "single" else 1.0   # the coverage LOD's widening
+            widen = r.rendered_strands * len(r.instance_transforms()) / expand.strands   # the coverage LOD's
             boxes = r.instance_boxes(r.strand_pad())
             box = (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
             step = light_strand_step(view, int(s.shadow_map_size), box, expand.strands, r.strands.mean_length(),

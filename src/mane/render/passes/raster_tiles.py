@@ -23,7 +23,7 @@ coverage has saturated or whose nearest hair is nearer). Here the visits go to s
 Each sample is visited with the same depth and coverage as in the other forms
 (raster_column_range, rows clipped to the tile), so the buffers are bit-identical
 (tests/test_render_compute_tiled.py). The lists hold ``capacity`` entries (ENTRIES_PER_SEGMENT a
-segment, grown to GROWTH x the largest total seen, read back every CHECK_EVERY steps); a step
+segment, grown to GROWTH x the largest total seen, copied every CHECK_EVERY steps and read once the GPU is past the copy, never waiting); a step
 whose entries pass it runs the balanced form instead (the scan gives its indirect dispatch the
 work groups and the tiled raster none), so an overflow costs time, never exactness.
 """
@@ -33,6 +33,7 @@ import numpy as np
 
 from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import get_capabilities
+from ...gpu.fence import Fence
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_TILE_COUNTS, B_TILE_ENTRIES, B_TILE_INDEX
 from .base import set_uniforms, shader_path
@@ -47,7 +48,7 @@ ENTRIES_PER_SEGMENT = 6  # the first capacity: entries a segment (a close-up's t
 MIN_CAPACITY = 1 << 16
 MAX_CAPACITY = 1 << 28   # entries (1 GiB), below the scan's saturation (2^30)
 GROWTH = 1.25            # capacity past the largest total seen, when it overflowed
-CHECK_EVERY = 16         # steps between reads of the largest total (a read waits for the GPU)
+CHECK_EVERY = 16         # steps between copies of the largest total (read once the GPU is past them)
 CAPACITY = None          # tests: a fixed capacity in entries (None: by the rule above)
 
 
@@ -68,6 +69,8 @@ class RasterTiles:
         self.capacity = 0
         self._want = 0            # the capacity asked for (grown on overflow)
         self._steps = 0
+        self._pending = None      # the fence of a peak copy not read yet (_check_peak)
+        self._staging = None      # the copy's 4 bytes
         self._programs = ProgramMemo()
         self._uniforms = None
 
@@ -86,9 +89,9 @@ class RasterTiles:
             if limit:
                 want = min(want, int(limit) // 4)
         self._steps += 1
-        if self.index is not None and CAPACITY is None and self._steps % CHECK_EVERY == 0:
-            peak = int(self.status()["peak"])
-            if peak > self.capacity:
+        if self.index is not None and CAPACITY is None:
+            peak = self._check_peak()
+            if peak is not None and peak > self.capacity:
                 want = max(want, min(MAX_CAPACITY, int(peak * GROWTH) + 1))
                 if limit:
                     want = min(want, int(limit) // 4)
@@ -103,6 +106,22 @@ class RasterTiles:
         self.entries = as_device(ctx.buffer(reserve=4 * want))
         self.tiles, self.capacity = tiles, want
         self._uniforms = {"u_rt_tiles": tiles, "u_rt_capacity": want}
+
+    def _check_peak(self) -> int | None:
+        """The largest total since the buffers were made, read without waiting for the GPU: every
+        CHECK_EVERY steps the index's peak word is copied to a small buffer behind a fence, and
+        read at the first step after the GPU has passed it (None until then)."""
+        if self._pending is not None:
+            if not self._pending.done():
+                return None
+            self._pending = None
+            return int(np.frombuffer(self._staging.read(size=4), np.uint32)[0])
+        if self._steps % CHECK_EVERY == 0:
+            if self._staging is None:
+                self._staging = self.ctx.buffer(reserve=4)
+            self.ctx.copy_buffer(self._staging, self.index, 4, read_offset=4 * INDEX["RT_PEAK"])
+            self._pending = Fence()
+        return None
 
     def bind(self, cs) -> None:
         self.counts.bind_to_storage_buffer(B_TILE_COUNTS)
@@ -142,3 +161,9 @@ class RasterTiles:
                 b.release()
         self.counts = self.index = self.entries = None
         self.tiles, self.capacity = (0, 0), 0
+        if self._pending is not None:   # a copy of buffers now gone
+            self._pending.release()
+            self._pending = None
+        if self._staging is not None:
+            self._staging.release()
+            self._staging = None
