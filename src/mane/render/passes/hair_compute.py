@@ -215,9 +215,10 @@ class HairComputePass(Pass):
             hook(frame)
         with r.profiler.section("hair_shade"):
             bounce = bounce_defines(r)
-            cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID")), lambda: compute_shader(
+            cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID"),
+                                              grid), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
-                                                       **bounce}, include_dirs=[RENDER_DIR]))
+                                                       **bounce, "SHADE_GRID": int(grid)}, include_dirs=[RENDER_DIR]))
             set_view(cs, frame.view)
             set_uniforms(cs, common)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)

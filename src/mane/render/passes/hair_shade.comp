@@ -1,8 +1,14 @@
 #version 430
 // The compute rasteriser, step 2: per pixel, each sample's nearest segment (hair_raster.comp)
-// shaded at the sample's point on it (each distinct id in a pixel shaded once), with the sample's
-// coverage as alpha over what is already there (the head and background, premultiplied), the
-// samples averaged into the HDR image. The buffers are reset for the next frame on the way.
+// shaded at the sample's point on it (each distinct id in a pixel shaded once, at its first
+// sample; past MAX_SHADED distinct ids, by sample), with the sample's coverage as alpha over
+// what is already there (the head and background, premultiplied), the samples averaged into the
+// HDR image. The buffers are reset for the next frame on the way.
+// A work group (8 x 8 pixels) lists its pixels' shading jobs in shared memory, shades the list
+// with every thread, then each thread sums its samples from it: a thread a pixel shading its own
+// 1-4 jobs left most lanes idle (H200, 1080p: the 100k close-up's shading 1.94 -> 1.58 ms, the
+// 50k target frame's 1.33 -> 0.96; the same image). SHADE_GRID: the samples per pixel along x
+// and y (u_grid), a constant here for the per-thread arrays.
 #include "shading/hair_shading.glsl"
 #include "hair_radiance.glsl"
 #include "hair_vis.glsl"
@@ -22,21 +28,31 @@ vec3 shade_segment(uint i, vec2 q) {
     return hair_radiance(P, T, u_eye, (j + t) / float(u_points_per_strand - 1), t0.w);
 }
 
+#define SAMPLES (SHADE_GRID * SHADE_GRID)
+#define MAX_JOBS (64 * SAMPLES)
+shared uint s_job_id[MAX_JOBS];
+shared uint s_job_q[MAX_JOBS];   // the sample shaded: x | y << 16
+shared vec3 s_color[MAX_JOBS];
+shared uint s_jobs;
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
-    ivec2 size = u_raster_size / u_grid;
-    if (p.x >= size.x || p.y >= size.y) return;
-    vec4 bg = imageLoad(u_hdr, p);
-    vec4 sum = vec4(0.0);
-    // a pixel's distinct segments are shaded once each (up to MAX_SHADED, then by sample)
-    const int MAX_SHADED = 4;
-    uint shaded_id[MAX_SHADED];
-    vec3 shaded[MAX_SHADED];
-    int n_shaded = 0;
-    for (int sy = 0; sy < u_grid; ++sy)
-        for (int sx = 0; sx < u_grid; ++sx) {
-            ivec2 q = p * u_grid + ivec2(sx, sy);
-            uint idx = sample_index(q, size.x, u_grid);
+    ivec2 size = u_raster_size / SHADE_GRID;
+    bool inside = p.x < size.x && p.y < size.y;
+    if (gl_LocalInvocationIndex == 0u) s_jobs = 0u;
+    barrier();
+    vec4 bg = vec4(0.0);
+    int job[SAMPLES];
+    uint units[SAMPLES];
+    if (inside) {
+        bg = imageLoad(u_hdr, p);
+        const int MAX_SHADED = 4;
+        uint shaded_id[MAX_SHADED];
+        int shaded_job[MAX_SHADED];
+        int n_shaded = 0;
+        for (int s = 0; s < SAMPLES; ++s) {
+            ivec2 q = p * SHADE_GRID + ivec2(s % SHADE_GRID, s / SHADE_GRID);
+            uint idx = sample_index(q, size.x, SHADE_GRID);
 #if VIS64
             uint id = uint(vis[idx] & 0xFFFFFFFFul);
             vis[idx] = ~0ul;
@@ -45,22 +61,38 @@ void main() {
             vis_depth[idx] = VIS_EMPTY;
             vis_id[idx] = 0u;
 #endif
-            uint units = cover[idx];
+            units[s] = cover[idx];
             cover[idx] = 0u;
-            if (id == VIS_EMPTY) { sum += bg; continue; }
-            vec3 color = vec3(-1.0);
+            job[s] = -1;
+            if (id == VIS_EMPTY) continue;
             for (int k = 0; k < n_shaded; ++k)
-                if (shaded_id[k] == id) color = shaded[k];
-            if (color.r < 0.0) {
-                color = shade_segment(id, vec2(q) + 0.5);
+                if (shaded_id[k] == id) job[s] = shaded_job[k];
+            if (job[s] < 0) {
+                int j = int(atomicAdd(s_jobs, 1u));
+                s_job_id[j] = id;
+                s_job_q[j] = uint(q.x) | (uint(q.y) << 16);
+                job[s] = j;
                 if (n_shaded < MAX_SHADED) {
                     shaded_id[n_shaded] = id;
-                    shaded[n_shaded] = color;
+                    shaded_job[n_shaded] = j;
                     ++n_shaded;
                 }
             }
-            float a = cover_alpha(units);
-            sum += vec4(color * a, a) + bg * (1.0 - a);
         }
-    imageStore(u_hdr, p, sum / float(u_grid * u_grid));
+    }
+    barrier();
+    uint n = s_jobs;
+    for (uint j = gl_LocalInvocationIndex; j < n; j += 64u) {
+        uint qb = s_job_q[j];
+        s_color[j] = shade_segment(s_job_id[j], vec2(float(qb & 0xFFFFu), float(qb >> 16)) + 0.5);
+    }
+    barrier();
+    if (!inside) return;
+    vec4 sum = vec4(0.0);
+    for (int s = 0; s < SAMPLES; ++s) {
+        if (job[s] < 0) { sum += bg; continue; }
+        float a = cover_alpha(units[s]);
+        sum += vec4(s_color[job[s]] * a, a) + bg * (1.0 - a);
+    }
+    imageStore(u_hdr, p, sum / float(SAMPLES));
 }
