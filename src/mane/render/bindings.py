@@ -34,6 +34,9 @@ B_DEPTH_TILES = 18        # the scene depth's tile map (depth_tiles.comp; hair_r
 B_TILE_COUNTS = 19        # the tiled scan conversion (raster_tiles.py): per-tile counts, then cursors
 B_TILE_INDEX = 20         # its indirect dispatches, list offsets and non-empty tiles
 B_TILE_ENTRIES = 21       # its per-tile lists of segments
+# the head by compute (head_shade.comp): the head mesh's vertex and index buffers
+B_HEAD_VERTICES = 22
+B_HEAD_FACES = 23
 # deep opacity maps by the compute rasteriser (dom_raster.comp, dom_pack.comp, shadow_merge.comp)
 B_DOM_Z0 = 11
 B_DOM_LAYERS = 12
@@ -72,10 +75,11 @@ IMG_DENSITY = 0           # the density volume written by density_resolve.comp
 IMG_OIT_HEADS = 0         # A-buffer heads (store_ppll.glsl, resolve_ppll.frag)
 IMG_OIT_FRONT = 1         # DBK front depths
 IMG_CLEAR = 0             # oit/clear.comp's image
+IMG_OUTPUT = 1            # the 8-bit output written by resolve.comp
 IMG_BOUNCE_GRID = 0       # the skin bounce's grid written by skin_bounce_grid.comp
 
 # texture units
-TEX_HDR = 0               # resolve.frag's input
+TEX_HDR = 0               # resolve.comp's input
 TEX_SHADOW_MAP = 1
 TEX_DOM = 2
 TEX_DOM_Z0 = 3            # the hardware DOM's z0 map while its layers are drawn
@@ -93,6 +97,7 @@ TEX_LUT_CHIANG = 26
 TEX_RSM_FLUX = 27           # the skin's reflective shadow map (passes/skin_bounce.py)
 TEX_RSM_GEOM = 28
 TEX_RSM_DOM = 29
+TEX_HEAD_ID = 31           # the head's nearest triangle per pixel (head_shade.comp)
 TEX_RSM_GRID = 30          # the skin bounce's grid (skin_bounce_grid.comp)
 
 TABLE = register_bindings(Path(__file__).parent, globals())

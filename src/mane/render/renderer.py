@@ -420,6 +420,11 @@ class Renderer(GpuOwner):
             if cull:
                 self.ctx.disable(self.ctx.CULL_FACE)
 
+    def head_buffers(self):
+        """The head mesh's (vertex buffer: 7 floats a vertex, position, normal, scalp weight;
+        index buffer: 3 int32 a triangle), or None without a head."""
+        return self._head_gpu
+
     def head_model(self) -> tuple[bytes, bool]:
         """The head transform as ``u_head_model``'s bytes and whether it keeps the winding (a
         positive determinant: the head pass may cull back faces); made again when the transform's

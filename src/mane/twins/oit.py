@@ -51,7 +51,7 @@ def srgb_to_linear(c):
 
 
 def resolve_display(hdr, background=(0.0, 0.0, 0.0), exposure: float = 1.0, tone: str = "aces"):
-    """resolve.frag (no supersampling) in NumPy: (H, W, 4) premultiplied HDR, bottom row
+    """resolve.comp (no supersampling) in NumPy: (H, W, 4) premultiplied HDR, bottom row
     first -> (H, W, 3) uint8, top row first."""
     c = np.asarray(hdr, np.float64)
     a = np.clip(c[..., 3], 0.0, 1.0)
@@ -143,7 +143,7 @@ def collect_compute_fragments(settings, groom, head, camera, lights, ctx) -> dic
 def compute_reference(settings, groom, head, camera, lights, ctx) -> dict:
     """The exact image of the compute rasteriser's fragments: each pixel's sorted by window
     depth (ties by segment id, as the compute resolves break them) and blended front to back
-    in float64 over the scene, then resolve.frag in NumPy."""
+    in float64 over the scene, then resolve.comp in NumPy."""
     f = collect_compute_fragments(settings, groom, head, camera, lights, ctx)
     hdr = blend_fragments(f["pixel"], f["window_z"], f["rgba"], f["size"], f["segment"], f["under"])
     return {"image": display(hdr, settings), "hdr": hdr, "fragments": f}

@@ -1,41 +1,24 @@
 #version 430
-// The head: Lambert with a little wrap, skin albedo, the scalp tinted toward the hair colour,
-// light 0 shadowed by the hair (deep opacity) and by the head (shadow map), with normal-offset
-// and slope-scaled bias (lighting.glsl's surface_light_visibilities), per fragment: looked up
-// at the vertices (as the hair can, settings.hair_shadow_lookup) the shadows of the jaw and of
-// single strands on the neck and shoulders were lost between the software preset's vertices.
-#include "lighting.glsl"
+// The head: PASS 0 its colour (head_shading.glsl), PASS 1 its view depth, PASS 2 the id of its
+// nearest triangle (head_shade.comp shades the pixel from it: head_pass.py).
+#include "head_shading.glsl"
 in vec3 h_pos;
 in vec3 h_normal;
 in float h_scalp;
 in float h_depth;
-uniform vec3 u_eye;
-uniform vec3 u_skin;
-uniform vec3 u_scalp_color;
 #if PASS == 0
 layout(location = 0) out vec4 frag;
-#else
+#elif PASS == 1
 layout(location = 0) out float frag_depth;
+#else
+layout(location = 0) out uint frag_id;
 #endif
 void main() {
 #if PASS == 0
-    vec3 N = normalize(h_normal);
-    vec3 V = normalize(u_eye - h_pos);
-    if (dot(N, V) < 0.0) N = -N;
-    vec3 albedo = mix(u_skin, u_scalp_color, clamp(h_scalp, 0.0, 1.0));
-    vec3 color = u_ambient * albedo;
-    vec4 vis = surface_light_visibilities(h_pos, N);
-    for (int i = 0; i < MAX_LIGHTS; ++i) {
-        if (i >= u_num_lights) break;
-        float falloff;
-        vec3 L = light_dir_at(i, h_pos, falloff);
-        float ndl = max(0.0, (dot(N, L) + 0.15) / 1.15);    // a little wrap for skin
-        vec3 H = normalize(L + V);
-        float spec = 0.04 * pow(max(dot(N, H), 0.0), 24.0);
-        color += u_light_radiance[i] * falloff * vis[i] * (albedo * ndl / 3.14159265 + spec * ndl);
-    }
-    frag = vec4(color, 1.0);
-#else
+    frag = vec4(head_radiance(h_pos, h_normal, h_scalp), 1.0);
+#elif PASS == 1
     frag_depth = h_depth;
+#else
+    frag_id = uint(gl_PrimitiveID);
 #endif
 }

@@ -2,8 +2,19 @@
 and head."""
 from __future__ import annotations
 
-from ...gpu.glsl import ProgramMemo, program
-from .base import shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
+import math
+
+import numpy as np
+
+from ...gpu.glsl import ProgramMemo, compute_shader, program
+from ..camera import mat_bytes
+from ..bindings import B_HEAD_FACES, B_HEAD_VERTICES, IMG_HDR, TEX_HEAD_ID, TEX_SCENE_DEPTH
+from .base import RENDER_DIR, shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
+
+# With a single-sample HDR target (the compute rasteriser's) the raster units draw only the
+# head's depth and nearest triangle, and head_shade.comp shades it (H200, 1080p: see
+# head_shade.comp); False: head.frag shades every fragment, as with MSAA
+SHADE_BY_COMPUTE = True
 
 
 def scalp_albedo(skin, hair, tint: float) -> tuple:
@@ -36,6 +47,8 @@ class HeadPass(Pass):
         super().__init__(renderer)
         self._programs = ProgramMemo()
         self._colors = SkinColors()
+        self._ids = None    # (the triangle-id texture, its framebuffer with the HDR depth, that depth)
+        self._inverse = None   # (view, {"u_inv_view_proj": ...})
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.head is not None and self.renderer.settings.draw_head
@@ -43,6 +56,9 @@ class HeadPass(Pass):
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
+        if SHADE_BY_COMPUTE and r.samples == 1:
+            self._run_compute(frame)
+            return
         prog = self._programs.get("head", (s,), lambda: program(
             ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
             defines={"PASS": 0, **shadow_defines(s, pcf=s.head_pcf)}))   # the skin's own filter
@@ -55,3 +71,59 @@ class HeadPass(Pass):
         # the back faces of a closed head culled: on a CPU rasteriser (llvmpipe, the software
         # preset) 41 -> 26 ms a frame, the same picture
         r.draw_head(prog, cull_back=True)
+
+    def _run_compute(self, frame: Frame) -> None:
+        """The head's depth and triangle ids by the raster units, its colour by head_shade.comp."""
+        r, ctx = self.renderer, self.ctx
+        s = r.settings
+        target = r.hdr_target()
+        ids = self._ids
+        if ids is None or ids[2] is not target.depth:
+            self._release_ids()
+            tex = ctx.texture(target.depth.size, 1, dtype="u4")
+            ids = self._ids = (tex, ctx.framebuffer([tex], target.depth), target.depth)
+        tex, fbo, depth = ids
+        prog = self._programs.get("head_id", (), lambda: program(
+            ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
+            defines={"PASS": 2, "SHADOWS": 0}))
+        fbo.use()
+        ctx.enable(ctx.DEPTH_TEST)
+        ctx.disable(ctx.BLEND)
+        set_view(prog, frame.view)
+        r.draw_head(prog, cull_back=True)
+        cs = self._programs.get("head_shade", (s,), lambda: compute_shader(
+            ctx, shader_path("head_shade.comp"), shadow_defines(s, pcf=s.head_pcf), include_dirs=[RENDER_DIR]))
+        set_view(cs, frame.view)
+        bind_lighting(r, cs, frame)
+        set_uniforms(cs, self._colors.uniforms(r))
+        set_uniforms(cs, self._inverse_uniforms(frame.view))
+        model, _ = r.head_model()
+        set_uniforms(cs, {"u_head_model": model})
+        depth.use(TEX_SCENE_DEPTH)
+        tex.use(TEX_HEAD_ID)
+        vbo, ibo = r.head_buffers()
+        vbo.bind_to_storage_buffer(B_HEAD_VERTICES)
+        ibo.bind_to_storage_buffer(B_HEAD_FACES)
+        target.color.bind_to_image(IMG_HDR, read=False, write=True)
+        w, h = depth.size
+        cs.run(math.ceil(w / 8), math.ceil(h / 8))
+        ctx.memory_barrier()
+        target.fbo.use()
+
+    def _inverse_uniforms(self, view) -> dict:
+        memo = self._inverse
+        if memo is None or memo[0] is not view:
+            inv = np.linalg.inv(np.asarray(view.view_proj, np.float64))
+            memo = self._inverse = (view, {"u_inv_view_proj": mat_bytes(inv), "u_scene_depth": TEX_SCENE_DEPTH,
+                                           "u_head_id": TEX_HEAD_ID})
+        return memo[1]
+
+    def _release_ids(self) -> None:
+        if self._ids is not None:
+            self._ids[1].release()
+            self._ids[0].release()
+            self._ids = None
+
+    def release(self) -> None:
+        self._release_ids()
+        super().release()

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import functools
+import math
 
 import numpy as np
 
-from ...gpu.glsl import ProgramMemo, program
-from ..bindings import TEX_HDR
+from ...gpu.glsl import ProgramMemo, compute_shader
+from ..bindings import IMG_OUTPUT, TEX_HDR
 from .base import shader_path, TONE_IDS, Frame, Pass, set_uniforms
 
 
@@ -47,14 +48,15 @@ class ResolvePass(Pass):
         s = r.settings
         hdr = r.resolved_hdr()    # blits the multisampled target when there is one
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
-        prog = self._programs.get("resolve", (s,), lambda: program(
-            ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("resolve.frag"),
+        cs = self._programs.get("resolve", (s,), lambda: compute_shader(
+            ctx, shader_path("resolve.comp"),
             defines={"SUPERSAMPLE": int(s.supersample), "TONE_MAP": TONE_IDS[s.tone_mapping]}))
         hdr.use(TEX_HDR)
-        set_uniforms(prog, self._uniforms(s))
-        out = r.output_fbo()
-        out.use()
-        ctx.disable(ctx.DEPTH_TEST)
-        ctx.disable(ctx.BLEND)
-        r.empty_vao(prog).render(ctx.TRIANGLES, vertices=3)
+        set_uniforms(cs, self._uniforms(s))
+        out, tex = r.output_target()
+        tex.bind_to_image(IMG_OUTPUT, read=False, write=True)
+        w, h = s.size
+        cs.run(math.ceil(w / 8), math.ceil(h / 8))
+        ctx.memory_barrier()
+        out.use()   # later draws (the viewer's overlays) and reads go to the output
         frame.targets["output"] = out
