@@ -225,3 +225,47 @@ def test_the_form_by_environment_and_site(gl, monkeypatch):
     assert raster_segment.raster_defines(gl, TILED) == {"RASTER_BALANCE": TILED}
     with pytest.raises(ValueError):
         raster_segment.raster_defines(gl, 3)
+
+
+@pytest.mark.parametrize("block", [raster_tiles.SCAN_BLOCK, 256])
+def test_the_lists_scan_is_numpys_over_many_blocks(gl, monkeypatch, block):
+    """raster_tiles_scan.comp's three dispatches against NumPy: the offsets (an exclusive cumsum),
+    the scatter's cursors, the non-empty tiles in order, the total, the dispatches and the counts
+    zeroed, over 1.2M tiles (1,172 blocks of 1,024: more blocks than the middle dispatch's work
+    group has threads), with and without overflow; saturating sums past 2^30."""
+    monkeypatch.setattr(raster_tiles, "SCAN_BLOCK", block)
+    rng = np.random.default_rng(7)
+    rt = raster_tiles.RasterTiles(gl)
+    side = 1 << raster_tiles.TILE_SHIFT
+    n = 1200 * 1000
+    index_words = raster_tiles.INDEX["RT_HEADER"]
+    try:
+        for counts, capacity in ((rng.integers(0, 40, n) * (rng.random(n) < 0.3), 1 << 24),
+                                 (rng.integers(0, 40, n) * (rng.random(n) < 0.3), 1000),
+                                 (np.where(np.arange(n) % 97 == 0, 0x7FFFFFFF, 1), 1 << 24)):
+            monkeypatch.setattr(raster_tiles, "CAPACITY", capacity)
+            rt.prepare((1200 * side, 1000 * side - 3), 10)
+            assert rt.tiles == (1200, 1000) and rt.capacity == capacity
+            counts = counts.astype(np.uint32)
+            rt.counts.write(counts.tobytes())
+            rt.scan((17, 3))
+            c = np.minimum(counts.astype(np.int64), 1 << 30)
+            total = min(int(c.sum()), 1 << 30)
+            offsets = np.minimum(np.concatenate([[0], np.cumsum(c)[:-1]]), 1 << 30)
+            index = np.frombuffer(rt.index.read(), np.uint32)
+            after = np.frombuffer(rt.counts.read(), np.uint32)
+            np.testing.assert_array_equal(index[index_words:index_words + n], offsets)
+            assert index[index_words + n] == total
+            filled = np.flatnonzero(counts)
+            np.testing.assert_array_equal(index[index_words + n + 1:index_words + n + 1 + len(filled)], filled)
+            np.testing.assert_array_equal(after[n:2 * n], offsets)
+            assert not after[:n].any()
+            overflow = total > capacity
+            assert index[raster_tiles.INDEX["RT_OVERFLOW"]] == int(overflow)
+            assert index[raster_tiles.INDEX["RT_TOTAL"]] == total
+            args = index[raster_tiles.INDEX["RT_TILED_ARGS"]:raster_tiles.INDEX["RT_TILED_ARGS"] + 3]
+            fallback = index[raster_tiles.INDEX["RT_FALLBACK_ARGS"]:raster_tiles.INDEX["RT_FALLBACK_ARGS"] + 3]
+            assert list(args) == [0 if overflow else len(filled), 1, 1]
+            assert list(fallback) == ([17, 3, 1] if overflow else [0, 1, 1])
+    finally:
+        rt.release()

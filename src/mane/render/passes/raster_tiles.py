@@ -10,7 +10,7 @@ coverage has saturated or whose nearest hair is nearer). Here the visits go to s
    the bound tile map as in the other forms) counts itself into every screen tile of
    ``1 << TILE_SHIFT`` samples a side its columns may touch (a superset, never fewer), through a
    work group's shared table (raster_tiles.glsl);
-2. raster_tiles_scan.comp (one work group): the counts' exclusive scan into list offsets, the
+2. raster_tiles_scan.comp (three dispatches): the counts' exclusive scan into list offsets, the
    scatter's cursors, the non-empty tiles and two indirect dispatches;
 3. RASTER_TILED_PHASE 2: the same walk writes each segment's first point into its tiles' lists;
 4. RASTER_TILED_PHASE 3, a work group per non-empty tile (indirect): the tile's depth, id,
@@ -48,6 +48,7 @@ ENTRIES_PER_SEGMENT = 6  # the first capacity: entries a segment (a close-up's t
 MIN_CAPACITY = 1 << 16
 MAX_CAPACITY = 1 << 28   # entries (1 GiB), below the scan's saturation (2^30)
 GROWTH = 1.25            # capacity past the largest total seen, when it overflowed
+SCAN_BLOCK = 1024         # tiles a work group of the lists' scan takes (raster_tiles_scan.comp: 4 a thread)
 CHECK_EVERY = 16         # steps between copies of the largest total (read once the GPU is past them)
 CAPACITY = None          # tests: a fixed capacity in entries (None: by the rule above)
 
@@ -101,7 +102,8 @@ class RasterTiles:
         self.release()
         ctx = self.ctx
         check_allocation(ctx, 4 * want, f"the tiled raster's lists ({want} entries)")
-        self.counts = as_device(ctx.buffer(np.zeros(2 * n, np.uint32).tobytes()))
+        blocks = -(-n // SCAN_BLOCK)
+        self.counts = as_device(ctx.buffer(np.zeros(2 * n + 2 * blocks, np.uint32).tobytes()))
         self.index = as_device(ctx.buffer(np.zeros(INDEX["RT_HEADER"] + 2 * n + 1, np.uint32).tobytes()))
         self.entries = as_device(ctx.buffer(reserve=4 * want))
         self.tiles, self.capacity = tiles, want
@@ -130,14 +132,18 @@ class RasterTiles:
         set_uniforms(cs, self._uniforms)
 
     def scan(self, fallback_groups) -> None:
-        """Lay the lists out from the counts (one work group); ``fallback_groups`` the balanced
-        form's work groups over every segment (expand.bind_segments)."""
-        cs = self._programs.get("scan", (), lambda: compute_shader(self.ctx, shader_path("raster_tiles_scan.comp"),
-                                                                   defines()))
-        self.bind(cs)
-        set_uniforms(cs, {"u_rt_fallback": tuple(int(g) for g in (fallback_groups or (0, 0)))})
-        cs.run(1)
-        self.ctx.memory_barrier()
+        """Lay the lists out from the counts (raster_tiles_scan.comp's three dispatches);
+        ``fallback_groups`` the balanced form's work groups over every segment
+        (expand.bind_segments)."""
+        blocks = -(-(self.tiles[0] * self.tiles[1]) // SCAN_BLOCK)
+        fallback = {"u_rt_fallback": tuple(int(g) for g in (fallback_groups or (0, 0)))}
+        for phase, groups in ((1, blocks), (2, 1), (3, blocks)):
+            cs = self._programs.get(("scan", phase), (), lambda: compute_shader(
+                self.ctx, shader_path("raster_tiles_scan.comp"), {**defines(), "SCAN_PHASE": phase, "SCAN_BLOCK": SCAN_BLOCK}))
+            self.bind(cs)
+            set_uniforms(cs, fallback)
+            cs.run(groups)
+            self.ctx.memory_barrier()
 
     def dispatch_tiles(self, cs) -> None:
         cs.run_indirect(self.index, 4 * INDEX["RT_TILED_ARGS"])
