@@ -27,6 +27,11 @@
 // pass) or the smallest id (VIS64: what the 64-bit atomic min of (depth << 32 | id) keeps), so
 // that both paths leave what their other forms leave, with no 64-bit shared atomics; a sample
 // whose depth this step lowered forgets the id an earlier step (the depth split) left.
+// RT_PACKED (VIS64 with raster_tiles.PACKED): the tile's words are VIS64's own (depth << 32 | id),
+// and walk 1 takes their 64-bit atomic min in shared memory (GL_NV_shader_atomic_int64 has
+// shared atomics): the id comes with the depth, and walk 2 and the id reset are not run; a
+// visit at a saturated sample's own depth may still lower its id, so the cull starts one
+// depth step past it.
 // Culls: per 8 x 8 samples of the tile (RT_SUB), refreshed after every batch, the least 32-bit
 // depth from which a visit is a no-op there: min(the head's depth, 1.0, the sample's depth where
 // its coverage has saturated), max over the block's samples. A column with 0 < z at or past it
@@ -40,6 +45,7 @@
 // RT_SHIFT (log2 of a tile's side in samples) and the index buffer's layout (RT_TILED_ARGS,
 // RT_FALLBACK_ARGS, RT_OVERFLOW, RT_TOTAL, RT_PEAK, RT_HEADER) come from raster_tiles.py
 #define RT_SIDE (1 << RT_SHIFT)
+#define RT_PACKED (VIS64 && RT_PACKED_OK)
 #define RT_AREA (RT_SIDE * RT_SIDE)
 #define RT_GROUP 128
 #define RT_SUB_SHIFT 3                          // the cull blocks: 8 x 8 samples, 4 x 4 a tile
@@ -155,8 +161,14 @@ void raster_tiled_main() {
 }
 
 #elif RASTER_TILED_PHASE == 3
+#if RT_PACKED
+shared uint64_t rt_vis[RT_AREA];  // VIS64's words
+#define RT_DEPTH(LI) uint(rt_vis[LI] >> 32)
+#else
 shared uint rt_depth[RT_AREA];   // depth bits (hair_vis.glsl's, or VIS64's high word)
 shared uint rt_id[RT_AREA];      // 32-bit path: id + 1 (0: none); VIS64: the id (RT_EMPTY: none)
+#define RT_DEPTH(LI) rt_depth[LI]
+#endif
 shared uint rt_cover[RT_AREA];
 shared uint rt_head[RT_AREA];    // the head's window depth bits at the sample's pixel
 shared uint rt_sub[RT_SUBS];     // the cull blocks' bounds (walk 1: float bits; walk 2: depth bits)
@@ -169,7 +181,12 @@ shared int rt_scan[2 * RT_GROUP];
 // walk 1's bound at a sample: visits at 0 < z with bits at or past it are no-ops
 uint rt_no_op_from(int li) {
     uint m = min(rt_head[li], 0x3F800000u);
+#if RT_PACKED
+    uint d = RT_DEPTH(li);   // a visit at d may still lower the id
+    return rt_cover[li] >= COVER_SATURATED && d < m ? min(m, d + 1u) : m;
+#else
     return rt_cover[li] >= COVER_SATURATED ? min(m, rt_depth[li]) : m;
+#endif
 }
 
 // the blocks' bounds from the tile's words now (every thread; barriers inside)
@@ -187,7 +204,7 @@ void rt_refresh(int walk) {
     for (int y = r; y < (1 << RT_SUB_SHIFT); y += per)
         for (int x = 0; x < (1 << RT_SUB_SHIFT); ++x) {
             int li = (o.y + y) * RT_SIDE + o.x + x;
-            uint d = rt_depth[li];
+            uint d = RT_DEPTH(li);
             m = max(m, walk == 1 ? rt_no_op_from(li) : (d == VIS_EMPTY ? 0u : d));
         }
     atomicMax(rt_sub[b], m);
@@ -215,10 +232,16 @@ void rt_visit(int walk, int li, float z, float cov, uint id) {
 #if RASTER_STATS
         g_written++;
 #endif
+#if RT_PACKED
+        if (zb <= RT_DEPTH(li)) atomicMin(rt_vis[li], (uint64_t(zb) << 32) | uint64_t(id));
+#else
         if (zb < rt_depth[li]) atomicMin(rt_depth[li], zb);
+#endif
         if (rt_cover[li] < COVER_SATURATED) atomicAdd(rt_cover[li], cover_units(cov));
-    } else if (rt_depth[li] == zb) {
-#if VIS64
+    } else if (RT_DEPTH(li) == zb) {
+#if RT_PACKED
+        // (walk 2 is not run)
+#elif VIS64
         atomicMin(rt_id[li], id);
 #else
         atomicMax(rt_id[li], id + 1u);
@@ -337,9 +360,14 @@ void raster_tiled_main() {
     for (int li = lid; li < RT_AREA; li += RT_GROUP) {
         ivec2 q = t0 + ivec2(li & (RT_SIDE - 1), li >> RT_SHIFT);
         uint d = VIS_EMPTY, id = 0u, c = COVER_SATURATED, head = 0u;   // past the grid: never visited
+#if RT_PACKED
+        uint64_t v = ~0ul;
+#endif
         if (all(lessThan(q, u_raster_size))) {
             uint idx = sample_index(q, width, u_grid);
-#if VIS64
+#if RT_PACKED
+            v = vis[idx];
+#elif VIS64
             uint64_t v = vis[idx];
             d = uint(v >> 32);
             id = uint(v & 0xFFFFFFFFul);
@@ -350,8 +378,12 @@ void raster_tiled_main() {
             c = cover[idx];
             head = floatBitsToUint(texelFetch(u_scene_depth, q / u_grid, 0).r);
         }
+#if RT_PACKED
+        rt_vis[li] = v;
+#else
         rt_depth[li] = d;
         rt_id[li] = id;
+#endif
         rt_cover[li] = c;
         rt_head[li] = head;
     }
@@ -359,6 +391,7 @@ void raster_tiled_main() {
     int begin = int(rt_index[RT_HEADER + tile]), end = int(rt_index[RT_HEADER + tile + 1u]);
     rt_walk(1, begin, end, t0);
     barrier();
+#if !RT_PACKED
     // a depth this step lowered: the id an earlier step left no longer belongs to it
     for (int li = lid; li < RT_AREA; li += RT_GROUP) {
         ivec2 q = t0 + ivec2(li & (RT_SIDE - 1), li >> RT_SHIFT);
@@ -372,11 +405,14 @@ void raster_tiled_main() {
     }
     rt_walk(2, begin, end, t0);   // refreshes (barriers) before its first batch
     barrier();
+#endif
     for (int li = lid; li < RT_AREA; li += RT_GROUP) {
         ivec2 q = t0 + ivec2(li & (RT_SIDE - 1), li >> RT_SHIFT);
         if (!all(lessThan(q, u_raster_size))) continue;
         uint idx = sample_index(q, width, u_grid);
-#if VIS64
+#if RT_PACKED
+        if (vis[idx] != rt_vis[li]) vis[idx] = rt_vis[li];
+#elif VIS64
         uint64_t v = (uint64_t(rt_depth[li]) << 32) | uint64_t(rt_id[li]);
         if (vis[idx] != v) vis[idx] = v;
 #else

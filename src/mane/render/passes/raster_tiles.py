@@ -48,14 +48,16 @@ ENTRIES_PER_SEGMENT = 6  # the first capacity: entries a segment (a close-up's t
 MIN_CAPACITY = 1 << 16
 MAX_CAPACITY = 1 << 28   # entries (1 GiB), below the scan's saturation (2^30)
 GROWTH = 1.25            # capacity past the largest total seen, when it overflowed
+PACKED = True            # VIS64: one walk, the tile's (depth, id) words by 64-bit shared atomic min
 SCAN_BLOCK = 1024         # tiles a work group of the lists' scan takes (raster_tiles_scan.comp: 4 a thread)
 CHECK_EVERY = 16         # steps between copies of the largest total (read once the GPU is past them)
 CAPACITY = None          # tests: a fixed capacity in entries (None: by the rule above)
 
 
 def defines() -> dict:
-    """The defines of the programs that include raster_tiles.glsl or run raster_tiles_scan.comp."""
-    return {"RT_SHIFT": TILE_SHIFT, **INDEX}
+    """The defines of the programs that include raster_tiles.glsl or run raster_tiles_scan.comp
+    (RT_PACKED: raster_tiles.glsl's one walk with 64-bit shared atomics, on when VIS64 is)."""
+    return {"RT_SHIFT": TILE_SHIFT, "RT_PACKED_OK": int(PACKED), **INDEX}
 
 
 class RasterTiles:
