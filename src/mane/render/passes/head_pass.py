@@ -6,15 +6,18 @@ import math
 
 import numpy as np
 
+from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import ProgramMemo, compute_shader, program
 from ..camera import mat_bytes
 from ..bindings import B_HEAD_FACES, B_HEAD_VERTICES, IMG_HDR, TEX_HEAD_ID, TEX_SCENE_DEPTH
 from .base import RENDER_DIR, shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
 
-# With a single-sample HDR target (the compute rasteriser's) the raster units draw only the
-# head's depth and nearest triangle, and head_shade.comp shades it (H200, 1080p: see
-# head_shade.comp); False: head.frag shades every fragment, as with MSAA
-SHADE_BY_COMPUTE = True
+# With a single-sample HDR target (the compute rasteriser's) on a GPU the raster units draw only
+# the head's depth and nearest triangle, and head_shade.comp shades it (H200, 1080p: the 100k
+# close-up's head 0.756 -> 0.220 ms); on a CPU rasteriser head.frag shades every fragment, as
+# with MSAA (llvmpipe, the demo at 960x540: the head 50 ms by head.frag, 215 by compute).
+# None: by the renderer; True / False: forced (tests)
+SHADE_BY_COMPUTE = None
 
 
 def scalp_albedo(skin, hair, tint: float) -> tuple:
@@ -56,7 +59,10 @@ class HeadPass(Pass):
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
-        if SHADE_BY_COMPUTE and r.samples == 1:
+        by_compute = SHADE_BY_COMPUTE
+        if by_compute is None:
+            by_compute = not get_capabilities(ctx).is_software
+        if by_compute and r.samples == 1:
             self._run_compute(frame)
             return
         prog = self._programs.get("head", (s,), lambda: program(
