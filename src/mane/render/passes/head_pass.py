@@ -8,6 +8,7 @@ import numpy as np
 
 from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import ProgramMemo, compute_shader, program
+from ...gpu.uniforms import write_uniform
 from ..camera import mat_bytes
 from ..bindings import B_HEAD_FACES, B_HEAD_VERTICES, IMG_HDR, TEX_HEAD_ID, TEX_SCENE_DEPTH
 from .base import RENDER_DIR, shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
@@ -103,8 +104,7 @@ class HeadPass(Pass):
         bind_lighting(r, cs, frame)
         set_uniforms(cs, self._colors.uniforms(r))
         set_uniforms(cs, self._inverse_uniforms(frame.view))
-        model, _ = r.head_model()
-        set_uniforms(cs, {"u_head_model": model})
+        write_uniform(cs["u_head_model"], r.head_model()[0])
         depth.use(TEX_SCENE_DEPTH)
         tex.use(TEX_HEAD_ID)
         vbo, ibo = r.head_buffers()

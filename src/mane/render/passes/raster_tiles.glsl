@@ -183,7 +183,7 @@ uint rt_no_op_from(int li) {
     uint m = min(rt_head[li], 0x3F800000u);
 #if RT_PACKED
     uint d = RT_DEPTH(li);   // a visit at d may still lower the id
-    return rt_cover[li] >= COVER_SATURATED && d < m ? min(m, d + 1u) : m;
+    return rt_cover[li] >= COVER_SATURATED && d < m ? d + 1u : m;
 #else
     return rt_cover[li] >= COVER_SATURATED ? min(m, rt_depth[li]) : m;
 #endif

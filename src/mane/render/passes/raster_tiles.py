@@ -140,7 +140,7 @@ class RasterTiles:
         blocks = -(-(self.tiles[0] * self.tiles[1]) // SCAN_BLOCK)
         fallback = {"u_rt_fallback": tuple(int(g) for g in (fallback_groups or (0, 0)))}
         for phase, groups in ((1, blocks), (2, 1), (3, blocks)):
-            cs = self._programs.get(("scan", phase), (), lambda: compute_shader(
+            cs = self._programs.get(("scan", phase), (SCAN_BLOCK,), lambda: compute_shader(
                 self.ctx, shader_path("raster_tiles_scan.comp"), {**defines(), "SCAN_PHASE": phase, "SCAN_BLOCK": SCAN_BLOCK}))
             self.bind(cs)
             set_uniforms(cs, fallback)
