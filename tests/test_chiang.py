@@ -183,20 +183,78 @@ def test_presets_order_and_hues():
 
 
 def test_colour_models_take_one_fibres_colour():
-    """Kajiya-Kay, Sadeghi, Scheuermann and Karis read melanin as one fibre's colour
-    exp(-4 sigma_a) (Karis's C: C^(1/2) is the centre's TT transmittance exp(-2 sigma_a)),
-    the fibre models keep the volume colour (ambient); an RGB colour is taken as given."""
+    """Sadeghi, Scheuermann and Karis read melanin as one fibre's colour exp(-4 sigma_a)
+    (Karis's C: C^(1/2) is the centre's TT transmittance exp(-2 sigma_a)), Kajiya-Kay as the
+    fibre's diffuse albedo (test_kajiya_kay_reflects_what_chiangs_fibre_reflects), the fibre
+    models keep the volume colour (ambient); an RGB colour is taken as given."""
     sig = melanin_to_sigma_a(*PRESETS["brown"])
     for model in ("kajiya_kay", "sadeghi", "scheuermann", "karis"):
         s = ShadingSettings(model=model)
-        np.testing.assert_allclose(s.resolved_color(), np.exp(-4 * sig))
         np.testing.assert_allclose(s.resolved_sigma_a(), sig)
-        np.testing.assert_allclose(np.sqrt(fibre_color(sig)), np.exp(-2 * sig))
         rgb = ShadingSettings(model=model, color=(0.3, 0.2, 0.1))
         np.testing.assert_allclose(rgb.resolved_color(), (0.3, 0.2, 0.1))
-        np.testing.assert_allclose(fibre_color(rgb.resolved_sigma_a()), (0.3, 0.2, 0.1))
+        if model != "kajiya_kay":
+            np.testing.assert_allclose(s.resolved_color(), np.exp(-4 * sig))
+            np.testing.assert_allclose(np.sqrt(fibre_color(sig)), np.exp(-2 * sig))
+            np.testing.assert_allclose(fibre_color(rgb.resolved_sigma_a()), (0.3, 0.2, 0.1))
+    # Kajiya-Kay: the RGB opt-in is an albedo, and melanin goes round through it
+    kk = ShadingSettings(model="kajiya_kay")
+    back = ShadingSettings(model="kajiya_kay", color=tuple(kk.resolved_color()))
+    np.testing.assert_allclose(back.resolved_sigma_a(), sig, rtol=1e-6)
     for model in ("chiang", "marschner"):
         np.testing.assert_allclose(ShadingSettings(model=model).resolved_color(), sigma_a_to_color(sig))
+
+
+def _albedo_at(bsdf, theta_o=0.0, back=False, n_i=160, n_phi=160):
+    """int bsdf(theta_i, theta_o, phi) dw_i over the sphere of lights (bsdf includes the
+    projection factor; dw = cos theta_i dtheta_i dphi), or over its half toward the eye's side
+    (|phi| < pi/2) with ``back``: midpoint rules."""
+    ti = (np.arange(n_i) + 0.5) / n_i * math.pi - math.pi / 2
+    span = math.pi if back else 2 * math.pi
+    ph = (np.arange(n_phi) + 0.5) / n_phi * span - span / 2
+    TI, PH = np.meshgrid(ti, ph, indexing="ij")
+    f = bsdf(TI, np.full_like(TI, theta_o), PH)                        # (..., 3) or (..., k, 3)
+    w = np.cos(TI) * (math.pi / n_i) * (span / n_phi)
+    return np.einsum("ip...,ip->...", f, w)
+
+
+@pytest.mark.parametrize("preset", ["brown", "blond"])
+def test_kajiya_kay_reflects_what_chiangs_fibre_reflects(preset):
+    """Kajiya-Kay's two terms carry what Chiang's fibre of the same melanin sends back, seen
+    across the fibre (theta_o 0): its highlight (specular 1) the R lobe's albedo and width, its
+    diffuse term toward the light's side (|phi| < pi/2) what TT + TRT + longer paths send there.
+    Both sides integrated over the lights here from the twins (Chiang's far field from its
+    equations, Kajiya-Kay's formula), not from the tables and closed forms of kajiya_kay.py."""
+    from mane.twins import shading as S
+
+    s = ShadingSettings(model="kajiya_kay", melanin=preset)
+    m = S.material(s)
+
+    def chiang(back):
+        return _albedo_at(lambda ti, to, ph: np.moveaxis(C.fibre(
+            ti, to, ph, m["sigma_a"], roughness=s.roughness, shift=s.shift, beta_n=s.beta_n, eta=s.eta, n_h=256,
+            lobes=True), 0, -2), back=back)                              # (4, 3)
+
+    def kk(ti, to, ph, part):
+        # T along z, the eye and the light at inclinations theta_o, theta_i and azimuth phi apart
+        V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
+        L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
+        T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
+        mm = dict(m, specular=0.0) if part == "diffuse" else dict(m, color=np.zeros(3))
+        return S.kajiya_kay(T, V, L, mm).reshape(ti.shape + (3,))
+
+    r_ref = chiang(False)[0]
+    rest_back = chiang(True)[1:].sum(axis=0)
+    np.testing.assert_allclose(_albedo_at(lambda *a: kk(*a, "highlight")), r_ref, rtol=0.03)
+    np.testing.assert_allclose(_albedo_at(lambda *a: kk(*a, "diffuse"), back=True), rest_back, rtol=0.03)
+    # the highlight is as wide as the R lobe: over theta_i at theta_o 0, phi 0, the same spread
+    ti = np.linspace(-0.8, 0.8, 801)
+    to, ph = np.zeros_like(ti), np.zeros_like(ti)
+    r = C.fibre(ti, to, ph, np.zeros(3), roughness=s.roughness, shift=0.0, beta_n=s.beta_n, eta=s.eta, n_h=32,
+                lobes=True)[0][:, 0]
+    h = kk(ti, to, ph, "highlight")[:, 0]
+    sd = [math.sqrt(float((y * ti**2).sum() / y.sum())) for y in (r, h)]
+    assert abs(sd[1] / sd[0] - 1.0) < 0.1, sd
 
 
 def test_defaults():

@@ -34,7 +34,7 @@ class Quality:
     hair: str = "brown"
     """the hair colour preset (mane.render.shading.PRESETS): melanin drives the colour."""
     specular: float = 1.0
-    """the R lobe's scale (1: physical; Kajiya-Kay's highlight is not, 0.25 there)."""
+    """the R lobe's scale (1: physical; Kajiya-Kay's highlight too, scaled to Chiang's R lobe)."""
     multiple_scattering: str = "auto"
     """ShadingSettings.multiple_scattering ("auto": dual scattering, ~14 texel fetches a light)."""
     geometry: str = "ribbons"
@@ -69,7 +69,7 @@ class Quality:
 # (SOFTWARE_LADDER) on a machine slower than that.
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
-                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4, specular=0.25,
+                   sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4,
                    multiple_scattering="none",   # Kajiya-Kay's diffuse term stands for it
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
                    geometry="lines",             # sub-pixel strands: the same picture, half the hair pass

@@ -33,6 +33,7 @@ def material(settings, strand_rand=0.0):
         "tt_width": settings.tt_width,
         "glint_width": settings.glint_width,
         "noise": settings.noise,
+        "kk_specular_norm": settings.kk_specular_norm,
     }
 
 
@@ -84,9 +85,9 @@ def kajiya_kay(T, V, L, m):
     sl = np.sqrt(np.maximum(0, 1 - tl * tl))
     sv = np.sqrt(np.maximum(0, 1 - tv * tv))
     c = np.clip(sl * sv - tl * tv, 0, 1)
-    p = np.clip(1.0 / max(m["roughness"] ** 2, 1e-6), 1.0, 4096.0)
-    spec = m["specular"] * c**p
-    return sl[:, None] * (m["color"][None, :] * INV_PI + spec[:, None])
+    p = np.clip(1.0 / max(4.0 * m["roughness"] ** 2, 1e-6), 1.0, 4096.0)
+    spec = m["specular"] * m["kk_specular_norm"] * c**p
+    return sl[:, None] * (m["color"][None, :] * INV_PI**2 + spec[:, None])
 
 
 # ------------------------------------------------------------------------------ multiple scattering

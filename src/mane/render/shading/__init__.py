@@ -52,6 +52,7 @@ from moderngl import InvalidObject
 from ...gpu.uniforms import set_uniforms, write_uniform
 from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
+from . import kajiya_kay
 from .melanin import (  # noqa: F401
     PRESETS,
     color_to_sigma_a,
@@ -101,8 +102,9 @@ class ShadingSettings:
 
     model           one of MODELS (default "chiang")
     color           None, or linear RGB: an explicit opt-in that replaces melanin (``melanin``
-                    becomes None). For the
-                    colour-driven models (Kajiya-Kay, Sadeghi, Scheuermann, Karis) the fibre
+                    becomes None). For Kajiya-Kay the fibre's diffuse albedo
+                    (kajiya_kay.py); for the other
+                    colour-driven models (Sadeghi, Scheuermann, Karis) the fibre
                     colour itself; for the fibre models the multiple-scattered volume colour
                     (sigma_a by Chiang's eq. 9 inversion).
     melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8) or a preset's
@@ -233,17 +235,22 @@ class ShadingSettings:
         if self.sigma_a is not None:
             return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
         if self.color is not None:
+            if self.model == "kajiya_kay":   # the colour is the fibre's diffuse albedo (kajiya_kay.py)
+                return kajiya_kay.sigma_a_for_albedo(self.color, *self._fibre)
             if self.model in COLOUR_MODELS:
                 return fibre_color_to_sigma_a(self.color)
             return color_to_sigma_a(self.color, self.beta_n)
         return melanin_to_sigma_a(*(self.melanin if self.melanin is not None else PRESETS["brown"]))
 
     def resolved_color(self) -> np.ndarray:
-        """The ``color`` the model reads: the fibre colour (Karis's C = exp(-4 sigma_a)) for
-        the colour-driven models, the volume colour (Chiang eq. 9) for the fibre models (their
-        ambient term)."""
+        """The ``color`` the model reads: Kajiya-Kay's diffuse albedo (twice what Chiang's
+        TT, TRT and longer paths send back toward the light, kajiya_kay.py), the fibre colour (Karis's C = exp(-4 sigma_a))
+        for the other colour-driven models, the volume colour (Chiang eq. 9) for the fibre models
+        (their ambient term)."""
         if self.color is not None and self.sigma_a is None:
             return np.asarray(self.color, dtype=np.float64).reshape(3)
+        if self.model == "kajiya_kay":
+            return self._derived("_kk_color", lambda: kajiya_kay.diffuse_albedo(self.resolved_sigma_a(), *self._fibre)).copy()
         if self.model in COLOUR_MODELS:
             return fibre_color(self.resolved_sigma_a())
         return sigma_a_to_color(self.resolved_sigma_a(), self.beta_n)
@@ -263,7 +270,18 @@ class ShadingSettings:
             "HAIR_DUAL_DF": _glsl_float(self.dual_density_front),
             "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
             "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
+            "HAIR_KK_SPECULAR_NORM": _glsl_float(self.kk_specular_norm),
         }
+
+    @property
+    def _fibre(self) -> tuple:
+        """(eta, beta_n, roughness, shift): what kajiya_kay.py reads of Chiang's fibre."""
+        return float(self.eta), float(self.beta_n), float(self.roughness), float(self.shift)
+
+    @property
+    def kk_specular_norm(self) -> float:
+        """Kajiya-Kay's highlight scale at ``specular`` 1 (kajiya_kay.specular_norm)."""
+        return self._derived("_kk_norm", lambda: kajiya_kay.specular_norm(*self._fibre))
 
     def material_uniforms(self, prefix: str = "u_material") -> dict:
         """Values of ``uniform HairMaterial <prefix>`` fields ('u_material.color': (r, g, b), ...).
