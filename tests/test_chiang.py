@@ -193,14 +193,29 @@ def test_colour_models_take_one_fibres_colour():
         np.testing.assert_allclose(s.resolved_sigma_a(), sig)
         rgb = ShadingSettings(model=model, color=(0.3, 0.2, 0.1))
         np.testing.assert_allclose(rgb.resolved_color(), (0.3, 0.2, 0.1))
-        if model != "kajiya_kay":
+        if model in ("sadeghi", "karis"):
             np.testing.assert_allclose(s.resolved_color(), np.exp(-4 * sig))
             np.testing.assert_allclose(np.sqrt(fibre_color(sig)), np.exp(-2 * sig))
             np.testing.assert_allclose(fibre_color(rgb.resolved_sigma_a()), (0.3, 0.2, 0.1))
-    # Kajiya-Kay: the RGB opt-in is an albedo, and melanin goes round through it
-    kk = ShadingSettings(model="kajiya_kay")
-    back = ShadingSettings(model="kajiya_kay", color=tuple(kk.resolved_color()))
-    np.testing.assert_allclose(back.resolved_sigma_a(), sig, rtol=1e-6)
+    # Kajiya-Kay and Scheuermann: the RGB opt-in is their diffuse colour, and melanin goes round through it
+    for model in ("kajiya_kay", "scheuermann"):
+        kk = ShadingSettings(model=model)
+        back = ShadingSettings(model=model, color=tuple(kk.resolved_color()))
+        np.testing.assert_allclose(back.resolved_sigma_a(), sig, rtol=1e-6)
+    # Scheuermann's wrapped diffuse term sends toward the light's side what Kajiya-Kay's does
+    from mane.twins import shading as S
+
+    def toward_light(model):
+        st = ShadingSettings(model=model)
+        m = dict(S.material(st), specular=0.0)
+
+        def bsdf(ti, to, ph):
+            V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
+            L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
+            T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
+            return getattr(S, model)(T, V, L, m).reshape(ti.shape + (3,))
+        return _albedo_at(bsdf, back=True)
+    np.testing.assert_allclose(toward_light("scheuermann"), toward_light("kajiya_kay"), rtol=0.02)
     for model in ("chiang", "marschner"):
         np.testing.assert_allclose(ShadingSettings(model=model).resolved_color(), sigma_a_to_color(sig))
 
@@ -255,6 +270,28 @@ def test_kajiya_kay_reflects_what_chiangs_fibre_reflects(preset):
     h = kk(ti, to, ph, "highlight")[:, 0]
     sd = [math.sqrt(float((y * ti**2).sum() / y.sum())) for y in (r, h)]
     assert abs(sd[1] / sd[0] - 1.0) < 0.1, sd
+
+
+@pytest.mark.parametrize("model", ["sadeghi", "scheuermann"])
+def test_artist_models_highlights_carry_chiangs_r_albedo(model):
+    """Sadeghi's R lobe and Scheuermann's primary highlight (unit height as published) are
+    scaled so that at specular 1 they reflect what Chiang's R lobe reflects across the fibre:
+    both integrated over the sphere of lights from the twins (the colour set to 0 leaves only
+    that term; Scheuermann's strand random at its mean, no tangent noise)."""
+    from mane.twins import shading as S
+
+    s = ShadingSettings(model=model)
+    m = dict(S.material(s), color=np.zeros(3), strand_rand=np.float64(0.5))
+    r_ref = _albedo_at(lambda ti, to, ph: C.fibre(ti, to, ph, np.zeros(3), roughness=s.roughness, shift=s.shift,
+                                                  beta_n=s.beta_n, eta=s.eta, n_h=256, lobes=True)[0])
+
+    def bsdf(ti, to, ph):
+        V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
+        L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
+        T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
+        return getattr(S, model)(T, V, L, m).reshape(ti.shape + (3,))
+
+    np.testing.assert_allclose(_albedo_at(bsdf, n_i=320, n_phi=320), r_ref, rtol=0.03)
 
 
 def test_defaults():

@@ -34,6 +34,8 @@ def material(settings, strand_rand=0.0):
         "glint_width": settings.glint_width,
         "noise": settings.noise,
         "kk_specular_norm": settings.kk_specular_norm,
+        "sadeghi_norm": settings.sadeghi_norm,
+        "scheuermann_norm": settings.scheuermann_norm,
     }
 
 
@@ -139,7 +141,7 @@ def sadeghi(T, V, L, m):
     g_angle = np.radians(30 + 15 * np.broadcast_to(m["strand_rand"], phi.shape))
     ntrt = nr + m["glint"] * np.exp(-0.5 * ((g_angle - phi) / m["glint_width"]) ** 2)
     f = (m["specular"] * M[:, 0] * nr)[:, None] + m["color"] * (M[:, 1] * ntt + M[:, 2] * ntrt)[:, None]
-    return np.maximum(f * (a["cos_i"] / cos_d**2)[:, None], 0)
+    return np.maximum(f * (m["sadeghi_norm"] * a["cos_i"] / cos_d**2)[:, None], 0)
 
 
 # ------------------------------------------------------------------------------ Scheuermann 2004
@@ -166,8 +168,9 @@ def scheuermann(T, V, L, m):
     e2 = min(0.25 / r**2, 4096.0)
     sparkle = np.maximum(0, 1 + m["glint"] * (np.mod(61.0 * rand, 1.0) - 0.5))
     diffuse = m["color"] * INV_PI * (0.25 + 0.75 * np.clip(_dot(N, L), 0, 1))[:, None]
-    return (diffuse + (m["specular"] * _strand_spec(t1, H, e1))[:, None]
-            + (m["specular"] * sparkle * _strand_spec(t2, H, e2))[:, None] * m["color"])
+    k = m["specular"] * m["scheuermann_norm"]
+    return (diffuse + (k * _strand_spec(t1, H, e1))[:, None]
+            + (k * sparkle * _strand_spec(t2, H, e2))[:, None] * m["color"])
 
 
 # ------------------------------------------------------------------------------ Karis 2016

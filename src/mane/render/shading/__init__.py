@@ -52,7 +52,7 @@ from moderngl import InvalidObject
 from ...gpu.uniforms import set_uniforms, write_uniform
 from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
-from . import kajiya_kay
+from . import kajiya_kay, sadeghi, scheuermann
 from .melanin import (  # noqa: F401
     PRESETS,
     color_to_sigma_a,
@@ -103,9 +103,8 @@ class ShadingSettings:
     model           one of MODELS (default "chiang")
     color           None, or linear RGB: an explicit opt-in that replaces melanin (``melanin``
                     becomes None). For Kajiya-Kay the fibre's diffuse albedo
-                    (kajiya_kay.py); for the other
-                    colour-driven models (Sadeghi, Scheuermann, Karis) the fibre
-                    colour itself; for the fibre models the multiple-scattered volume colour
+                    (kajiya_kay.py), for Scheuermann its diffuse colour (scheuermann.py);
+                    for Sadeghi and Karis the fibre colour itself; for the fibre models the multiple-scattered volume colour
                     (sigma_a by Chiang's eq. 9 inversion).
     melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8) or a preset's
                     name (melanin.PRESETS); default the "brown" preset; None with no color: brown
@@ -237,6 +236,9 @@ class ShadingSettings:
         if self.color is not None:
             if self.model == "kajiya_kay":   # the colour is the fibre's diffuse albedo (kajiya_kay.py)
                 return kajiya_kay.sigma_a_for_albedo(self.color, *self._fibre)
+            if self.model == "scheuermann":  # Kajiya-Kay's albedo, rescaled (scheuermann.color)
+                kk = np.asarray(self.color, np.float64) * (2.0 * scheuermann.diffuse_back_albedo())
+                return kajiya_kay.sigma_a_for_albedo(kk, *self._fibre)
             if self.model in COLOUR_MODELS:
                 return fibre_color_to_sigma_a(self.color)
             return color_to_sigma_a(self.color, self.beta_n)
@@ -244,13 +246,16 @@ class ShadingSettings:
 
     def resolved_color(self) -> np.ndarray:
         """The ``color`` the model reads: Kajiya-Kay's diffuse albedo (twice what Chiang's
-        TT, TRT and longer paths send back toward the light, kajiya_kay.py), the fibre colour (Karis's C = exp(-4 sigma_a))
-        for the other colour-driven models, the volume colour (Chiang eq. 9) for the fibre models
+        TT, TRT and longer paths send back toward the light, kajiya_kay.py) and Scheuermann's
+        diffuse colour made from it (scheuermann.color), the fibre colour (Karis's C =
+        exp(-4 sigma_a)) for Sadeghi and Karis, the volume colour (Chiang eq. 9) for the fibre models
         (their ambient term)."""
         if self.color is not None and self.sigma_a is None:
             return np.asarray(self.color, dtype=np.float64).reshape(3)
         if self.model == "kajiya_kay":
             return self._derived("_kk_color", lambda: kajiya_kay.diffuse_albedo(self.resolved_sigma_a(), *self._fibre)).copy()
+        if self.model == "scheuermann":
+            return self._derived("_sch_color", lambda: scheuermann.color(self.resolved_sigma_a(), *self._fibre)).copy()
         if self.model in COLOUR_MODELS:
             return fibre_color(self.resolved_sigma_a())
         return sigma_a_to_color(self.resolved_sigma_a(), self.beta_n)
@@ -270,8 +275,18 @@ class ShadingSettings:
             "HAIR_DUAL_DF": _glsl_float(self.dual_density_front),
             "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
             "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
-            "HAIR_KK_SPECULAR_NORM": _glsl_float(self.kk_specular_norm),
+            **self._model_norm(),
         }
+
+    def _model_norm(self) -> dict:
+        """The scale define of the drawn model where it has one (its model file defines the
+        others as unused): Kajiya-Kay's, Sadeghi's and Scheuermann's highlights at Chiang's R
+        albedo (~0.05 s of NumPy each, so only the drawn model's)."""
+        name, value = {"kajiya_kay": ("HAIR_KK_SPECULAR_NORM", lambda: self.kk_specular_norm),
+                       "sadeghi": ("HAIR_SADEGHI_NORM", lambda: self.sadeghi_norm),
+                       "scheuermann": ("HAIR_SCHEUERMANN_NORM", lambda: self.scheuermann_norm)}.get(
+                           self.model, (None, None))
+        return {name: _glsl_float(value())} if name else {}
 
     @property
     def _fibre(self) -> tuple:
@@ -282,6 +297,16 @@ class ShadingSettings:
     def kk_specular_norm(self) -> float:
         """Kajiya-Kay's highlight scale at ``specular`` 1 (kajiya_kay.specular_norm)."""
         return self._derived("_kk_norm", lambda: kajiya_kay.specular_norm(*self._fibre))
+
+    @property
+    def sadeghi_norm(self) -> float:
+        """Sadeghi's scale: its R lobe at Chiang's R albedo (sadeghi.norm)."""
+        return self._derived("_sadeghi_norm", lambda: sadeghi.norm(*self._fibre))
+
+    @property
+    def scheuermann_norm(self) -> float:
+        """Scheuermann's highlights' scale: the primary at Chiang's R albedo (scheuermann.norm)."""
+        return self._derived("_scheuermann_norm", lambda: scheuermann.norm(*self._fibre))
 
     def material_uniforms(self, prefix: str = "u_material") -> dict:
         """Values of ``uniform HairMaterial <prefix>`` fields ('u_material.color': (r, g, b), ...).

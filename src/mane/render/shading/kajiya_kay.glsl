@@ -16,7 +16,10 @@
 #define MANE_HAIR_KAJIYA_KAY_GLSL
 
 #ifndef HAIR_KK_SPECULAR_NORM
+#if HAIR_MODEL == HAIR_MODEL_KAJIYA_KAY
 #error "HAIR_KK_SPECULAR_NORM: ShadingSettings.defines() gives it"
+#endif
+#define HAIR_KK_SPECULAR_NORM 0.0   // another model is drawn
 #endif
 
 float hair_kk_exponent(float roughness) {

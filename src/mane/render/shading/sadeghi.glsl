@@ -5,13 +5,20 @@
 // C_R = 1 (white), C_TT = C_TRT = color; I_R = 0.45 specular, I_TT = 1, I_TRT = 0.3 (Hunz
 // Fig. 32's hand match to Marschner); I_G = glint; alpha/beta tied as Marschner's.
 // gamma_TT = HAIR_TT_WIDTH, gamma_G = HAIR_GLINT_WIDTH (radians). hair_bsdf = f' cos(theta_i).
-// Not energy conserving (no Fresnel), as in the paper.
+// Not energy conserving (no Fresnel), as in the paper; mane scales the whole function by
+// HAIR_SADEGHI_NORM so that its R lobe has Chiang's R albedo at specular 1 (sadeghi.py).
 // ALU: angles ~40, 5 exp, 2 cos, ~30 mul/add (~90).
 #ifndef MANE_HAIR_SADEGHI_GLSL
 #define MANE_HAIR_SADEGHI_GLSL
 
 #ifndef HAIR_TT_WIDTH
 #define HAIR_TT_WIDTH 0.4363323129985824
+#endif
+#ifndef HAIR_SADEGHI_NORM
+#if HAIR_MODEL == HAIR_MODEL_SADEGHI
+#error "HAIR_SADEGHI_NORM: ShadingSettings.defines() gives it"
+#endif
+#define HAIR_SADEGHI_NORM 0.0   // another model is drawn
 #endif
 #ifndef HAIR_GLINT_WIDTH
 #define HAIR_GLINT_WIDTH 0.08726646259971647
@@ -34,7 +41,7 @@ vec3 hair_sadeghi(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     float xg = (g_angle - a.phi) / HAIR_GLINT_WIDTH;
     float ntrt = nr + m.glint * exp(-0.5 * xg * xg);
     vec3 f = vec3(m.specular * M.x * nr) + m.color * (M.y * ntt + M.z * ntrt);
-    return max(f * (a.cos_i / (cos_d * cos_d)), vec3(0.0));
+    return max(f * (HAIR_SADEGHI_NORM * a.cos_i / (cos_d * cos_d)), vec3(0.0));
 }
 
 #endif

@@ -6,11 +6,19 @@
 //   spec(t, e) = smoothstep(-1, 0, t.H) * sin(t, H)^e,  H = normalize(L + V)
 //   sparkle = 1 + glint (fract(61 strand_rand) - 0.5), clamped >= 0 (replaces the noise mask)
 //   hair_bsdf = color/pi * mix(0.25, 1, saturate(N.L))
-//             + specular * spec(t1, 1/r^2) + specular * color * sparkle * spec(t2, 1/(2r)^2)
+//             + k specular * spec(t1, 1/r^2) + k specular * color * sparkle * spec(t2, 1/(2r)^2)
+// k = HAIR_SCHEUERMANN_NORM: the primary highlight has Chiang's R albedo at specular 1
+// (scheuermann.py; unscaled, as published, hair was 24-35x the path tracer's brightness).
 // ALU: 4 normalize, 2 pow, ~40 mul/add (~70).
 #ifndef MANE_HAIR_SCHEUERMANN_GLSL
 #define MANE_HAIR_SCHEUERMANN_GLSL
 
+#ifndef HAIR_SCHEUERMANN_NORM
+#if HAIR_MODEL == HAIR_MODEL_SCHEUERMANN
+#error "HAIR_SCHEUERMANN_NORM: ShadingSettings.defines() gives it"
+#endif
+#define HAIR_SCHEUERMANN_NORM 0.0   // another model is drawn
+#endif
 #ifndef HAIR_SHIFT_NOISE
 #define HAIR_SHIFT_NOISE 0.1
 #endif
@@ -32,8 +40,9 @@ vec3 hair_scheuermann(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     float e2 = min(0.25 / (r * r), 4096.0);
     float sparkle = max(0.0, 1.0 + m.glint * (fract(61.0 * m.strand_rand) - 0.5));
     vec3 diffuse = m.color * INV_PI * mix(0.25, 1.0, saturate(dot(N, L)));
-    return diffuse + vec3(m.specular * hair_strand_specular(t1, H, e1))
-           + (m.specular * sparkle * hair_strand_specular(t2, H, e2)) * m.color;
+    float k = m.specular * HAIR_SCHEUERMANN_NORM;
+    return diffuse + vec3(k * hair_strand_specular(t1, H, e1))
+           + (k * sparkle * hair_strand_specular(t2, H, e2)) * m.color;
 }
 
 #endif
