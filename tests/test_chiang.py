@@ -209,15 +209,21 @@ def test_colour_models_take_one_fibres_colour():
         st = ShadingSettings(model=model)
         m = dict(S.material(st), specular=0.0)
 
-        def bsdf(ti, to, ph):
-            V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
-            L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
-            T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
-            return getattr(S, model)(T, V, L, m).reshape(ti.shape + (3,))
-        return _albedo_at(bsdf, back=True)
+        return _albedo_at(_in_fibre_frame(getattr(S, model), m), back=True)
     np.testing.assert_allclose(toward_light("scheuermann"), toward_light("kajiya_kay"), rtol=0.02)
     for model in ("chiang", "marschner"):
         np.testing.assert_allclose(ShadingSettings(model=model).resolved_color(), sigma_a_to_color(sig))
+
+
+def _in_fibre_frame(model, m):
+    """A twin's hair_bsdf (``model(T, V, L, m)``) as a function of the angles (theta_i, theta_o,
+    phi): T along z, the eye at inclination theta_o, the light at theta_i and azimuth phi from it."""
+    def bsdf(ti, to, ph):
+        V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
+        L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
+        T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
+        return model(T, V, L, m).reshape(np.shape(ti) + (3,))
+    return bsdf
 
 
 def _albedo_at(bsdf, theta_o=0.0, back=False, n_i=160, n_phi=160):
@@ -251,12 +257,8 @@ def test_kajiya_kay_reflects_what_chiangs_fibre_reflects(preset):
             lobes=True), 0, -2), back=back)                              # (4, 3)
 
     def kk(ti, to, ph, part):
-        # T along z, the eye and the light at inclinations theta_o, theta_i and azimuth phi apart
-        V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
-        L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
-        T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
         mm = dict(m, specular=0.0) if part == "diffuse" else dict(m, color=np.zeros(3))
-        return S.kajiya_kay(T, V, L, mm).reshape(ti.shape + (3,))
+        return _in_fibre_frame(S.kajiya_kay, mm)(ti, to, ph)
 
     r_ref = chiang(False)[0]
     rest_back = chiang(True)[1:].sum(axis=0)
@@ -285,13 +287,8 @@ def test_artist_models_highlights_carry_chiangs_r_albedo(model):
     r_ref = _albedo_at(lambda ti, to, ph: C.fibre(ti, to, ph, np.zeros(3), roughness=s.roughness, shift=s.shift,
                                                   beta_n=s.beta_n, eta=s.eta, n_h=256, lobes=True)[0])
 
-    def bsdf(ti, to, ph):
-        V = np.stack([np.cos(to), np.zeros_like(to), np.sin(to)], -1).reshape(-1, 3)
-        L = np.stack([np.cos(ti) * np.cos(ph), np.cos(ti) * np.sin(ph), np.sin(ti)], -1).reshape(-1, 3)
-        T = np.broadcast_to([0.0, 0.0, 1.0], V.shape)
-        return getattr(S, model)(T, V, L, m).reshape(ti.shape + (3,))
-
-    np.testing.assert_allclose(_albedo_at(bsdf, n_i=320, n_phi=320), r_ref, rtol=0.03)
+    np.testing.assert_allclose(_albedo_at(_in_fibre_frame(getattr(S, model), m), n_i=320, n_phi=320), r_ref,
+                               rtol=0.03)
 
 
 def test_defaults():

@@ -104,8 +104,8 @@ class ShadingSettings:
     color           None, or linear RGB: an explicit opt-in that replaces melanin (``melanin``
                     becomes None). For Kajiya-Kay the fibre's diffuse albedo
                     (kajiya_kay.py), for Scheuermann its diffuse colour (scheuermann.py);
-                    for Sadeghi and Karis the fibre colour itself; for the fibre models the multiple-scattered volume colour
-                    (sigma_a by Chiang's eq. 9 inversion).
+                    for Sadeghi and Karis the fibre colour itself; for the fibre models
+                    the multiple-scattered volume colour (sigma_a by Chiang's eq. 9 inversion).
     melanin         (eumelanin, pheomelanin) concentrations (Chiang 2016, 0..8) or a preset's
                     name (melanin.PRESETS); default the "brown" preset; None with no color: brown
     sigma_a         explicit absorption per unit radius (overrides both)
@@ -248,12 +248,13 @@ class ShadingSettings:
         """The ``color`` the model reads: Kajiya-Kay's diffuse albedo (twice what Chiang's
         TT, TRT and longer paths send back toward the light, kajiya_kay.py) and Scheuermann's
         diffuse colour made from it (scheuermann.color), the fibre colour (Karis's C =
-        exp(-4 sigma_a)) for Sadeghi and Karis, the volume colour (Chiang eq. 9) for the fibre models
-        (their ambient term)."""
+        exp(-4 sigma_a)) for Sadeghi and Karis, the volume colour (Chiang eq. 9) for the fibre
+        models (their ambient term)."""
         if self.color is not None and self.sigma_a is None:
             return np.asarray(self.color, dtype=np.float64).reshape(3)
         if self.model == "kajiya_kay":
-            return self._derived("_kk_color", lambda: kajiya_kay.diffuse_albedo(self.resolved_sigma_a(), *self._fibre)).copy()
+            return self._derived("_kk_color", lambda: kajiya_kay.diffuse_albedo(
+                self.resolved_sigma_a(), *self._fibre)).copy()
         if self.model == "scheuermann":
             return self._derived("_sch_color", lambda: scheuermann.color(self.resolved_sigma_a(), *self._fibre)).copy()
         if self.model in COLOUR_MODELS:

@@ -68,7 +68,8 @@ def diffuse_albedo(sigma_a, eta: float, beta_n: float, roughness: float, shift: 
 
 def sigma_a_for_albedo(albedo, *fibre) -> np.ndarray:
     """The absorption whose ``diffuse_albedo`` is ``albedo`` (each channel; bisection in log
-    sigma_a); ``fibre``: diffuse_albedo's (eta, beta_n, roughness, shift). An albedo above the clear fibre's is reached at sigma_a 0."""
+    sigma_a); ``fibre``: diffuse_albedo's (eta, beta_n, roughness, shift). An albedo above the
+    clear fibre's is reached at sigma_a 0."""
     target = np.clip(np.asarray(albedo, np.float64).reshape(3), 1e-6, None)
     lo, hi = np.full(3, -12.0), np.full(3, 4.0)       # log sigma_a
     for _ in range(40):
