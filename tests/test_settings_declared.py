@@ -301,6 +301,20 @@ def test_bare_names_pick_their_settings_and_unknown_names_get_close_matches():
         overrides(parse("reference", "--set", "sim.dt=0.01"))
 
 
+def test_table_text_keys_keep_their_text():
+    """A table key declared as text keeps the command line's text: "none" is a multiple-scattering
+    mode (the help's own example), not None; other keys still read "none" as None. The renderer
+    takes the result."""
+    s = settings_of(parse("render", "--set", "shading_options.multiple_scattering=none",
+                          "--set", "shading_options.tables=interpolated", "--set", "shading_options.sigma_a=none"))
+    opts = s["render"].shading_options
+    assert opts["multiple_scattering"] == "none" and opts["tables"] == "interpolated" and opts["sigma_a"] is None
+    from mane.render.renderer import ShadingAdapter   # what the renderer builds from the options
+
+    r = s["render"]
+    assert ShadingAdapter(r.shading, r.hair_color, opts).settings.resolved_multiple_scattering == "none"
+
+
 def test_config_file_tables_and_set_wins(tmp_path):
     cfg = tmp_path / "look.toml"
     cfg.write_text('[render]\nshadows = "adsm"\nsegments = 12\nshading_options = { melanin = [0.3, 0.1] }\n'

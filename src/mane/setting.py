@@ -127,12 +127,20 @@ def _range_text(meta: dict) -> str:
             f"{'inf' if hi is None else f'{hi:g}'}{')' if meta.get('hi_open') else ']'}")
 
 
-def _keys(meta: dict) -> tuple:
+def _key_types(meta: dict) -> dict:
+    """A table's keys -> their declared types ("" where the declaration names none): ``keys`` is
+    a sequence of names or a name -> type mapping, or "module:function" giving one."""
     keys = meta.get("keys")
     if isinstance(keys, str):           # "module:function": resolved when first needed
         mod, name = keys.split(":")
-        keys = tuple(getattr(importlib.import_module(mod), name)())
-    return tuple(keys) if keys else ()
+        keys = getattr(importlib.import_module(mod), name)()
+    if isinstance(keys, dict):
+        return dict(keys)
+    return {k: "" for k in keys} if keys else {}
+
+
+def _keys(meta: dict) -> tuple:
+    return tuple(_key_types(meta))
 
 
 def _in_range(v: float, meta: dict) -> bool:
@@ -396,7 +404,8 @@ def apply(obj, items, root=None):
                 subs.setdefault(f.name, []).append((".".join(parts[1:]), value))
             elif meta["kind"] == "dict" and len(parts) == 2:
                 table = dict(changes.get(f.name, getattr(obj, f.name)))
-                table[parts[1]] = (literal(value) if isinstance(value, str)
+                text = isinstance(value, str) and _key_types(meta).get(parts[1]) == "str"
+                table[parts[1]] = (value.strip() if text else literal(value) if isinstance(value, str)
                                    else tuple(value) if isinstance(value, list) else value)
                 changes[f.name] = table
             else:

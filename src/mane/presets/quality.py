@@ -70,7 +70,8 @@ class Quality:
 SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6, (960, 540), 2.0, 24.0, 1,
                    shading="kajiya_kay", shadows="shadow_map", shadow_map_size=512, pcf=2,
                    sim_dt=1.0 / 48.0, friction=0.0, viewer_sim_dt=1.0 / 30.0, head_subdivisions=4,
-                   multiple_scattering="none",   # Kajiya-Kay's diffuse term stands for it
+                   multiple_scattering="none",   # dual scattering: ~20% of the light (brown; docs/quality.md)
+                                                 # for ~25% of the hair pass on llvmpipe
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
                    geometry="lines",             # sub-pixel strands: the same picture, half the hair pass
                    skin_bounce=0.0)              # unoccluded by the hair without deep opacity maps (2x the

@@ -30,12 +30,13 @@ OIT_METHODS = ("none", "sorted_blending", "random_subsets", "a_buffer", "k_buffe
 KBUFFER_MODES = ("auto", "atomic32", "atomic64", "interlock")
 
 
-def shading_option_names() -> tuple[str, ...]:
-    """The keys ``RenderSettings.shading_options`` takes: ShadingSettings' fields but the model and
-    the colour (``shading`` and ``hair_color`` set those)."""
+def shading_option_names() -> dict[str, str]:
+    """The keys ``RenderSettings.shading_options`` takes, with their types: ShadingSettings'
+    fields but the model and the colour (``shading`` and ``hair_color`` set those). A "str" key's
+    text is taken as it is on the command line ("none" is a multiple-scattering mode, not None)."""
     from .shading import ShadingSettings
 
-    return tuple(f.name for f in fields(ShadingSettings) if f.name not in ("model", "color"))
+    return {f.name: str(f.type) for f in fields(ShadingSettings) if f.name not in ("model", "color")}
 
 
 @dataclass(frozen=True)
