@@ -301,3 +301,18 @@ def test_defaults():
     for bad in (dict(beta_n=0.0), dict(beta_n=1.5), dict(chiang_size=4), dict(color=(1, 2))):
         with pytest.raises(ValueError):
             ShadingSettings(**bad)
+    # NaN, infinities, text for a number, absurd table sizes and negative pigment: one line each,
+    # before any table is built or allocated
+    for bad, words in ((dict(roughness=float("nan")), "roughness must be a finite"),
+                       (dict(specular=float("inf")), "specular must be a finite"),
+                       (dict(roughness="0.1"), "roughness must be a finite"),
+                       (dict(eta=1e9), "eta must be in"),
+                       (dict(chiang_size=10**9), "chiang_size must be a whole number"),
+                       (dict(dual_size=64.5), "dual_size must be a whole number"),
+                       (dict(melanin=(float("nan"), 0.0)), "melanin must be a finite"),
+                       (dict(melanin=(-1.0, 0.0)), "melanin values must be in"),
+                       (dict(sigma_a=(float("inf"), 0.0, 0.0)), "sigma_a must be a finite"),
+                       (dict(color=(0.1, -0.2, 0.3)), "color values must be in")):
+        with pytest.raises(ValueError, match=words) as exc:
+            ShadingSettings(**bad)
+        assert "\n" not in str(exc.value)

@@ -329,7 +329,7 @@ def literal(text: str):
         if "," in t:
             return tuple(float(p) for p in t.split(","))
         x = float(t)
-        return int(x) if x == int(x) and "." not in t and "e" not in t.lower() else x
+        return int(x) if math.isfinite(x) and x == int(x) and "." not in t and "e" not in t.lower() else x
     except ValueError:
         return t
 

@@ -79,6 +79,19 @@ MODELS: dict[str, int] = {
 FIBRE_MODELS = ("chiang", "marschner", "marschner_lut")
 COLOUR_MODELS = ("kajiya_kay", "sadeghi", "scheuermann", "karis")
 MULTIPLE_SCATTERING: dict[str, int] = {"none": 0, "karis": 1, "dual": 2}
+# the ranges ShadingSettings accepts (radians for angles); the checks of __post_init__ below
+# them say more where a field has a narrower rule (roughness > 0, eta > 1, beta_n > 0)
+NUMBER_RANGES = {
+    "specular": (0.0, 100.0), "roughness": (0.0, 0.5 * math.pi), "shift": (-0.5 * math.pi, 0.5 * math.pi),
+    "eta": (1.0, 10.0), "glint": (0.0, 100.0), "caustic_width": (0.0, math.pi), "caustic_fade": (0.0, 10.0),
+    "caustic_limit": (0.0, 1.0), "tt_width": (0.0, math.pi), "glint_width": (0.0, math.pi), "noise": (0.0, 10.0),
+    "beta_n": (0.0, 1.0), "dual_density_front": (0.0, 1.0), "dual_density_back": (0.0, 1.0),
+    "dual_max_hairs": (0.0, 1e6),
+}
+TABLE_SIZES = {"chiang_size": (8, 1024), "lut_size": (8, 4096), "dual_size": (8, 4096)}
+MELANIN_MAX = 100.0    # Chiang's concentrations run 0..8; far past it every fibre is black
+SIGMA_A_MAX = 1e4      # absorption per unit radius: exp(-1e4) is 0 in any float
+COLOR_MAX = 1e3
 TABLES = ("exact", "interpolated")
 
 # Texture units bind() uses: the renderer's table (render/bindings.py).
@@ -169,6 +182,7 @@ class ShadingSettings:
     tables: str = "exact"
 
     def __post_init__(self):
+        self._check_numbers()
         if self.model not in MODELS:
             raise ValueError(f"unknown hair model {self.model!r}; one of {sorted(MODELS)}")
         if self.multiple_scattering != "auto" and self.multiple_scattering not in MULTIPLE_SCATTERING:
@@ -177,18 +191,10 @@ class ShadingSettings:
             raise ValueError("roughness (beta_R, radians) must be > 0")
         if not self.eta > 1:
             raise ValueError("eta must be > 1")
-        if int(self.lut_size) < 8:
-            raise ValueError("lut_size must be >= 8")
-        if not (0 <= self.dual_density_front <= 1 and 0 <= self.dual_density_back <= 1):
-            raise ValueError("dual_density_front / dual_density_back must be in [0, 1]")
         if not self.dual_max_hairs > 0:
             raise ValueError("dual_max_hairs must be > 0")
-        if int(self.dual_size) < 8:
-            raise ValueError("dual_size must be >= 8")
         if not 0 < self.beta_n <= 1:
             raise ValueError("beta_n (Chiang's azimuthal roughness) must be in (0, 1]")
-        if int(self.chiang_size) < 8:
-            raise ValueError("chiang_size must be >= 8")
         if self.tables not in TABLES:
             raise ValueError(f"tables must be one of {', '.join(TABLES)}, got {self.tables!r}")
         if self.color is not None:
@@ -199,6 +205,34 @@ class ShadingSettings:
             object.__setattr__(self, "melanin", hair_preset(self.melanin))   # a preset's name
         if self.melanin is not None and len(tuple(self.melanin)) != 2:
             raise ValueError("melanin must be (eumelanin, pheomelanin)")
+
+    def _check_numbers(self) -> None:
+        """Every number a real, finite value in its range (NaN, infinities and absurd table sizes
+        are refused here, not found later as a non-finite table or an allocation that cannot be
+        made)."""
+        def real(name, x):
+            if isinstance(x, bool) or not isinstance(x, (int, float, np.integer, np.floating)) or not math.isfinite(x):
+                raise ValueError(f"{name} must be a finite number, got {x!r}")
+            return float(x)
+
+        for name, (lo, hi) in NUMBER_RANGES.items():
+            x = real(name, getattr(self, name))
+            if not lo <= x <= hi:
+                raise ValueError(f"{name} must be in [{lo:g}, {hi:g}], got {x:g}")
+        for name, (lo, hi) in TABLE_SIZES.items():
+            x = real(name, getattr(self, name))
+            if x != int(x) or not lo <= x <= hi:
+                raise ValueError(f"{name} must be a whole number in [{lo}, {hi}], got {x:g}")
+        for name, n, hi in (("melanin", 2, MELANIN_MAX), ("sigma_a", 3, SIGMA_A_MAX), ("color", 3, COLOR_MAX)):
+            v = getattr(self, name)
+            if v is None or isinstance(v, str):
+                continue
+            v = tuple(v)
+            if len(v) != n:
+                continue   # the length checks below say what is wanted
+            for x in v:
+                if not 0.0 <= real(name, x) <= hi:
+                    raise ValueError(f"{name} values must be in [0, {hi:g}], got {v}")
 
     # ---------------------------------------------------------------- derived values
     @property
