@@ -377,6 +377,15 @@ def test_bad_arguments(gl):
     assert GridFriction(gl, 8, "optimised_gpu").method == "raster"  # Woodhouse's name
     with pytest.raises(UsageError):
         GridFriction(gl, 1)
+    # the options as a command line's table gives them (--set solver.grid_options.KEY=VALUE):
+    # text, NaN and infinities refused in one line before anything is built
+    for bad, words in ((dict(float_atomics="maybe"), "float_atomics must be true, false or None"),
+                       (dict(sorted_copy=-5), "sorted_copy must be true"),
+                       (dict(chunk=float("nan")), "chunk must be a whole number"),
+                       (dict(chunk=float("inf")), "chunk must be a whole number"),
+                       (dict(chunk=512.5), "chunk must be a whole number")):
+        with pytest.raises(UsageError, match=words):
+            GridFriction(gl, 8, **bad)
     gf = GridFriction(gl, 8)
     p, v = scene(10)
     pb, vb = upload(gl, p, v)

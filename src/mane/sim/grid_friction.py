@@ -62,6 +62,7 @@ node i at lo + i (hi - lo)/(R - 1). Masses are 1/w from ``positions.w`` in units
 from __future__ import annotations
 
 import ctypes
+import math
 from pathlib import Path
 
 import numpy as np
@@ -219,6 +220,13 @@ class GridFriction:
                  cell_sort: bool | None = None):
         from ..gpu.glsl import compute_shader, program
 
+        for name, value in (("float_atomics", float_atomics), ("vertex_layer", vertex_layer),
+                            ("aggregate", aggregate), ("sorted_copy", sorted_copy), ("cell_sort", cell_sort)):
+            if value is not None and not isinstance(value, (bool, np.bool_)):
+                raise UsageError(f"GridFriction {name} must be true, false or None (the GPU's choice), got {value!r}")
+        if chunk is not None and (isinstance(chunk, bool) or not isinstance(chunk, (int, float, np.integer, np.floating))
+                                  or not math.isfinite(chunk) or chunk != int(chunk)):
+            raise UsageError(f"GridFriction chunk must be a whole number of particles, got {chunk!r}")
         resolution = int(resolution)
         if not 2 <= resolution <= 512:
             raise UsageError(f"GridFriction resolution must be in 2..512 (16..128 is usual), got {resolution}")
