@@ -40,8 +40,10 @@ def hair_options(args) -> dict:
             e, p = (float(v) for v in melanin.split(","))
         except ValueError:
             raise UsageError(f"--melanin must be EUMELANIN,PHEOMELANIN (e.g. 1.3,0.2), got {melanin!r}") from None
-        if not (0 <= e <= 50 and 0 <= p <= 50):
-            raise UsageError(f"--melanin concentrations must be in [0, 50], got {melanin!r}")
+        from ..render.shading import MELANIN_MAX
+
+        if not (0 <= e <= MELANIN_MAX and 0 <= p <= MELANIN_MAX):
+            raise UsageError(f"--melanin concentrations must be in [0, {MELANIN_MAX:g}], got {melanin!r}")
         opts["melanin"] = (e, p)
     if (hair or melanin) and getattr(args, "color", None):
         raise UsageError("--color replaces melanin: give --color or --hair/--melanin, not both")

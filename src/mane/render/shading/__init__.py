@@ -89,7 +89,7 @@ NUMBER_RANGES = {
     "dual_max_hairs": (0.0, 1e6),
 }
 TABLE_SIZES = {"chiang_size": (8, 1024), "lut_size": (8, 4096), "dual_size": (8, 4096)}
-MELANIN_MAX = 100.0    # Chiang's concentrations run 0..8; far past it every fibre is black
+MELANIN_MAX = 50.0     # Chiang's concentrations run 0..8; far past it every fibre is black
 SIGMA_A_MAX = 1e4      # absorption per unit radius: exp(-1e4) is 0 in any float
 COLOR_MAX = 1e3
 TABLES = ("exact", "interpolated")
