@@ -115,3 +115,20 @@ def test_deep_opacity_per_light(gl):
     # the second light's maps only darken (never brighten) and darken somewhere on the +x side
     assert diff.max() <= 2.0
     assert (diff[:, 80:] < -5).sum() > 20
+
+
+def test_bad_lights_are_refused_in_one_line():
+    """NaN or infinite numbers, a zero direction, a negative colour or intensity: a UsageError
+    line each, before any frame is drawn (an infinite intensity had rendered a picture)."""
+    from mane.errors import UsageError
+
+    for kw, words in ((dict(vector=(np.nan, 1.0, 0.0)), "finite numbers"),
+                      (dict(vector=(0.0, 0.0, 0.0)), "cannot be zero"),
+                      (dict(color=(-1.0, 0.0, 0.0)), "colour must be >= 0"),
+                      (dict(intensity=float("inf")), "intensity must be a finite number"),
+                      (dict(intensity=-1.0), "intensity must be a finite number"),
+                      (dict(kind="spot"), "light kind")):
+        with pytest.raises(UsageError, match=words) as exc:
+            Light(**kw)
+        assert "\n" not in str(exc.value)
+    assert Light(intensity=0.0).intensity == 0.0

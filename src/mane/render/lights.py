@@ -5,6 +5,8 @@ key light: it always casts shadows; RenderSettings.shadow_lights makes the first
 """
 from __future__ import annotations
 
+import math
+
 from dataclasses import dataclass
 
 import numpy as np
@@ -35,8 +37,10 @@ class Light:
             raise UsageError("a light needs 3 finite numbers for its vector and its colour")
         if self.kind == "directional" and not np.linalg.norm(v) > 0:
             raise UsageError("a directional light's direction cannot be zero")
-        if float(self.intensity) < 0:
-            raise UsageError("light intensity must be >= 0")
+        if min(c) < 0:
+            raise UsageError(f"a light's colour must be >= 0 (linear RGB), got {c}")
+        if not (math.isfinite(float(self.intensity)) and float(self.intensity) >= 0):
+            raise UsageError(f"light intensity must be a finite number >= 0, got {self.intensity}")
         object.__setattr__(self, "vector", v)
         object.__setattr__(self, "color", c)
 
