@@ -747,6 +747,11 @@ def test_groom_far_from_the_origin_is_refused(gl):
         Simulator(tiny_groom(offset=(1e30, 0.0, 0.0)), ctx=gl)
     with Simulator(tiny_groom(offset=(10.0, 0.0, 0.0)), ctx=gl) as sim:   # 10 m away is fine
         sim.step()
+    # a groom in other units (here 1e3 km segments): refused, with the hint to scale it
+    with pytest.raises(UsageError, match="not in metres"):
+        Simulator(tiny_groom().scaled(1e7), ctx=gl)
+    with Simulator(tiny_groom().scaled(20.0), ctx=gl) as sim:   # a 4 m strand of 0.8 m segments runs
+        sim.step()
 
 
 @pytest.mark.gpu

@@ -806,6 +806,9 @@ class Simulator(GpuOwner):
 MAX_ULP_FRACTION = 1e-2
 """float32 positions must resolve a segment to this fraction of its length: a groom farther
 from the origin than that allows is refused (its lengths would be silently wrong)."""
+MAX_TYPICAL_SEGMENT_M = 10.0
+"""A groom whose median segment is longer than this (metres) is in other units: the simulator's
+gravity, lengths and collisions are in metres, so it is refused with a hint, not simulated."""
 
 
 def _check_coordinates(groom) -> None:
@@ -821,6 +824,9 @@ def _check_coordinates(groom) -> None:
     seg = seg[inner & (seg > 0)]
     typical = float(np.median(seg)) if len(seg) else 0.0
     spacing = reach * 2.0 ** -23
+    if typical > MAX_TYPICAL_SEGMENT_M:
+        raise UsageError(f"the groom's segments are {typical:.3g} m long (median): it is not in metres. "
+                         f"Scale it (Groom.scaled, or mane.io's units=) before simulating")
     if not np.isfinite(reach) or (typical > 0 and spacing > MAX_ULP_FRACTION * typical):
         raise UsageError(f"the groom reaches {reach:.3g} m from the origin, where float32 positions are "
                          f"{spacing:.2g} m apart: too coarse for its {typical:.2g} m segments. Move it near "
