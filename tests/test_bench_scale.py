@@ -248,6 +248,16 @@ def test_unknown_section_is_refused(gl):
     assert rc == 2 and "has no sections" in stderr
 
 
+def test_flags_of_another_target_are_refused():
+    """A flag that only one target reads is refused for the others (mane bench render --size 0x0
+    had run the whole render bench, the size ignored)."""
+    for argv, words in ((["bench", "render", "--size", "64x64"], "--size is for mane bench fidelity, not render"),
+                        (["bench", "sim", "--spp", "4"], "--spp is for mane bench fidelity, not sim"),
+                        (["bench", "render", "--only", "sim"], "--only is for mane bench all, not render")):
+        rc, _, stderr = _cli(argv + ["--quick", "--json"])
+        assert rc == 2 and words in stderr and stderr.count("\n") <= 1, stderr
+
+
 def test_big_configurations_are_refused_cleanly(gl, monkeypatch):
     """With 64 KiB of GPU memory (MANE_GPU_MEMORY) every render and sim scale row is a skipped row
     naming the bytes it needed, before any groom is grown or state allocated."""

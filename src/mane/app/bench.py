@@ -59,6 +59,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                                                       "(default $MANE_REFERENCE_CACHE or ~/.cache/mane/reference)")
 
 
+FIDELITY_FLAGS = ("size", "spp", "scenes", "models", "shadows", "grid", "rasterizer", "decompose", "cache")
+ALL_FLAGS = ("only", "baseline")
+
+
 def _size(text: str):
     from .render import _size as size
 
@@ -71,6 +75,10 @@ def run(args) -> int:
     if args.target not in TARGETS:
         raise UsageError(f"unknown benchmark {args.target!r}; choose one of {', '.join(TARGETS)}")
     mode = "quick" if args.quick else "full" if args.full else "default"
+    for flags, owner in ((FIDELITY_FLAGS, "fidelity"), (ALL_FLAGS, "all")):
+        given = [f for f in flags if getattr(args, f, None) not in (None, False)]
+        if given and args.target != owner:
+            raise UsageError(f"--{given[0]} is for mane bench {owner}, not {args.target}")
     module = importlib.import_module(TARGETS[args.target][0])
     if getattr(args, "section", None) and (hasattr(module, "run_cli")
                                            or "sections" not in inspect.signature(module.run).parameters):
