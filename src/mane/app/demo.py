@@ -27,6 +27,8 @@ from ..presets import (  # noqa: F401  (the quality levels and the demo scene: m
     demo_sim_settings,
 )
 
+from ..render.shading.melanin import preset_names
+
 PROFILE_EVERY = 4    # on a software renderer, time every 4th frame (CPU timing drains the pipeline)
 
 
@@ -38,8 +40,7 @@ def add_arguments(parser) -> None:
     parser.add_argument("--seconds", type=float, default=None, help="simulated seconds (default by quality)")
     parser.add_argument("--quality", choices=("auto", "software", "gpu"), default="auto",
                         help="workload preset (auto: by the renderer)")
-    parser.add_argument("--hair", default=None, help="hair colour preset: black, dark_brown, brown (default), "
-                                                    "auburn, red, blond, platinum, grey")
+    parser.add_argument("--hair", default=None, help=f"hair colour preset: {preset_names()} (default brown)")
     mode = parser.add_mutually_exclusive_group()
     mode.add_argument("--headless", action="store_true",
                       help="render the clip to files even when a display is available")

@@ -13,6 +13,7 @@ import time
 from pathlib import Path
 
 from ..errors import UsageError
+from ..render.shading.melanin import preset_names
 from .render import SHADINGS, _load_scene, add_scene_arguments
 
 
@@ -36,8 +37,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--shading", default=RenderSettings.shading,
                         help=f"the real-time model whose material parameters are used ({', '.join(SHADINGS)}; "
                              f"default {RenderSettings.shading}, mane render's)")
-    parser.add_argument("--hair", default=None, help="hair colour preset (black, dark_brown, brown, auburn, red, "
-                                                     "blond, platinum, grey), as mane render --hair")
+    parser.add_argument("--hair", default=None, help=f"hair colour preset ({preset_names()}), as mane render --hair")
     parser.add_argument("--melanin", default=None, help="EU,PHEO pigment concentrations (e.g. 1.3,0.2 brown, 0.3,0.1 blond)")
     parser.add_argument("--color", default=None, help="hair colour, linear R,G,B (Chiang's inversion to absorption)")
     parser.add_argument("--interpolation", default="catmull_rom", choices=INTERPOLATIONS)

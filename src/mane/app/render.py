@@ -19,6 +19,7 @@ import numpy as np
 from ..errors import UsageError
 
 from ..render.shading import MODELS, MULTIPLE_SCATTERING
+from ..render.shading.melanin import preset_names
 
 SHADINGS = tuple(MODELS)
 MULTIPLE_SCATTERINGS = ("auto",) + tuple(MULTIPLE_SCATTERING)
@@ -88,8 +89,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--light", action="append", default=None,
                         help="dir:X,Y,Z[:INTENSITY[:R,G,B]] or point:...; repeat for up to 3 (first casts shadows)")
     parser.add_argument("--shading", default="chiang", help=f"hair model: {', '.join(SHADINGS)} (default chiang)")
-    parser.add_argument("--hair", default=None, help="hair colour preset: black, dark_brown, brown (default), "
-                                                    "auburn, red, blond, platinum, grey")
+    parser.add_argument("--hair", default=None, help=f"hair colour preset: {preset_names()} (default brown)")
     parser.add_argument("--melanin", default=None, help="hair colour as EUMELANIN,PHEOMELANIN concentrations "
                                                        "(Chiang 2016; brown 1.3,0.2, blond 0.3,0.1, black 8,0)")
     parser.add_argument("--multiple-scattering", default=None,

@@ -17,6 +17,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from ..errors import UsageError
+from ..render.shading.melanin import PRESETS
 from ..setting import read_toml, unknown
 
 OUTPUTS = ("rgb", "hdr", "exr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands")
@@ -30,10 +31,7 @@ lights, the sample's parameters); strands: strands.npz (the strands in camera sp
 DEFAULT_OUTPUTS = ("rgb", "mask", "depth", "orientation", "ids", "camera", "strands")
 DEPTH16_SCALE = 10000.0   # depth16.png: 0.1 mm per unit, up to 6.5 m
 HAIR_FILE_SUFFIXES = (".hair", ".data", ".tfx", ".ply", ".abc", ".usd", ".usda", ".usdc", ".npz", ".bin")
-MELANIN_PRESETS = {   # (eumelanin, pheomelanin) concentrations, Chiang et al. 2016's scale
-    "black": (8.0, 0.0), "dark_brown": (3.0, 0.2), "brown": (1.3, 0.2), "light_brown": (0.65, 0.15),
-    "blond": (0.3, 0.1), "platinum": (0.1, 0.02), "auburn": (1.0, 1.2), "red": (0.4, 2.0),
-}
+MELANIN_PRESETS = PRESETS   # the renderer's named (eumelanin, pheomelanin) pairs: one table for both
 MOTIONS = ("none", "nod", "shake", "turn")
 # RenderSettings fields a dataset spec may not set: the renderer that makes the maps needs them so
 FIXED_RENDER = {"size": "use the top-level size", "rasterizer": "the maps need 'compute'",

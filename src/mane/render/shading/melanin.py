@@ -46,6 +46,7 @@ PRESETS: dict[str, tuple[float, float]] = {
     "black": (8.0, 0.0),
     "dark_brown": (3.0, 0.3),
     "brown": (1.3, 0.2),
+    "light_brown": (0.65, 0.15),
     "auburn": (0.8, 1.0),
     "red": (0.2, 1.6),
     "blond": (0.3, 0.1),
@@ -82,6 +83,11 @@ def sigma_a_to_color(sigma_a, beta_n: float = DEFAULT_BETA_N) -> np.ndarray:
     """The inverse of ``color_to_sigma_a``: the linear RGB colour of a hair volume."""
     s = np.maximum(np.asarray(sigma_a, dtype=np.float64), 0.0)
     return np.exp(-np.sqrt(s) * _chiang_f(beta_n))
+
+
+def preset_names() -> str:
+    """The presets' names, comma-separated (command-line help)."""
+    return ", ".join(PRESETS)
 
 
 def hair_preset(name: str) -> tuple[float, float]:
