@@ -26,7 +26,6 @@ from ..presets import (  # noqa: F401  (the quality levels and the demo scene: m
     demo_scene,
     demo_sim_settings,
 )
-
 from ..render.shading.melanin import preset_names
 
 PROFILE_EVERY = 4    # on a software renderer, time every 4th frame (CPU timing drains the pipeline)

@@ -19,7 +19,7 @@ import numpy as np
 from ..errors import UsageError
 
 from ..render.shading import MODELS, MULTIPLE_SCATTERING
-from ..render.shading.melanin import preset_names
+from ..render.shading.melanin import MELANIN_MAX, preset_names
 
 SHADINGS = tuple(MODELS)
 MULTIPLE_SCATTERINGS = ("auto",) + tuple(MULTIPLE_SCATTERING)
@@ -41,8 +41,6 @@ def hair_options(args) -> dict:
             e, p = (float(v) for v in melanin.split(","))
         except ValueError:
             raise UsageError(f"--melanin must be EUMELANIN,PHEOMELANIN (e.g. 1.3,0.2), got {melanin!r}") from None
-        from ..render.shading import MELANIN_MAX
-
         if not (0 <= e <= MELANIN_MAX and 0 <= p <= MELANIN_MAX):
             raise UsageError(f"--melanin concentrations must be in [0, {MELANIN_MAX:g}], got {melanin!r}")
         opts["melanin"] = (e, p)

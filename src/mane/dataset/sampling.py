@@ -12,8 +12,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ..render.shading.melanin import PRESETS
 from .blackbody import blackbody_rgb
-from .spec import MELANIN_PRESETS, DatasetSpec
+from .spec import DatasetSpec
 
 
 @dataclass(frozen=True)
@@ -76,7 +77,7 @@ def sample_params(spec: DatasetSpec, index: int) -> SampleParams:
     pick = int(style_rng.integers(max(len(c.presets), 1)))
     eu, pheo = _u(style_rng, c.eumelanin), _u(style_rng, c.pheomelanin)
     preset = c.presets[pick] if c.presets else None
-    melanin = MELANIN_PRESETS[preset] if preset else (eu, pheo)
+    melanin = PRESETS[preset] if preset else (eu, pheo)
     v = spec.views
     az, el, dist, focal = _u(rng, v.azimuth), _u(rng, v.elevation), _u(rng, v.distance), _u(rng, v.focal_length)
     jitter = tuple(float(x) for x in rng.uniform(-1.0, 1.0, 3) * v.jitter)

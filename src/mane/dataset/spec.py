@@ -17,7 +17,7 @@ from dataclasses import asdict, dataclass, field, fields
 from pathlib import Path
 
 from ..errors import UsageError
-from ..render.shading.melanin import PRESETS
+from ..render.shading.melanin import PRESETS   # the renderer's named hair colours: one table for both
 from ..setting import read_toml, unknown
 
 OUTPUTS = ("rgb", "hdr", "exr", "mask", "depth", "depth16", "orientation", "ids", "camera", "strands")
@@ -31,7 +31,6 @@ lights, the sample's parameters); strands: strands.npz (the strands in camera sp
 DEFAULT_OUTPUTS = ("rgb", "mask", "depth", "orientation", "ids", "camera", "strands")
 DEPTH16_SCALE = 10000.0   # depth16.png: 0.1 mm per unit, up to 6.5 m
 HAIR_FILE_SUFFIXES = (".hair", ".data", ".tfx", ".ply", ".abc", ".usd", ".usda", ".usdc", ".npz", ".bin")
-MELANIN_PRESETS = PRESETS   # the renderer's named (eumelanin, pheomelanin) pairs: one table for both
 MOTIONS = ("none", "nod", "shake", "turn")
 # RenderSettings fields a dataset spec may not set: the renderer that makes the maps needs them so
 FIXED_RENDER = {"size": "use the top-level size", "rasterizer": "the maps need 'compute'",
@@ -94,7 +93,7 @@ class GroomSource:
 
 @dataclass(frozen=True)
 class Colors:
-    """Hair colour per sample: a ``presets`` name (MELANIN_PRESETS) drawn uniformly, or melanin
+    """Hair colour per sample: a ``presets`` name (PRESETS) drawn uniformly, or melanin
     concentrations drawn from ``eumelanin`` and ``pheomelanin`` ranges (when presets is empty)."""
 
     presets: tuple = ()
@@ -289,8 +288,8 @@ def parse_spec(data: dict, base_dir=".") -> DatasetSpec:
         d = dict(_keys("colors", data["colors"], Colors))
         if "presets" in d:
             p = d["presets"]
-            if not isinstance(p, list) or any(x not in MELANIN_PRESETS for x in p):
-                raise UsageError(f"[colors] presets must be names from {', '.join(MELANIN_PRESETS)}, got {p!r}")
+            if not isinstance(p, list) or any(x not in PRESETS for x in p):
+                raise UsageError(f"[colors] presets must be names from {', '.join(PRESETS)}, got {p!r}")
             d["presets"] = tuple(p)
         for k in ("eumelanin", "pheomelanin"):
             if k in d:

@@ -33,9 +33,7 @@ def material(settings, strand_rand=0.0):
         "tt_width": settings.tt_width,
         "glint_width": settings.glint_width,
         "noise": settings.noise,
-        "kk_specular_norm": settings.kk_specular_norm,
-        "sadeghi_norm": settings.sadeghi_norm,
-        "scheuermann_norm": settings.scheuermann_norm,
+        "norm": settings.model_norm,   # Kajiya-Kay's, Sadeghi's, Scheuermann's scale (None for the others)
     }
 
 
@@ -88,7 +86,7 @@ def kajiya_kay(T, V, L, m):
     sv = np.sqrt(np.maximum(0, 1 - tv * tv))
     c = np.clip(sl * sv - tl * tv, 0, 1)
     p = np.clip(1.0 / max(4.0 * m["roughness"] ** 2, 1e-6), 1.0, 4096.0)
-    spec = m["specular"] * m["kk_specular_norm"] * c**p
+    spec = m["specular"] * m["norm"] * c**p
     return sl[:, None] * (m["color"][None, :] * INV_PI**2 + spec[:, None])
 
 
@@ -141,7 +139,7 @@ def sadeghi(T, V, L, m):
     g_angle = np.radians(30 + 15 * np.broadcast_to(m["strand_rand"], phi.shape))
     ntrt = nr + m["glint"] * np.exp(-0.5 * ((g_angle - phi) / m["glint_width"]) ** 2)
     f = (m["specular"] * M[:, 0] * nr)[:, None] + m["color"] * (M[:, 1] * ntt + M[:, 2] * ntrt)[:, None]
-    return np.maximum(f * (m["sadeghi_norm"] * a["cos_i"] / cos_d**2)[:, None], 0)
+    return np.maximum(f * (m["norm"] * a["cos_i"] / cos_d**2)[:, None], 0)
 
 
 # ------------------------------------------------------------------------------ Scheuermann 2004
@@ -168,7 +166,7 @@ def scheuermann(T, V, L, m):
     e2 = min(0.25 / r**2, 4096.0)
     sparkle = np.maximum(0, 1 + m["glint"] * (np.mod(61.0 * rand, 1.0) - 0.5))
     diffuse = m["color"] * INV_PI * (0.25 + 0.75 * np.clip(_dot(N, L), 0, 1))[:, None]
-    k = m["specular"] * m["scheuermann_norm"]
+    k = m["specular"] * m["norm"]
     return (diffuse + (k * _strand_spec(t1, H, e1))[:, None]
             + (k * sparkle * _strand_spec(t2, H, e2))[:, None] * m["color"])
 

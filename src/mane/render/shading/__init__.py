@@ -54,6 +54,7 @@ from ...phases import phase
 from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
 from . import kajiya_kay, sadeghi, scheuermann
 from .melanin import (  # noqa: F401
+    MELANIN_MAX,
     PRESETS,
     color_to_sigma_a,
     fibre_color,
@@ -89,7 +90,13 @@ NUMBER_RANGES = {
     "dual_max_hairs": (0.0, 1e6),
 }
 TABLE_SIZES = {"chiang_size": (8, 1024), "lut_size": (8, 4096), "dual_size": (8, 4096)}
-MELANIN_MAX = 50.0     # Chiang's concentrations run 0..8; far past it every fibre is black
+# the models scaled to Chiang's R albedo: the scale's maker and the GLSL define that carries it
+NORMS = {"kajiya_kay": kajiya_kay.specular_norm, "sadeghi": sadeghi.norm, "scheuermann": scheuermann.norm}
+NORM_DEFINES = {"kajiya_kay": "HAIR_KK_SPECULAR_NORM", "sadeghi": "HAIR_SADEGHI_NORM",
+                "scheuermann": "HAIR_SCHEUERMANN_NORM"}
+# the colour-driven models whose colour is made from Chiang's fibre: (sigma_a -> colour, its inverse)
+FIBRE_COLOURS = {"kajiya_kay": (kajiya_kay.diffuse_albedo, kajiya_kay.sigma_a_for_albedo),
+                 "scheuermann": (scheuermann.color, scheuermann.sigma_a_for_color)}
 SIGMA_A_MAX = 1e4      # absorption per unit radius: exp(-1e4) is 0 in any float
 COLOR_MAX = 1e3
 TABLES = ("exact", "interpolated")
@@ -268,11 +275,8 @@ class ShadingSettings:
         if self.sigma_a is not None:
             return np.asarray(self.sigma_a, dtype=np.float64).reshape(3)
         if self.color is not None:
-            if self.model == "kajiya_kay":   # the colour is the fibre's diffuse albedo (kajiya_kay.py)
-                return kajiya_kay.sigma_a_for_albedo(self.color, *self._fibre)
-            if self.model == "scheuermann":  # Kajiya-Kay's albedo, rescaled (scheuermann.color)
-                kk = np.asarray(self.color, np.float64) * (2.0 * scheuermann.diffuse_back_albedo())
-                return kajiya_kay.sigma_a_for_albedo(kk, *self._fibre)
+            if self.model in FIBRE_COLOURS:   # their colour made from Chiang's fibre, inverted
+                return FIBRE_COLOURS[self.model][1](self.color, *self._fibre)
             if self.model in COLOUR_MODELS:
                 return fibre_color_to_sigma_a(self.color)
             return color_to_sigma_a(self.color, self.beta_n)
@@ -286,11 +290,9 @@ class ShadingSettings:
         models (their ambient term)."""
         if self.color is not None and self.sigma_a is None:
             return np.asarray(self.color, dtype=np.float64).reshape(3)
-        if self.model == "kajiya_kay":
-            return self._derived("_kk_color", lambda: kajiya_kay.diffuse_albedo(
+        if self.model in FIBRE_COLOURS:
+            return self._derived("_fibre_color", lambda: FIBRE_COLOURS[self.model][0](
                 self.resolved_sigma_a(), *self._fibre)).copy()
-        if self.model == "scheuermann":
-            return self._derived("_sch_color", lambda: scheuermann.color(self.resolved_sigma_a(), *self._fibre)).copy()
         if self.model in COLOUR_MODELS:
             return fibre_color(self.resolved_sigma_a())
         return sigma_a_to_color(self.resolved_sigma_a(), self.beta_n)
@@ -310,18 +312,8 @@ class ShadingSettings:
             "HAIR_DUAL_DF": _glsl_float(self.dual_density_front),
             "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
             "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
-            **self._model_norm(),
+            **({NORM_DEFINES[self.model]: _glsl_float(self.model_norm)} if self.model in NORM_DEFINES else {}),
         }
-
-    def _model_norm(self) -> dict:
-        """The scale define of the drawn model where it has one (its model file defines the
-        others as unused): Kajiya-Kay's, Sadeghi's and Scheuermann's highlights at Chiang's R
-        albedo (~0.05 s of NumPy each, so only the drawn model's)."""
-        name, value = {"kajiya_kay": ("HAIR_KK_SPECULAR_NORM", lambda: self.kk_specular_norm),
-                       "sadeghi": ("HAIR_SADEGHI_NORM", lambda: self.sadeghi_norm),
-                       "scheuermann": ("HAIR_SCHEUERMANN_NORM", lambda: self.scheuermann_norm)}.get(
-                           self.model, (None, None))
-        return {name: _glsl_float(value())} if name else {}
 
     @property
     def _fibre(self) -> tuple:
@@ -329,19 +321,13 @@ class ShadingSettings:
         return float(self.eta), float(self.beta_n), float(self.roughness), float(self.shift)
 
     @property
-    def kk_specular_norm(self) -> float:
-        """Kajiya-Kay's highlight scale at ``specular`` 1 (kajiya_kay.specular_norm)."""
-        return self._derived("_kk_norm", lambda: kajiya_kay.specular_norm(*self._fibre))
-
-    @property
-    def sadeghi_norm(self) -> float:
-        """Sadeghi's scale: its R lobe at Chiang's R albedo (sadeghi.norm)."""
-        return self._derived("_sadeghi_norm", lambda: sadeghi.norm(*self._fibre))
-
-    @property
-    def scheuermann_norm(self) -> float:
-        """Scheuermann's highlights' scale: the primary at Chiang's R albedo (scheuermann.norm)."""
-        return self._derived("_scheuermann_norm", lambda: scheuermann.norm(*self._fibre))
+    def model_norm(self) -> float | None:
+        """The drawn model's scale to Chiang's R albedo (its GLSL define NORM_DEFINES[model]):
+        Kajiya-Kay's highlight (kajiya_kay.specular_norm), Sadeghi's whole function
+        (sadeghi.norm), Scheuermann's highlights (scheuermann.norm); None for the other models.
+        ~0.05 s of NumPy, so only the drawn model's, once per settings object."""
+        make = NORMS.get(self.model)
+        return None if make is None else self._derived("_model_norm", lambda: make(*self._fibre))
 
     def material_uniforms(self, prefix: str = "u_material") -> dict:
         """Values of ``uniform HairMaterial <prefix>`` fields ('u_material.color': (r, g, b), ...).

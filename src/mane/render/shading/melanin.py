@@ -54,6 +54,8 @@ PRESETS: dict[str, tuple[float, float]] = {
     "grey": (0.12, 0.0),
 }
 
+MELANIN_MAX = 50.0   # the concentrations accepted: Chiang's run 0..8; far past it every fibre is black
+
 EUMELANIN_SIGMA_A = (0.419, 0.697, 1.37)
 PHEOMELANIN_SIGMA_A = (0.187, 0.4, 1.05)
 DEFAULT_BETA_N = 0.3

@@ -17,7 +17,6 @@ import math
 import numpy as np
 
 from . import kajiya_kay
-from .kajiya_kay import r_albedo
 
 N_GRID = 512
 
@@ -58,6 +57,12 @@ def color(sigma_a, *fibre) -> np.ndarray:
     return 0.5 * kajiya_kay.diffuse_albedo(sigma_a, *fibre) / diffuse_back_albedo()
 
 
+def sigma_a_for_color(color, *fibre) -> np.ndarray:
+    """The absorption whose ``color`` is ``color`` (the inverse of ``color``)."""
+    kk = np.asarray(color, np.float64) * (2.0 * diffuse_back_albedo())
+    return kajiya_kay.sigma_a_for_albedo(kk, *fibre)
+
+
 def norm(eta: float, beta_n: float, roughness: float, shift: float) -> float:
     """The factor on both highlights (HAIR_SCHEUERMANN_NORM)."""
-    return r_albedo(eta, beta_n, roughness, shift) / primary_albedo(roughness, shift)
+    return kajiya_kay.r_albedo(eta, beta_n, roughness, shift) / primary_albedo(roughness, shift)
