@@ -8,7 +8,7 @@ import pytest
 
 from mane.errors import UsageError
 from mane.gpu.capabilities import get_capabilities
-from mane.gpu.profiler import GpuProfiler
+from mane.gpu.profiler import EVERY, GpuProfiler, profile_every
 
 pytestmark = pytest.mark.gpu
 
@@ -49,7 +49,7 @@ def test_source_is_cpu_on_software_renderers(gl):
 
 @pytest.mark.parametrize("source", ["cpu", "gpu-timer"])
 def test_a_compute_dispatch_is_timed(gl, work, source):
-    prof = GpuProfiler(gl, source=source)
+    prof = GpuProfiler(gl, source=source, every=1)
     assert prof.source == source
     for _ in range(3):
         with prof.section("simulate"):
@@ -63,7 +63,7 @@ def test_a_compute_dispatch_is_timed(gl, work, source):
 
 @pytest.mark.parametrize("source", ["cpu", "gpu-timer"])
 def test_sections_nest(gl, work, source):
-    prof = GpuProfiler(gl, source=source)
+    prof = GpuProfiler(gl, source=source, every=1)
     for _ in range(2):
         with prof.section("render"):
             work()
@@ -116,6 +116,54 @@ def test_gpu_results_are_polled_not_waited_for(gl, work, monkeypatch):
     assert len(prof.samples("pass")) == 6
 
 
+@pytest.mark.parametrize("source", ["cpu", "gpu-timer"])
+def test_every_nth_frame_is_timed(gl, work, source):
+    """``every`` N: the sections of frames 0, N, 2N... are timed, the others cost nothing; by
+    default one frame in four."""
+    assert GpuProfiler(gl, source=source).every == EVERY == 4
+    prof = GpuProfiler(gl, source=source, every=3)
+    for _ in range(7):
+        with prof.section("simulate"):
+            work()
+        prof.frame()
+    assert len(prof.samples("simulate", wait=True)) == 3   # frames 0, 3 and 6
+    assert prof.frames == 7 and len(prof._frame_ms) == 6    # the wall time of every frame
+    for bad in (0, -2, 1.5, "4", True):
+        with pytest.raises(UsageError, match="every"):
+            GpuProfiler(gl, source=source, every=bad)
+
+
+def test_one_availability_query_a_frame_while_the_gpu_is_behind(gl, work, monkeypatch):
+    """Sections end in the order their closing stamps were issued, and the GPU writes stamps in
+    that order: the first result not ready ends the look (each query can flush the driver's
+    command buffer on the CPU's issue of the frame)."""
+    prof = GpuProfiler(gl, source="gpu-timer")
+    asked = []
+
+    def never(q):
+        asked.append(q)
+        return False
+
+    monkeypatch.setattr(prof._queries, "available", never)
+    for name in ("a", "b", "c", "d", "e"):
+        with prof.section(name):
+            work()
+    assert asked == []            # sections do not poll
+    prof.frame()
+    assert len(asked) == 1        # the frame asks once, for the oldest section
+    monkeypatch.undo()
+    prof.flush()
+    assert [len(prof.samples(n)) for n in "abcde"] == [1] * 5
+
+
+def test_profile_arguments(gl):
+    """Renderer's and Simulator's ``profile``: False off, True the source's default, N every Nth."""
+    assert [profile_every(p) for p in (False, True, 0, 1, 8)] == [0, None, 0, 1, 8]
+    for bad in (-1, 2.5, "yes", None):
+        with pytest.raises(UsageError, match="profile must be"):
+            profile_every(bad)
+
+
 def test_summary_is_a_table(gl):
     prof = GpuProfiler(gl, source="cpu")
     with prof.section("simulate"):
@@ -154,3 +202,30 @@ def test_llvmpipe_timer_queries_are_unreliable(gl):
         pytest.skip(f"llvmpipe's GL_TIME_ELAPSED looks right now ({elapsed} ns vs {cpu_ns:.0f} ns on the CPU): "
                     "the CPU fallback for software renderers may no longer be needed")
     assert elapsed < 0.1 * cpu_ns
+
+
+def test_renderer_and_simulator_time_every_nth_frame(gl):
+    """``Renderer(profile=N)`` times the passes of every Nth frame, ``Simulator(profile=N)`` every
+    Nth step's; the rest issue no queries (and drain nothing)."""
+    from mane.render import Renderer, RenderSettings
+    from mane.sim import Simulator
+    from tests.test_oit_methods import BASE, CAM, LIGHTS, curtain_groom
+
+    groom = curtain_groom(n=8, points=6)
+    sim = Simulator(groom, [], ctx=gl, profile=2)
+    r = Renderer(RenderSettings(**BASE), ctx=gl, profile=3)
+    try:
+        r.set_strands(sim)
+        for _ in range(5):
+            sim.step()
+        for _ in range(7):
+            r.render(CAM, LIGHTS)
+        assert r.profiler.every == 3 and r.profiler.frames == 7
+        assert {len(r.profiler.samples(n, wait=True)) for n in r.profiler.names()} == {3}   # frames 0, 3, 6
+        assert sim._profiler.every == 2 and sim._profiler.frames == 5
+        assert {len(sim._profiler.samples(n, wait=True)) for n in sim._profiler.names()} == {3}   # steps 0, 2, 4
+        with pytest.raises(UsageError, match="profile must be"):
+            Renderer(RenderSettings(**BASE), ctx=gl, profile=-1)
+    finally:
+        r.release()
+        sim.release()

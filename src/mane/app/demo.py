@@ -28,8 +28,6 @@ from ..presets import (  # noqa: F401  (the quality levels and the demo scene: m
 )
 from ..render.shading.melanin import preset_names
 
-PROFILE_EVERY = 4    # on a software renderer, time every 4th frame (CPU timing drains the pipeline)
-
 
 FORMATS = (".npz", ".hair", ".ply", ".usda", ".data", ".abc", ".tfx")
 
@@ -272,8 +270,6 @@ def _run_headless(args) -> int:
             renderer.set_head_transform(motion)
             phase = 2 * math.pi * t / max(seconds, 1e-6)
             sweep.move_to(centre + radius * np.array([1.6 * math.cos(phase), 0.2, 1.6 * math.sin(phase)]))
-            if software:
-                sim.profile = renderer.profiler.enabled = i % PROFILE_EVERY == 0
             t_busy = time.perf_counter()
             if i:
                 sim.advance(1.0 / q.fps)

@@ -117,7 +117,7 @@ class BenchRows:
             raise ValueError(f"unknown mode {mode!r}; one of {', '.join(modes)}")
         self.ctx, self.mode = ctx, mode
         self.progress = progress or (lambda msg: None)
-        self.prof = GpuProfiler(ctx, history=history, pool_size=64, source=profiler_source)
+        self.prof = GpuProfiler(ctx, history=history, pool_size=64, source=profiler_source, every=1)
         self.rows: list[dict] = []
         self.started = time.perf_counter()
 

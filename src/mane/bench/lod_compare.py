@@ -28,7 +28,7 @@ GUIDES, POINTS = 6250, 17   # the scale rows' default groom (mane.bench.scale_ro
 def _frame(ctx, settings, groom, head, frames: int):
     from ..render import Renderer
 
-    r = Renderer(settings, ctx=ctx, profile=True)
+    r = Renderer(settings, ctx=ctx, profile=1)   # every frame
     try:
         if groom is not None:
             r.set_strands(groom)

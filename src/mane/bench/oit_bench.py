@@ -156,7 +156,7 @@ class Bench(BenchRows):
 
         ctx, cfg = self.ctx, self.cfg
         groom, head = self.scene()
-        r = Renderer(s, ctx=ctx, profile=True)
+        r = Renderer(s, ctx=ctx, profile=1)   # every frame
         try:
             r.set_strands(groom)
             r.set_head(head)

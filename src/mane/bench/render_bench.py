@@ -397,7 +397,7 @@ class Bench(BenchRows):
         W, N = int(cfg["warmup"]), int(cfg["frames"])
         budget = float(cfg["config_budget_s"]) * float(budget_scale)
         self._release_error = None
-        r = Renderer(s, ctx=ctx, profile=True, profiler_source=self.profiler_source)
+        r = Renderer(s, ctx=ctx, profile=1, profiler_source=self.profiler_source)   # every frame
         try:
             r.set_strands(groom)
             r.set_head(self.work.head)

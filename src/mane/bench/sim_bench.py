@@ -214,7 +214,7 @@ class Bench(BenchRows):
         from ..sim import Simulator
 
         groom = scalp_groom(S, N)
-        sim = Simulator(groom, colliders, settings, self.ctx, points_per_strand=N, profile=True)
+        sim = Simulator(groom, colliders, settings, self.ctx, points_per_strand=N, profile=1)   # every step
         sim.profile = False  # per-pass sections only in phase 3
         return sim
 

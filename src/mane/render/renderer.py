@@ -26,7 +26,7 @@ from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
 from ..gpu.glsl import ProgramMemo
 from ..gpu.lifetime import GpuOwner
-from ..gpu.profiler import GpuProfiler
+from ..gpu.profiler import GpuProfiler, profile_every
 from ..gpu.uniforms import write_uniform
 from .camera import Camera, look_at, orthographic, perspective
 from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
@@ -88,7 +88,7 @@ DEFAULT_HEAD_FRAME_FLOOR = -0.30
 class Renderer(GpuOwner):
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
-    def __init__(self, settings: RenderSettings | None = None, *, ctx=None, profile: bool = True,
+    def __init__(self, settings: RenderSettings | None = None, *, ctx=None, profile: bool | int = True,
                  profiler_source: str | None = None):
         self.ctx = ctx if ctx is not None else get_context()
         self._compute_raster = None   # (settings, compute_raster)
@@ -102,7 +102,8 @@ class Renderer(GpuOwner):
         self.samples = max(1, min(int(self.settings.msaa), max_samples))
         self.shading = ShadingAdapter(self.settings.shading, self.settings.hair_color,
                                       self.settings.shading_options)
-        self.profiler = GpuProfiler(self.ctx, enabled=profile, source=profiler_source)
+        every = profile_every(profile)   # True: the profiler's default, N: every Nth frame's passes
+        self.profiler = GpuProfiler(self.ctx, enabled=every != 0, source=profiler_source, every=every or None)
         self.scan_forms = ScanForms(self.ctx)   # the compute rasteriser's scan form per site, by measurement
         self.strands: StrandBuffers | None = None
         self.head = None

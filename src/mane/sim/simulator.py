@@ -59,7 +59,7 @@ import numpy as np
 from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
 from ..gpu.lifetime import GpuOwner
-from ..gpu.profiler import GpuProfiler
+from ..gpu.profiler import GpuProfiler, profile_every
 from ..phases import phase
 from . import head_motion
 from .bindings import B_GATHER_BOUNDS, B_GATHER_GRID, TEX_SDF_FIRST
@@ -140,7 +140,7 @@ class Simulator(GpuOwner):
     """GPU strand simulation of a groom (see the module doc)."""
 
     def __init__(self, groom, colliders=(), settings: SimSettings | None = None, ctx=None, *,
-                 points_per_strand: int | None = None, head_transform=None, profile: bool = False):
+                 points_per_strand: int | None = None, head_transform=None, profile: bool | int = False):
         self.ctx = ctx if ctx is not None else get_context()
         self.settings = settings if settings is not None else SimSettings()
         self.groom = self._prepare(groom, points_per_strand)
@@ -171,11 +171,12 @@ class Simulator(GpuOwner):
         self._flip_key = None
         self._rest_density = None
         self._deferred: SimState | None = None   # the state whose gather waits on self._grid
-        self.profile = bool(profile)
+        every = profile_every(profile)   # True: the profiler's default, N: every Nth step's passes
+        self.profile = every != 0
         self._timer = _Timer()
         self._profiler = None
         if self.profile:
-            self._profiler = GpuProfiler(self.ctx)
+            self._profiler = GpuProfiler(self.ctx, every=every)
 
     # ------------------------------------------------------------------ set-up
     @staticmethod
@@ -285,7 +286,8 @@ class Simulator(GpuOwner):
         for j in range(n):
             head = head_to if j == n - 1 else head_motion.interpolate(head_from, head_to, (j + 1) / n)
             self.substep(st, h, head)
-
+        if self.profile and self._profiler is not None:
+            self._profiler.frame()   # a step is the profiler's frame: its results read, its 'every' counted
     def substep(self, st: SimState, h: float, head: np.ndarray) -> None:
         """Every pass once (but the folded ones), with step ``h`` seconds and the head at ``head``."""
         st.head = np.asarray(head, dtype=np.float64)

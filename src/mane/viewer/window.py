@@ -547,10 +547,6 @@ class Viewer:
             self._save_screenshot(path)
         self._timings(real_dt)
         self.frames += 1
-        if self.software:    # CPU timing drains the pipeline: time every 4th frame only
-            on = self.frames % 4 == 0
-            self.renderer.profiler.enabled = on
-            self.sim.profile = on
         if not self.auto_quality:
             self.auto_quality_state = "off"
         elif self.auto_quality_state == "off":
