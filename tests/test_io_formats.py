@@ -596,6 +596,12 @@ def test_unknown_suffix_and_missing_file(tmp_path):
         mane.load(tmp_path / "x.xyz")
     with pytest.raises(FormatError, match="no such file"):
         mane.load(tmp_path / "x.hair")
+    (tmp_path / "folder.tfx").mkdir()
+    with pytest.raises(FormatError, match="folder.tfx: a folder, not a file"):
+        mane.load(tmp_path / "folder.tfx")
+    (tmp_path / "head.obj").mkdir()
+    with pytest.raises(FormatError, match="head.obj: a folder, not a file"):
+        mane.load_mesh(tmp_path / "head.obj")
     with pytest.raises(UnsupportedFormatError):
         mane.save(sample_groom(), tmp_path / "x.tfxproj")
     (tmp_path / "dir.hair").mkdir()

@@ -293,6 +293,25 @@ def test_render_settings_refuse_nan():
             RenderSettings(**kw)
 
 
+@pytest.mark.gpu
+def test_render_refuses_a_groom_not_in_metres(gl, groom_file, capsys):
+    """A groom a kilometre or more across (another unit, a scale typed wrong) is refused in one
+    line: drawn in metres it would be invisible, or at 1e30 fail in the camera's maths."""
+    from mane.render import Renderer, RenderSettings
+
+    r = Renderer(RenderSettings(size=(32, 24)), ctx=gl, profile=False)
+    try:
+        r.set_strands(tiny_groom().scaled(2e3))     # a few cm of hair x 2,000: metres become km
+        with pytest.raises(UsageError, match=r"the groom spans .* m: it is not hair in metres"):
+            r.set_strands(tiny_groom().scaled(1e5))
+        with pytest.raises(UsageError, match="not hair in metres"):
+            r.set_strands(tiny_groom().scaled(1e30))
+    finally:
+        r.release()
+    msg = cli_error(capsys, ["render", str(groom_file), "--scale", "1e30", "--out", "x.png"])
+    assert "not hair in metres" in msg
+
+
 def test_camera_refuses_zero_fov_and_nan():
     from mane.render.camera import Camera
 

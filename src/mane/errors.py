@@ -25,6 +25,13 @@ class FormatError(ManeError):
         self.offset = offset
 
 
+def not_a_file(path) -> FormatError:
+    """The error for a path that is not a file to read: a folder, or nothing."""
+    from pathlib import Path
+
+    return FormatError("a folder, not a file" if Path(path).is_dir() else "no such file", path)
+
+
 class UnsupportedFormatError(ManeError):
     """No reader or writer knows this file suffix."""
 

@@ -13,7 +13,7 @@ import argparse
 import json
 from pathlib import Path
 
-from ..errors import FormatError, UnsupportedFormatError
+from ..errors import FormatError, UnsupportedFormatError, not_a_file
 from ..io import HAIR_FORMATS, MESH_FORMATS, load, load_mesh
 
 
@@ -43,8 +43,8 @@ def describe(path, args=None) -> dict:
     from .options import fit_warnings, load_groom, load_head
 
     path = Path(path)
-    if not path.exists():
-        raise FormatError("no such file", path)
+    if not path.is_file():
+        raise not_a_file(path)
     if is_mesh_file(path):
         # a mesh on its own takes the head options when given, else the groom ones
         mesh = load_mesh(path, units=_opt(args, "head_units", "units"), up=_opt(args, "head_up", "up"),

@@ -9,7 +9,7 @@ import importlib
 import os
 from pathlib import Path
 
-from ..errors import FormatError, ManeError, UnsupportedFormatError
+from ..errors import FormatError, ManeError, UnsupportedFormatError, not_a_file
 from ..groom import Groom
 
 # suffix -> (module, can read, can write). Modules define read(path, **options) -> Groom
@@ -59,7 +59,7 @@ def load(path, units="auto", up="auto", scale=None, **options) -> Groom:
     suffix = path.suffix.lower()
     mod = _module(suffix, path, "read")
     if not path.is_file():
-        raise FormatError("no such file", path)
+        raise not_a_file(path)
     options = {**_READ_OPTIONS.get(suffix, {}), **options}
     try:
         groom = mod.read(path, **options)

@@ -32,7 +32,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..errors import FormatError, GroomError, UnsupportedFormatError
+from ..errors import FormatError, GroomError, UnsupportedFormatError, not_a_file
 from ..mesh import Mesh
 from .binary import read_file_bytes
 
@@ -48,7 +48,7 @@ def read_mesh(path) -> Mesh:
             f"{path}: cannot read {suffix or 'files without a suffix'} meshes; "
             f"supported: {', '.join(MESH_SUFFIXES)}")
     if not path.is_file():
-        raise FormatError("no such file", path)
+        raise not_a_file(path)
     try:
         if suffix == ".tfxmesh":
             return read_tfxmesh(path)

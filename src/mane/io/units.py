@@ -48,6 +48,7 @@ SOURCES = ("option", "declared", "convention", "guessed", "default")
 HAIR_LENGTH = (0.005, 2.0)        # median strand length
 GROOM_SPAN = (0.08, 5.0)          # bounding-box diagonal of a groom (a fringe .. a bear)
 MESH_SPAN = (0.2, 3.0)           # bounding-box diagonal of a head, bust or body mesh
+MAX_GROOM_SPAN = 1e3              # a groom wider than this is refused, not warned about: not in metres
 TYPICAL_LENGTH, TYPICAL_SPAN, TYPICAL_HEAD = 0.2, 0.5, 0.35
 
 
@@ -404,10 +405,12 @@ def check_fit(groom, mesh, far: float | None = None) -> dict:
 
 
 def plausibility(groom) -> list[str]:
-    """Warnings when a groom in metres does not look like hair."""
+    """Warnings when a groom in metres does not look like hair (check_groom_span's error when it
+    cannot be hair in metres at all)."""
     w = []
-    med = float(np.median(groom.strand_lengths()))
     lo, hi = groom.bbox()
+    check_groom_span(lo, hi)
+    med = float(np.median(groom.strand_lengths()))
     span = float(np.linalg.norm(hi.astype(np.float64) - lo))
     if not HAIR_LENGTH[0] <= med <= HAIR_LENGTH[1]:
         w.append(f"median strand length {med:.3g} m is implausible for hair (expected "
@@ -416,6 +419,16 @@ def plausibility(groom) -> list[str]:
         w.append(f"the groom spans {span:.3g} m (expected {GROOM_SPAN[0]}..{GROOM_SPAN[1]} m): "
                  "check --units/--scale")
     return w
+
+
+def check_groom_span(lo, hi) -> None:
+    """Refuse a groom whose box (``lo``, ``hi``) is not finite or spans more than MAX_GROOM_SPAN:
+    the renderer works in metres (strand widths, lights, shadow maps), so such a groom would be
+    drawn as nothing or fail in its camera's maths."""
+    span = float(np.linalg.norm(np.asarray(hi, np.float64) - np.asarray(lo, np.float64)))
+    if not math.isfinite(span) or span > MAX_GROOM_SPAN:
+        raise UsageError(f"the groom spans {span:.3g} m: it is not hair in metres. Scale it (Groom.scaled, "
+                         f"or the units=/scale= of mane.load; --units/--scale)")
 
 
 def frame_summary(frame: dict | None) -> str:

@@ -18,6 +18,7 @@ from ..errors import GroomError, UsageError
 from ..gpu.buffers import as_device, check_allocation
 from ..gpu.glsl import ProgramMemo, compute_shader
 from ..gpu.uniforms import write_uniform
+from ..io.units import check_groom_span
 from .bindings import B_FRAMES, B_POSITIONS
 
 HERE = Path(__file__).resolve().parent
@@ -64,6 +65,7 @@ class StrandBuffers:
     @classmethod
     def from_groom(cls, ctx, groom, points_per_strand: int | None = None) -> "StrandBuffers":
         g = uniform_groom(groom, points_per_strand)
+        check_groom_span(*g.bbox())
         pts = g.as_padded().astype(np.float32)
         S, N = pts.shape[:2]
         # positions and frames: both before either is made
