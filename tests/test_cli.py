@@ -45,3 +45,23 @@ def test_unknown_command_is_a_usage_error(capsys):
     with pytest.raises(SystemExit) as exc:
         main(["no-such-command"])
     assert exc.value.code == 2
+
+
+@pytest.mark.parametrize("argv, words", [
+    (["simulate", "g.tfx", "--frames", "2"], ["mane simulate: error: unrecognized arguments: --frames 2",
+                                             "did you mean --max-frames"]),
+    (["render", "--sise", "64x64"], ["mane render: error: unrecognized arguments: --sise", "--size"]),
+    (["grow", "--out", "g.npz", "--zzz"], ["mane grow: error: unrecognized arguments: --zzz"]),
+    (["--frames"], ["mane: error: unrecognized arguments: --frames"]),
+])
+def test_an_unknown_option_is_named_by_its_command(capsys, argv, words):
+    """The command's own usage and prefix (not the top parser's), with the closest options."""
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    last = err.strip().splitlines()[-1]
+    for w in words:
+        assert w in last, err
+    if argv[0] != "--frames":
+        assert f"usage: mane {argv[0]}" in err

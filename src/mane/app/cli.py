@@ -7,6 +7,7 @@ Each command module defines ``HELP`` (one line), ``add_arguments(parser)`` and
 from __future__ import annotations
 
 import argparse
+import difflib
 import importlib
 import signal
 import sys
@@ -39,12 +40,24 @@ def build_parser(chosen: str | None = None) -> argparse.ArgumentParser:
     )
     parser.add_argument("--version", action="version", version=f"mane {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    parser.commands = {}
     for name, (module, help_text) in COMMANDS.items():
-        p = sub.add_parser(name, help=help_text, description=help_text)
+        p = parser.commands[name] = sub.add_parser(name, help=help_text, description=help_text)
         p.set_defaults(_module=module)
         if name == chosen:
             importlib.import_module(module).add_arguments(p)
     return parser
+
+
+def refuse_unknown(parser: argparse.ArgumentParser, extra: list[str]) -> None:
+    """argparse's error for arguments no option takes, from the command's own parser (its usage,
+    ``mane CMD: error:``), with the options closest to each unknown one (``--frames``: did you
+    mean --max-frames?)."""
+    options = [o for a in parser._actions for o in a.option_strings]
+    near = [m for e in extra if e.startswith("--")
+            for m in difflib.get_close_matches(e.split("=", 1)[0], options, n=2, cutoff=0.6)]
+    hint = f" (did you mean {' or '.join(dict.fromkeys(near))}?)" if near else ""
+    parser.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
 
 
 class Terminated(KeyboardInterrupt):
@@ -70,7 +83,9 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else list(argv)
     chosen = next((a for a in argv if not a.startswith("-")), None)
     parser = build_parser(chosen)
-    args = parser.parse_args(argv)
+    args, extra = parser.parse_known_args(argv)
+    if extra:
+        refuse_unknown(parser.commands.get(getattr(args, "command", None), parser), extra)
     if not getattr(args, "command", None):
         parser.print_help()
         return 0
