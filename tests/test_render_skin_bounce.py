@@ -231,9 +231,7 @@ def _rendered_maps(gl):
         r.set_head(mesh)
         frame = r.render(r.default_camera(), [Light("directional", (0.35, 0.8, 0.5), intensity=3.0)])
         p = r.get_pass("skin_bounce")
-        n = sb.RSM_SIZE
-        levels = [[np.frombuffer(t.read(level=k), np.float32).reshape(n >> k, n >> k, 4).astype(np.float64)
-                   for k in range(sb.mip_levels())] for t in (p.flux, p.geom, p.dom)]
+        levels = _built_levels(p)
         lv = frame.light_view
         lu = _lighting_uniforms(r, frame)
         pts = r.get_pass("expand").read()
@@ -248,6 +246,19 @@ def _rendered_maps(gl):
 
 
 @pytest.mark.gpu
+def _built_levels(p) -> list:
+    """The pass's three maps as the gather sees them: the levels it built read from the GPU (up
+    to the deepest level its samples read), the smaller ones (which the gather never reads)
+    continued by NumPy's 2 x 2 means so that the twins get a whole chain."""
+    n, top = sb.RSM_SIZE, p._uniforms[2]
+    out = []
+    for t in (p.flux, p.geom, p.dom):
+        got = [np.frombuffer(t.read(level=k), np.float32).reshape(n >> k, n >> k, 4).astype(np.float64)
+               for k in range(top + 1)]
+        out.append(got + sb.mipmaps(got[-1])[1:])
+    return out
+
+
 def test_glsl_grid_matches_numpy(gl, tmp_path):
     """skin_bounce_grid.comp (the pass's grid, read back) against its twin, the NumPy gather at
     every cell's centre, within 3e-3 (the gather's 2e-3 and the half floats' 5e-4); and the hair
@@ -268,9 +279,7 @@ def test_glsl_grid_matches_numpy(gl, tmp_path):
         size = sb.grid_size(r)
         got = np.frombuffer(p.grid.read(), np.float16).reshape(size[2], size[1], size[0], 4)[..., :3].astype(np.float64)
         u = frame.targets["skin_rsm"][3]
-        n = sb.RSM_SIZE
-        levels = [[np.frombuffer(t.read(level=k), np.float32).reshape(n >> k, n >> k, 4).astype(np.float64)
-                   for k in range(sb.mip_levels())] for t in (p.flux, p.geom, p.dom)]
+        levels = _built_levels(p)
         lu = _lighting_uniforms(r, frame)
         lv = frame.light_view
         lo = np.array(u["u_bounce_grid_lo"])

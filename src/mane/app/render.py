@@ -272,7 +272,7 @@ def run(args) -> int:
         from ..grooming.scene import DEFAULT_SCENE_RENDER
 
         settings = settings.replace(**DEFAULT_SCENE_RENDER)
-    renderer = Renderer(settings)
+    renderer = Renderer(settings, profile=1)   # a file render times every frame: its --stats and summary
     try:
         return _render(args, settings, renderer, groom, head, lights, out, video, parse_camera, t0)
     finally:
