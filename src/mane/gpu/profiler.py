@@ -118,9 +118,9 @@ class GpuProfiler:
     name (a moving window; ``means`` averages it). ``pool_size``: query pairs in flight per name.
     ``every``: time the sections of every ``every``-th frame only (frames counted by ``frame()``,
     the first one timed); None: EVERY. The CPU source drains the pipeline at every section, and
-    on the H200 a timed frame of the renderer's took 0.29 ms more of the CPU to issue (its 30
-    ``glQueryCounter`` calls), so by default one frame in four is timed (docs/performance.md,
-    "The profiler's cost").
+    on one H200 machine a timed frame of the renderer's took the CPU 0.29-0.54 ms more to issue
+    (within the noise on another), so by default one frame in four is timed
+    (docs/performance.md, "The profiler's cost, and its timings").
     """
 
     def __init__(self, ctx, enabled: bool = True, *, source: str | None = None,
