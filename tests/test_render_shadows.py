@@ -398,3 +398,56 @@ def test_ms_shadow_footprint_feeds_the_multiple_scattering_only(gl, scene):
     assert np.all(np.abs(wide - bilinear) <= np.abs(bilinear - direct) + np.abs(wide - direct) + 1e-6)
     with pytest.raises(UsageError):
         RenderSettings(ms_shadow_footprint=-1)
+
+
+@pytest.mark.parametrize("method", ["deep_opacity", "shadow_map"])
+def test_a_still_heads_shadow_map_is_drawn_once(gl, method, monkeypatch):
+    """Where the hair does not cast into light 0's shadow map (every method but "shadow_map"), the
+    map holds the head alone: it is drawn again only when the head, its transform or the light's
+    view changes, and every frame is the picture a fresh renderer draws."""
+    from mane.render import Renderer
+    from mane.render.camera import Camera
+
+    mesh, _, L = _spheres_scene()
+    groom = curtain_groom(16, 8)
+    cam = Camera(eye=(0.0, 0.05, 0.6), target=(0.0, 0.0, 0.0), fov_y=35.0)
+    s = RenderSettings(size=(96, 72), shadows=method, shadow_map_size=256)
+
+    def fresh(transform=None, light=L):
+        r = Renderer(s, ctx=gl, profile=False)
+        try:
+            r.set_strands(groom)
+            r.set_head(mesh)
+            if transform is not None:
+                r.set_head_transform(transform)
+            r.render(cam, [Light("directional", tuple(light), intensity=2.0)])
+            return r.read_image(), r.get_pass("shadow_map").read()
+        finally:
+            r.release()
+
+    moved = np.eye(4)
+    moved[:3, 3] = (0.0, 0.02, 0.0)
+    other = np.array([0.2, 0.9, 0.3]) / np.linalg.norm([0.2, 0.9, 0.3])
+    r = Renderer(s, ctx=gl, profile=False)
+    draws = []
+    try:
+        r.set_strands(groom)
+        r.set_head(mesh)
+        sm = r.get_pass("shadow_map")
+        orig = sm.begin_depth
+        monkeypatch.setattr(sm, "begin_depth", lambda *a, **k: (draws.append(1), orig(*a, **k)))
+        steps = [(None, L), (None, L), (moved, L), (moved, L), (moved, other), (None, other)]
+        for transform, light in steps:
+            r.set_head_transform(np.eye(4) if transform is None else transform)
+            r.render(cam, [Light("directional", tuple(light), intensity=2.0)])
+            img, smap = r.read_image(), sm.read()
+            want_img, want_map = fresh(transform, light)
+            assert np.array_equal(smap, want_map)
+            assert np.array_equal(img, want_img)
+        r.set_head(mesh)   # a new head (the same mesh uploaded again): drawn again
+        r.render(cam, [Light("directional", tuple(other), intensity=2.0)])
+    finally:
+        r.release()
+    # the head alone: drawn at the first frame, after the move, after the light turned, after the
+    # move back, after set_head; the hair casting into it: every frame
+    assert len(draws) == (5 if method == "deep_opacity" else 7)

@@ -28,12 +28,18 @@ class ShadowMapPass(LightDepthPass):
         self.depth_target()   # made with the renderer: every method but "none" reads it
         self._z0 = None   # compute path: the hair's depth bits per texel
         self._programs = ProgramMemo()
+        self._kept = None   # what a map of the head alone was drawn from (its head, transform, view, texture)
 
     def enabled(self, frame: Frame) -> bool:
         return self.renderer.settings.shadows != "none" and frame.light_view is not None
 
     def run(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
+        kept = self._head_alone(frame)
+        if kept is not None and self._kept is not None and kept[0] is self._kept[0] and kept[1:] == self._kept[1:]:
+            frame.targets["shadow_map"] = self.texture   # the head and the light have not moved
+            return
+        self._kept = kept
         self.begin_depth()
         if r.head is not None and r.settings.draw_head:
             prog = self._programs.get("head", (), lambda: program(
@@ -46,6 +52,18 @@ class ShadowMapPass(LightDepthPass):
             else:
                 self.draw_hair_depth(frame)
         frame.targets["shadow_map"] = self.texture
+
+    def _head_alone(self, frame: Frame):
+        """What the map holds when the hair does not cast into it (every method but "shadow_map"):
+        the head's buffers (new at every set_head), its transform, the light's view and the map;
+        None when the hair casts. A map of the head alone is drawn again only when one of them
+        changes: the H200's few raster units take 0.07 ms (512^2) to 0.19 ms (1024^2) for it."""
+        r = self.renderer
+        if r.strands is not None and self.hair_casts():
+            return None
+        head = r.head is not None and bool(r.settings.draw_head)
+        return (r.head_buffers() if head else None, r.head_model() if head else None,
+                tuple(frame.light_view.uniforms().items()), id(self.depth_target()), self.texture.size)
 
     def _hair_by_compute(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
@@ -70,4 +88,4 @@ class ShadowMapPass(LightDepthPass):
 
     def release(self) -> None:
         super().release()
-        self._z0 = None
+        self._z0 = self._kept = None
