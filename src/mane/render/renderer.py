@@ -39,6 +39,7 @@ from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .passes.scan_form import ScanForms
+from .screen_box import FULL, screen_box, union
 from .settings import RenderSettings
 from .shading import ShadingSettings, hair_preset
 from .strand_buffers import StrandBuffers
@@ -131,6 +132,8 @@ class Renderer(GpuOwner):
         self._renderer_string = renderer_name(self.ctx)
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
         self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
+        self._depth_written = None      # (HDR depth texture, the head's screen box last drawn into it)
+        self._head_box = None            # (view, head, transform bytes, its screen box, the head's bounds)
         if self.compute_raster and not self.settings.head_msaa:
             self.samples = 1
         if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
@@ -567,18 +570,44 @@ class Renderer(GpuOwner):
             self._targets["hdr"] = Target(ctx.framebuffer([color], depth), color, depth)
         return self._targets["hdr"].fbo
 
-    def _clear_hdr(self, fbo) -> None:
+    def _clear_hdr(self, fbo, view) -> None:
         """Clear the HDR target to transparent black and depth 1. With the compute rasteriser and
         one sample the colour is cleared by a compute shader (mane.gpu.clear: on an H200 0.01
-        against 0.29 ms at 1080p) and only the depth by the raster units."""
+        against 0.29 ms at 1080p), and the depth, which only the head writes there, by the raster
+        units over the head's screen box of this frame and the last (screen_box)."""
         if self.samples > 1 or not self.compute_raster:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             return
+        target = self._targets["hdr"]
         if "hdr_depth" not in self._targets:
-            self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=self._targets["hdr"].depth),)
-        self._targets["hdr_depth"][0].clear(depth=1.0)
-        clear_texture(self.ctx, self._targets["hdr"].color, programs=self._programs)
+            self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=target.depth),)
+        box = self._head_screen_box(view)
+        written = self._depth_written   # (the depth texture, the box its last frame's head wrote)
+        area = union(box, written[1] if written is not None and written[0] is target.depth else FULL)
+        if area == FULL:
+            self._targets["hdr_depth"][0].clear(depth=1.0)
+        elif area is not None:
+            self._targets["hdr_depth"][0].clear(depth=1.0, viewport=area)
+        self._depth_written = (target.depth, box)
+        clear_texture(self.ctx, target.color, programs=self._programs)
         fbo.use()
+
+    def _head_screen_box(self, view):
+        """The head's screen box in ``view`` (screen_box; None without a head drawn), kept while
+        the view, the head and its transform are the same."""
+        if self.head is None or not self.settings.draw_head:
+            return None
+        model = self.head_model()[0]
+        memo = self._head_box
+        if memo is not None and memo[0] is view and memo[1] is self.head and memo[2] == model:
+            return memo[3]
+        if memo is None or memo[1] is not self.head:
+            bounds = self.head.bbox()
+        else:
+            bounds = memo[4]
+        box = screen_box(view.view_proj, bounds[0], bounds[1], self.head_transform, self.settings.size)
+        self._head_box = (view, self.head, model, box, bounds)
+        return box
 
     def hdr_target(self) -> Target:
         """The HDR target as drawn into: its framebuffer, colour and depth (multisampled
@@ -739,7 +768,7 @@ class Renderer(GpuOwner):
         fbo = self.hdr_fbo()
         fbo.use()
         with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
-            self._clear_hdr(fbo)
+            self._clear_hdr(fbo, frame.view)
         on_pass = self.on_pass
         for p in self.passes:
             if p.enabled(frame):
