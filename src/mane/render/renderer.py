@@ -386,6 +386,7 @@ class Renderer(GpuOwner):
             self._vaos = {k: v for k, v in self._vaos.items() if k[0] != "head"}
         self.head = mesh
         self.head_closed = False
+        self._head_box = None   # the same mesh object may come back with other vertices
         if mesh is None:
             return
         self.head_closed = mesh.closed_outward()   # the head pass culls its back faces then

@@ -288,6 +288,7 @@ class Simulator(GpuOwner):
             self.substep(st, h, head)
         if self.profile and self._profiler is not None:
             self._profiler.frame()   # a step is the profiler's frame: its results read, its 'every' counted
+
     def substep(self, st: SimState, h: float, head: np.ndarray) -> None:
         """Every pass once (but the folded ones), with step ``h`` seconds and the head at ``head``."""
         st.head = np.asarray(head, dtype=np.float64)
