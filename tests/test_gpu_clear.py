@@ -46,9 +46,10 @@ def test_unclearable_textures_are_refused_in_one_line(gl):
 
 @pytest.mark.gpu
 def test_frame_matches_the_raster_units_clear(gl):
-    """A compute-rasterised single-sample frame, its HDR target cleared by compute, equals the
-    same frame with the target cleared by glClear (the renderer's earlier way), bit for bit, and
-    stays so over frames (nothing of the last frame leaks into the next)."""
+    """A compute-rasterised single-sample frame, its HDR colour cleared by compute and its depth
+    over the head's screen box, equals the same frame with the whole target cleared by glClear
+    (the renderer's earlier way), bit for bit, and stays so over frames (nothing of the last
+    frame leaks into the next)."""
     from mane.grooming.scene import default_groom, default_head
     from mane.render import Renderer, RenderSettings
 
@@ -61,7 +62,7 @@ def test_frame_matches_the_raster_units_clear(gl):
         try:
             assert r.compute_raster and r.samples == 1
             if not compute_clear:
-                r._clear_hdr = lambda fbo: fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+                r._clear_hdr = lambda fbo, view: fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
             r.set_strands(groom)
             r.set_head(head)
             cam = r.default_camera()
