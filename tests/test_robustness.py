@@ -312,6 +312,25 @@ def test_render_refuses_a_groom_not_in_metres(gl, groom_file, capsys):
     assert "not hair in metres" in msg
 
 
+@pytest.mark.gpu
+def test_render_refuses_what_is_not_strands_lights_or_a_camera(gl):
+    """Passing the wrong kind of object is a one-line UsageError, not an AttributeError deep inside."""
+    from mane.render import Renderer, RenderSettings
+
+    r = Renderer(RenderSettings(size=(32, 24)), ctx=gl, profile=False)
+    try:
+        with pytest.raises(UsageError, match="strands must be a mane.Groom, a mane.sim.Simulator or StrandBuffers, got str"):
+            r.set_strands("hair.tfx")
+        r.set_strands(tiny_groom())
+        with pytest.raises(UsageError, match="lights must be mane.render.Light objects, got str"):
+            r.render(None, ["sun"])
+        with pytest.raises(UsageError, match="camera must be a mane.render.Camera, got tuple"):
+            r.render((0.0, 0.0, 1.0), None)
+        r.render(None, None)   # the defaults still draw
+    finally:
+        r.release()
+
+
 def test_camera_refuses_zero_fov_and_nan():
     from mane.render.camera import Camera
 

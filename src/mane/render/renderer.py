@@ -28,6 +28,7 @@ from ..gpu.glsl import ProgramMemo
 from ..gpu.lifetime import GpuOwner
 from ..gpu.profiler import GpuProfiler, profile_every
 from ..gpu.uniforms import write_uniform
+from ..groom import Groom
 from .camera import Camera, look_at, orthographic, perspective
 from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
 from .lights import MAX_LIGHTS, Light, default_lights
@@ -328,8 +329,11 @@ class Renderer(GpuOwner):
             self.strands = strands
         elif hasattr(strands, "state") and hasattr(strands.state, "positions"):
             self.strands = StrandBuffers.from_simulator(strands)
-        else:
+        elif isinstance(strands, Groom):
             self.strands = StrandBuffers.from_groom(self.ctx, strands, points_per_strand)
+        else:
+            raise UsageError(f"strands must be a mane.Groom, a mane.sim.Simulator or StrandBuffers, "
+                             f"got {type(strands).__name__}")
         groom = getattr(strands, "groom", strands) if not isinstance(strands, StrandBuffers) else None
         self._apply_file_appearance(groom)
         self._frames_dirty = True
@@ -340,7 +344,6 @@ class Renderer(GpuOwner):
         """The groom's own colour, width and opacity (settings.use_file_colors; file_appearance.py)."""
         from dataclasses import replace
 
-        from ..groom import Groom
         from .file_appearance import file_appearance
 
         before = self.settings
@@ -746,6 +749,11 @@ class Renderer(GpuOwner):
         lights = list(lights)
         if len(lights) > MAX_LIGHTS:
             raise UsageError(f"at most {MAX_LIGHTS} lights, got {len(lights)}")
+        if not all(isinstance(light, Light) for light in lights):
+            raise UsageError(f"lights must be mane.render.Light objects, got "
+                             f"{', '.join(sorted({type(x).__name__ for x in lights if not isinstance(x, Light)}))}")
+        if not isinstance(camera, Camera):
+            raise UsageError(f"camera must be a mane.render.Camera, got {type(camera).__name__}")
         one = self.settings.oit != "none" or (self.compute_raster and not self.settings.head_msaa)
         if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
