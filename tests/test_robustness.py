@@ -331,6 +331,20 @@ def test_render_refuses_what_is_not_strands_lights_or_a_camera(gl):
         r.release()
 
 
+@pytest.mark.gpu
+def test_simulator_refuses_a_path_and_a_nan_collider_move(gl):
+    from mane.sim import Simulator, Sphere
+
+    with pytest.raises(UsageError, match="groom must be a mane.Groom .mane.load reads a file., got str"):
+        Simulator("hair.tfx", ctx=gl)
+    ball = Sphere(center=(0.0, 0.0, 0.0), radius=0.05)
+    with pytest.raises(UsageError, match="finite 4x4"):
+        ball.move_to((float("nan"), 0.0, 0.0))
+    assert np.all(np.isfinite(ball.transform))   # the collider kept where it was
+    ball.move_to((0.1, 0.0, 0.0))
+    assert ball.transform[0, 3] == 0.1
+
+
 def test_camera_refuses_zero_fov_and_nan():
     from mane.render.camera import Camera
 

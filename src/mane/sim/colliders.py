@@ -107,7 +107,7 @@ class Collider:
         """Move the collider's centre (keeps its rotation)."""
         m = self.transform.copy()
         m[:3, 3] = np.asarray(center, dtype=np.float64).reshape(3)
-        self.transform = m
+        self.transform = _rigid(m)   # a NaN centre is refused here, not met by every particle
 
     def world_transform(self, head: np.ndarray | None = None) -> np.ndarray:
         if self.follow_head and head is not None:

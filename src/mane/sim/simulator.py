@@ -59,6 +59,7 @@ import numpy as np
 from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
 from ..gpu.lifetime import GpuOwner
+from ..groom import Groom
 from ..gpu.profiler import GpuProfiler, profile_every
 from ..phases import phase
 from . import head_motion
@@ -181,6 +182,8 @@ class Simulator(GpuOwner):
     # ------------------------------------------------------------------ set-up
     @staticmethod
     def _prepare(groom, points_per_strand):
+        if not isinstance(groom, Groom):
+            raise UsageError(f"groom must be a mane.Groom (mane.load reads a file), got {type(groom).__name__}")
         if points_per_strand is not None:
             n = int(points_per_strand)
             if not 2 <= n <= MAX_POINTS_PER_STRAND:
