@@ -6,7 +6,6 @@ key light: it always casts shadows; RenderSettings.shadow_lights makes the first
 from __future__ import annotations
 
 import math
-
 from dataclasses import dataclass
 
 import numpy as np

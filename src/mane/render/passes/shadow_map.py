@@ -55,15 +55,16 @@ class ShadowMapPass(LightDepthPass):
 
     def _head_alone(self, frame: Frame):
         """What the map holds when the hair does not cast into it (every method but "shadow_map"):
-        the head's buffers (new at every set_head), its transform, the light's view and the map;
-        None when the hair casts. A map of the head alone is drawn again only when one of them
-        changes: the H200's few raster units take 0.07 ms (512^2) to 0.19 ms (1024^2) for it."""
+        the head's buffers (new at every set_head), its transform and the light's view (whose
+        texel size follows the map's); None when the hair casts. A map of the head alone is drawn
+        again only when one of them changes (or after release): the H200's few raster units take
+        0.07 ms (512^2) to 0.19 ms (1024^2) for it."""
         r = self.renderer
         if r.strands is not None and self.hair_casts():
             return None
         head = r.head is not None and bool(r.settings.draw_head)
         return (r.head_buffers() if head else None, r.head_model() if head else None,
-                tuple(frame.light_view.uniforms().items()), id(self.depth_target()), self.texture.size)
+                tuple(frame.light_view.uniforms().items()))
 
     def _hair_by_compute(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
