@@ -118,6 +118,39 @@ def test_compute_image_matches_the_hardware_one_without_antialiasing(gl):
     assert np.percentile(d, 99) <= 16
 
 
+@pytest.mark.parametrize("msaa", [1, 4])
+def test_the_shading_pass_leaves_every_sample_reset(gl, msaa):
+    # hair_shade.comp resets only the samples a segment reached (an empty sample holds no
+    # coverage: the raster adds coverage only where it also takes the depth min), so after every
+    # frame the whole grid must be back to empty: depth bits and ids, and zero coverage. The
+    # camera moves and turns so that samples covered in one frame are empty in the next.
+    from mane.render.bindings import B_COVER, B_VIS, B_VIS_ID
+
+    groom, head = default_scene(num_guides=150, points=12, subdivisions=3)
+    s = RenderSettings(size=(96, 72), msaa=msaa, rasterizer="compute", shadows="deep_opacity",
+                       shadow_map_size=128, strands_per_guide=4)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        hc = r.get_pass("hair_compute")
+        covered = 0
+        for azimuth, distance in [(25.0, 1.0), (80.0, 0.6), (200.0, 1.4), (25.0, 1.0)]:
+            r.render(r.default_camera(azimuth, distance_scale=distance))
+            bufs = dict(hc._buffers)
+            cover = np.frombuffer(bufs[B_COVER].read(), np.uint32)
+            if hc.vis64:
+                words = [np.frombuffer(bufs[B_VIS].read(), np.uint64) != np.uint64(2 ** 64 - 1)]
+            else:
+                words = [np.frombuffer(bufs[B_VIS].read(), np.uint32) != 0xFFFFFFFF,
+                         np.frombuffer(bufs[B_VIS_ID].read(), np.uint32) != 0]
+            assert not any(w.any() for w in words) and not cover.any()
+            covered += int((r.read_image().max(axis=2) > 0).sum())
+        assert covered > 1000   # the frames drew hair
+    finally:
+        r.release()
+
+
 def test_hair_behind_the_head_is_hidden(gl):
     # seen from the front most strands pass behind the face: the twin, given the head's depth
     # buffer, keeps the same samples
