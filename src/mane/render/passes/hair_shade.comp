@@ -38,6 +38,20 @@ shared uint s_job_q[MAX_JOBS];   // the sample shaded: x | y << 16
 shared vec3 s_color[MAX_JOBS];
 shared uint s_jobs;
 
+// With 2 x 2 samples a pixel's four words lie together (sample_index): read and reset as one
+// vector each, not as four strided words (H200: the 100k close-up's pass 0.98 -> 0.80 ms, the
+// target frame's 0.21 -> 0.16)
+#define SHADE_VEC4 (SAMPLES == 4)
+#if SHADE_VEC4
+#if VIS64
+layout(std430, binding = B_VIS) buffer Vis4 { u64vec4 vis4[]; };
+#else
+layout(std430, binding = B_VIS) buffer VisDepth4 { uvec4 vis_depth4[]; };
+layout(std430, binding = B_VIS_ID) buffer VisId4 { uvec4 vis_id4[]; };
+#endif
+layout(std430, binding = B_COVER) buffer Cover4 { uvec4 cover4[]; };
+#endif
+
 void main() {
     ivec2 p = ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = u_raster_size / SHADE_GRID;
@@ -48,33 +62,65 @@ void main() {
     uint units[SAMPLES];
     bool hair = false;
     if (inside) {
-        const int MAX_SHADED = 4;
-        uint shaded_id[MAX_SHADED];
-        int shaded_job[MAX_SHADED];
-        int n_shaded = 0;
+        // each sample's nearest segment and coverage, and the words reset for the next frame; a
+        // sample no segment reached holds no coverage either (the raster adds coverage only
+        // where it also takes the depth min): nothing to reset there
+        uint ids[SAMPLES];
+#if SHADE_VEC4
+        uint pix = uint(p.y) * uint(size.x) + uint(p.x);
+#if VIS64
+        uvec4 id4 = uvec4(vis4[pix] & u64vec4(0xFFFFFFFFul));
+#else
+        uvec4 id4 = vis_id4[pix] - 1u;   // 0 (none) -> VIS_EMPTY
+#endif
+        uvec4 c4 = uvec4(0u);
+        hair = any(notEqual(id4, uvec4(VIS_EMPTY)));
+        if (hair) {   // (an empty sample's words rewritten as they are)
+#if VIS64
+            vis4[pix] = u64vec4(~0ul);
+#else
+            vis_depth4[pix] = uvec4(VIS_EMPTY);
+            vis_id4[pix] = uvec4(0u);
+#endif
+            c4 = cover4[pix];
+            cover4[pix] = uvec4(0u);
+        }
+        for (int s = 0; s < 4; ++s) {
+            ids[s] = id4[s];
+            units[s] = c4[s];
+        }
+#else
         for (int s = 0; s < SAMPLES; ++s) {
             ivec2 q = p * SHADE_GRID + ivec2(s % SHADE_GRID, s / SHADE_GRID);
             uint idx = sample_index(q, size.x, SHADE_GRID);
-            job[s] = -1;
             units[s] = 0u;
-            // a sample no segment reached holds no coverage either (the raster adds coverage
-            // only where it also takes the depth min): nothing to read or reset
 #if VIS64
-            uint id = uint(vis[idx] & 0xFFFFFFFFul);
-            if (id == VIS_EMPTY) continue;
+            ids[s] = uint(vis[idx] & 0xFFFFFFFFul);
+            if (ids[s] == VIS_EMPTY) continue;
             vis[idx] = ~0ul;
 #else
-            uint id = vis_id[idx] - 1u;   // 0 (none) -> VIS_EMPTY
-            if (id == VIS_EMPTY) continue;
+            ids[s] = vis_id[idx] - 1u;
+            if (ids[s] == VIS_EMPTY) continue;
             vis_depth[idx] = VIS_EMPTY;
             vis_id[idx] = 0u;
 #endif
             hair = true;
             units[s] = cover[idx];
             cover[idx] = 0u;
+        }
+#endif
+        const int MAX_SHADED = 4;
+        uint shaded_id[MAX_SHADED];
+        int shaded_job[MAX_SHADED];
+        int n_shaded = 0;
+        for (int s = 0; s < SAMPLES; ++s) {
+            uint id = ids[s];
+            job[s] = -1;
+            if (id == VIS_EMPTY) continue;
             for (int k = 0; k < n_shaded; ++k)
                 if (shaded_id[k] == id) job[s] = shaded_job[k];
             if (job[s] < 0) {
+                ivec2 q = p * SHADE_GRID + ivec2(s % SHADE_GRID, s / SHADE_GRID);
                 int j = int(atomicAdd(s_jobs, 1u));
                 s_job_id[j] = id;
                 s_job_q[j] = uint(q.x) | (uint(q.y) << 16);
