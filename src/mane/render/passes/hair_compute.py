@@ -36,7 +36,8 @@ thin hair). Per frame, after the head has been drawn by hardware into the HDR ta
 2. ``hair_shade.comp``, one thread per pixel: each sample's nearest segment shaded at the
    sample's point on it (the hair BSDF of the fragment path, hair_radiance.glsl; equal ids in a
    pixel shaded once), alpha 1 - exp(-coverage sum) over the head and background, the samples
-   averaged into the HDR image; the buffers are reset for the next frame as they are read.
+   averaged into the HDR image; the samples hair reached are reset for the next frame as they
+   are read (the others are already empty, and a pixel with none is not written).
 
 What differs from the hardware path: every strand behind the nearest one in a sample darkens
 it by its coverage but shows its colour only through the nearest's (as in Unreal's
