@@ -134,7 +134,7 @@ class Renderer(GpuOwner):
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
         self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
         self._depth_written = None      # (HDR depth texture, the head's screen box last drawn into it)
-        self._head_box = None            # (view, head, transform bytes, its screen box, the head's bounds)
+        self._head_box = None            # (view, transform bytes, the head's screen box, its bounds)
         if self.compute_raster and not self.settings.head_msaa:
             self.samples = 1
         if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
@@ -602,15 +602,12 @@ class Renderer(GpuOwner):
         if self.head is None or not self.settings.draw_head:
             return None
         model = self.head_model()[0]
-        memo = self._head_box
-        if memo is not None and memo[0] is view and memo[1] is self.head and memo[2] == model:
-            return memo[3]
-        if memo is None or memo[1] is not self.head:
-            bounds = self.head.bbox()
-        else:
-            bounds = memo[4]
+        memo = self._head_box   # (set_head forgets it)
+        if memo is not None and memo[0] is view and memo[1] == model:
+            return memo[2]
+        bounds = memo[3] if memo is not None else self.head.bbox()
         box = screen_box(view.view_proj, bounds[0], bounds[1], self.head_transform, self.settings.size)
-        self._head_box = (view, self.head, model, box, bounds)
+        self._head_box = (view, model, box, bounds)
         return box
 
     def hdr_target(self) -> Target:

@@ -59,8 +59,8 @@ import numpy as np
 from ..errors import GroomError, UsageError
 from ..gpu import compute_shader, get_context
 from ..gpu.lifetime import GpuOwner
-from ..groom import Groom
 from ..gpu.profiler import GpuProfiler, profile_every
+from ..groom import Groom
 from ..phases import phase
 from . import head_motion
 from .bindings import B_GATHER_BOUNDS, B_GATHER_GRID, TEX_SDF_FIRST
