@@ -559,11 +559,14 @@ def _cold_frames(spec: dict) -> dict:
             now = time.perf_counter()
             walls.append((now - t) * 1e3)
             ends.append(now - t0)
+        # each scan-form site's tuner at the end (recalled from disk, probes run, medians): a
+        # second launch's late probe shows here
+        forms = loop.renderer.scan_forms.details() if render else {}
     finally:
         loop.release()
     return dict(context_s=context_s, build_s=built_s, sim_build_s=loop.sim_build_s,
                 render_build_s=loop.render_build_s, frame_ends_s=[round(e, 6) for e in ends],
-                **steady(ends, walls))
+                scan_forms=forms, **steady(ends, walls))
 
 
 def _first_frame(loop, ctx, render: bool, sync: bool) -> None:
