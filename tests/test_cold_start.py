@@ -84,6 +84,7 @@ def test_the_cold_runs_first_frame_in_phases(gl, sync):
     and the first frame: first_step + first_render + first_finish make first_frame, first_passes
     holds a time per renderer pass (summing to first_render), the friction grid made in the step."""
     from mane.bench import scale_bench
+    from mane.render.passes.raster_segment import FORM_NAMES
 
     spec = dict(S=64, N=8, spg=2, size=[48, 32], steps=2, grid=8, sdf=8, render=True,
                 render_settings=dict(shadows="none", msaa=1), sync_first_frame=sync)
@@ -91,7 +92,7 @@ def test_the_cold_runs_first_frame_in_phases(gl, sync):
     ph = out["phases"]
     # each scan-form site's state at the end (the tuner's, where it runs: GPUs)
     assert set(out["scan_forms"]) == {"hair", "dom"}
-    assert all(v["form"] in ("per_thread", "balanced", "tiled") for v in out["scan_forms"].values())
+    assert all(v["form"] in FORM_NAMES for v in out["scan_forms"].values())
     for name in ("groom_check", "rest_data", "state_upload", "friction_grid", "first_step", "first_render",
                  "first_passes", "first_finish", "first_frame"):
         assert name in ph, (name, sorted(ph))
