@@ -1,12 +1,15 @@
 """mane.gpu.clear: a colour texture cleared by a compute shader holds the value in every texel
-(odd sizes: the last partial workgroups), and the renderer's frame is the same either way."""
+(odd sizes: the last partial workgroups), and the renderer's frame is the same either way; a
+buffer filled by fill_words holds the word everywhere (its NumPy twin: np.full), past one
+dispatch's threads (the grid stride) too."""
 from __future__ import annotations
 
 import numpy as np
 import pytest
 
 from mane.errors import UsageError
-from mane.gpu.clear import FORMATS, clear_texture
+from mane.gpu import clear
+from mane.gpu.clear import FORMATS, clear_texture, fill_words
 
 DTYPES = {"f1": np.uint8, "f2": np.float16, "f4": np.float32}
 
@@ -75,3 +78,38 @@ def test_frame_matches_the_raster_units_clear(gl):
     np.testing.assert_array_equal(images[0][0], images[1][0])
     np.testing.assert_array_equal(images[0][1], images[1][1])
     assert (images[0][0] != images[0][1]).any()
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("words,groups", [(1, None), (70_001, None), (70_001, 3)])
+def test_fill_words_sets_every_word(gl, monkeypatch, words, groups):
+    """Every word of the buffer, whatever it held, is the value (np.full its twin); with the
+    dispatch capped at 3 groups (768 threads) each thread strides over ~91 words."""
+    if groups is not None:
+        monkeypatch.setattr(clear, "FILL_GROUPS", groups)
+    rng = np.random.default_rng(words)
+    buf = gl.buffer(rng.integers(0, 2**32, words, dtype=np.uint32).tobytes())
+    try:
+        for value in (0xFFFFFFFF, 0, 0x3F800000):
+            fill_words(gl, buf, value)
+            np.testing.assert_array_equal(np.frombuffer(buf.read(), np.uint32), np.full(words, value, np.uint32))
+    finally:
+        buf.release()
+
+
+@pytest.mark.gpu
+def test_fill_words_refuses_in_one_line(gl):
+    buf = gl.buffer(reserve=6)
+    try:
+        for value, match in ((0, "cannot fill a 6-byte buffer"), ):
+            with pytest.raises(UsageError, match=match) as info:
+                fill_words(gl, buf, value)
+            assert "\n" not in str(info.value)
+    finally:
+        buf.release()
+    buf = gl.buffer(reserve=8)
+    try:
+        with pytest.raises(UsageError, match="a fill word must be"):
+            fill_words(gl, buf, -1)
+    finally:
+        buf.release()

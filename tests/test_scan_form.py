@@ -458,3 +458,37 @@ def test_a_second_renderer_starts_on_the_kept_forms(gl, monkeypatch):
     assert [f["forms"] for f in second] == [(other, default)] * 2
     for f in second:
         np.testing.assert_array_equal(f["image"], first[0]["image"])
+
+
+def test_a_recalled_decision_takes_a_faster_first_watch_as_its_median():
+    """A kept decision's medians come from an earlier run's first frames, maybe on a GPU not yet
+    clocked up: the recalled run's first watched frame, when faster, scales them (no probe, which
+    would first use the other forms: programs and buffers built mid-run); a later watch far off
+    the new medians, or a slower first one beyond RESCALE, probes again."""
+    c = FormChooser(0, samples=2, watch=10, reprobe=1000)
+    c.settle(KEY, (1000, 1), 1, [4.0, 3.0])
+    tickets = []
+    for _ in range(30):
+        f, t = c.next(KEY, (1000, 1))
+        assert f == 1
+        if t is not None:
+            tickets.append(t)
+    assert len(tickets) == 3
+    c.record(tickets[0], 1.0)       # 3x faster than the kept median: rebased, not probed
+    assert not c.probing and c.medians == [4.0 / 3.0, 1.0] and c.probes == 0
+    c.record(tickets[1], 1.5)       # within RESCALE of the new median: kept
+    assert not c.probing
+    c.record(tickets[2], 0.4)       # 2.5x faster than the new median: a later watch probes
+    assert c.probing
+
+    slow = FormChooser(0, samples=2, watch=10, reprobe=1000)
+    slow.settle(KEY, (1000, 1), 1, [4.0, 3.0])
+    t = next(t for _ in range(30) if (t := slow.next(KEY, (1000, 1))[1]) is not None)
+    slow.record(t, 7.0)             # a slower first watch beyond RESCALE still probes
+    assert slow.probing and slow.medians == [4.0, 3.0]
+
+    own = FormChooser(1, samples=2, watch=10, reprobe=1000)   # a decision of its own probe
+    run(own, {0: 3.0, 1: 4.0}, settle_frames(2))
+    t = next(t for _ in range(30) if (t := own.next(KEY, (1000, 1))[1]) is not None)
+    own.record(t, 1.0)              # no rebase: 3x off its own median probes
+    assert own.probing

@@ -13,6 +13,7 @@ B_WORDS = 0     # limits_atomic.comp
 # kernels read it (mane.sim.bindings takes these two from here)
 B_POSITIONS = 0
 B_BOUNDS = 7
+B_FILL = 0      # fill_words.comp (clear.py)
 # image units
 IMG_CLEAR = 0     # clear_image.comp (clear.py)
 

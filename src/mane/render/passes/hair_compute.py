@@ -53,6 +53,7 @@ import numpy as np
 
 from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
+from ...gpu.clear import fill_words
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
 from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, bounce_defines, set_uniforms, set_view,
@@ -126,14 +127,14 @@ class HairComputePass(Pass):
         self._release_buffers()
         n = w * h
         ctx = self.ctx
-        words = [(B_VIS, 8 if self.vis64 else 4, 0xFF), (B_COVER, 4, 0x00)]
+        words = [(B_VIS, 8 if self.vis64 else 4, 0xFFFFFFFF), (B_COVER, 4, 0)]
         if not self.vis64:
-            words.append((B_VIS_ID, 4, 0x00))
+            words.append((B_VIS_ID, 4, 0))
         bufs = []
         for binding, size, fill in words:
             check_allocation(ctx, n * size, f"the compute rasteriser's per-sample buffer ({w}x{h} samples)")
             buf = as_device(ctx.buffer(reserve=n * size))
-            buf.write(np.full(n * size, fill, np.uint8).tobytes())   # the shading pass keeps it so
+            fill_words(ctx, buf, fill, self._programs)   # the shading pass keeps it so
             bufs.append((binding, buf))
         self._buffers = tuple(bufs)
         self._key = key

@@ -34,7 +34,11 @@ CPU never waits, and a frame that finds the pool in use runs untimed.
 A decision is kept on disk (scan_form_memory.py: keyed by the site, the GPU and driver, the
 settings, the sizes and the forms' code): a site's first tuned frame in a later run with the
 same key starts settled on it (``FormChooser.settle``), watched as after a probe of its own,
-instead of probing its forms over its first frames.
+instead of probing its forms over its first frames. The kept medians come from that run's first
+frames, on a GPU not yet clocked up (H200: balanced 4.92 ms at a first launch's probe, 3.27 ms
+warm): a recalled run's first watched frame, when faster, scales them to itself instead of
+probing (a probe would first use the other forms: programs and buffers built mid-run); a slower
+one beyond ``RESCALE``, and any later watch, probes as before.
 
 Off (the fixed rule, raster_segment.balance_for) where ``raster_segment.FORCED`` (or
 ``MANE_RASTER_BALANCE``) forces a form, on CPU rasterisers (llvmpipe: the per-thread form, and
@@ -83,6 +87,7 @@ class FormChooser:
         self.medians = [None] * self.forms   # the last probe's, ms
         self.probes = 0               # probes decided
         self.recalled = False         # started settled on a kept decision (settle)
+        self._rebase = False          # recalled, its first watch not yet back
         self.epoch = 0
         self.probing = True
         self._key = self._sizes = None
@@ -102,6 +107,7 @@ class FormChooser:
         self._warm[self.choice] = True
         self.probing = False
         self.recalled = True
+        self._rebase = True
         self._since = 0
 
     @property
@@ -153,9 +159,12 @@ class FormChooser:
         ok = ms is not None and math.isfinite(ms) and ms >= 0.0
         if watched:
             m = self.medians[form]
-            if ok and not self.probing and m and form == self.choice and not (
-                    m / self.rescale <= ms <= m * self.rescale):
-                self._probe(self._sizes)
+            if ok and not self.probing and m and form == self.choice:
+                if self._rebase and ms < m:   # a recalled run's warm GPU: its medians scaled, no probe
+                    self.medians = [None if x is None else x * ms / m for x in self.medians]
+                elif not m / self.rescale <= ms <= m * self.rescale:
+                    self._probe(self._sizes)
+                self._rebase = False
             return
         self._out[form] -= 1
         if not ok:
@@ -177,6 +186,7 @@ class FormChooser:
     def _probe(self, sizes) -> None:
         self.epoch += 1
         self.probing = True
+        self._rebase = False
         self._sizes = tuple(sizes)
         self._got = tuple([] for _ in range(self.forms))
         self._out = [0] * self.forms

@@ -9,8 +9,9 @@ A decision is kept under a key of everything it was measured on: the site, the G
 repr), the dispatch's size signature (segments, instances; exactly) and the code of the forms
 (``CODE_FILES``); the decision holds the form and every form's median (the site's count). Another key is another file: nothing is recalled, the tuner probes as it
 always did. A recalled decision is still checked: the chooser starts settled on it with its
-medians (FormChooser.settle), times the chosen form every ``WATCH`` frames and probes again when
-a watched frame is ``RESCALE`` x off the median or after ``REPROBE`` frames; the new decision
+medians (FormChooser.settle), times the chosen form every ``WATCH`` frames (the first watch, when
+faster, scales the medians to itself) and probes again when a watched frame is ``RESCALE`` x off
+the median or after ``REPROBE`` frames; the new decision
 replaces the kept one. Off with the disk cache (``MANE_NO_CACHE``).
 """
 from __future__ import annotations
