@@ -98,18 +98,28 @@ def test_fill_words_sets_every_word(gl, monkeypatch, words, groups):
 
 
 @pytest.mark.gpu
-def test_fill_words_refuses_in_one_line(gl):
-    buf = gl.buffer(reserve=6)
+def test_fill_words_fills_the_first_count_words_only(gl):
+    """``count``: the OIT methods' clears of a buffer's first words; the rest keep their values."""
+    init = np.arange(1000, dtype=np.uint32)
+    buf = gl.buffer(init.tobytes())
     try:
-        for value, match in ((0, "cannot fill a 6-byte buffer"), ):
-            with pytest.raises(UsageError, match=match) as info:
-                fill_words(gl, buf, value)
-            assert "\n" not in str(info.value)
+        fill_words(gl, buf, 7, count=333)
+        want = init.copy()
+        want[:333] = 7
+        np.testing.assert_array_equal(np.frombuffer(buf.read(), np.uint32), want)
     finally:
         buf.release()
-    buf = gl.buffer(reserve=8)
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("size,value,count,match", [
+    (6, 0, None, "cannot fill a 6-byte buffer"), (8, -1, None, "a fill word must be"),
+    (8, 0, 3, "cannot fill 3 words of a 8-byte buffer")])
+def test_fill_words_refuses_in_one_line(gl, size, value, count, match):
+    buf = gl.buffer(reserve=size)
     try:
-        with pytest.raises(UsageError, match="a fill word must be"):
-            fill_words(gl, buf, -1)
+        with pytest.raises(UsageError, match=match) as info:
+            fill_words(gl, buf, value, count=count)
+        assert "\n" not in str(info.value)
     finally:
         buf.release()

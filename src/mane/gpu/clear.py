@@ -8,9 +8,9 @@ through a framebuffer (``glClear``: the few raster units of a GPU built for comp
 0.010 ms by ``imageStore`` from a compute shader; its 32-bit depth 0.11 ms (depth cannot be an
 image, so depth keeps ``glClear``). A multisampled renderbuffer cannot be an image either.
 
-``fill_words`` gives a new buffer its contents on the GPU: the compute rasteriser's per-sample
-words at 1080p (3840 x 2160 samples, 100 MB) were built in host memory and uploaded when a
-renderer first drew (or changed size).
+``fill_words`` sets a buffer's words on the GPU: the transparency methods' per-frame clears, and
+the compute rasteriser's per-sample words when a renderer first draws (or changes size), which
+at 1080p (3840 x 2160 samples, 100 MB) were built in host memory and uploaded.
 """
 from __future__ import annotations
 
@@ -63,21 +63,29 @@ def clear_texture(ctx, texture, value=(0.0, 0.0, 0.0, 0.0), programs: ProgramMem
     ctx.memory_barrier(BARRIERS)
 
 
-def fill_words(ctx, buffer, value: int, programs: ProgramMemo | None = None) -> None:
-    """Set every 32-bit word of ``buffer`` (a size a multiple of 4) to ``value`` on the GPU, then a
-    barrier so that later shader accesses and reads see it. ``programs``: as clear_texture's.
-    The buffer is bound at ``B_FILL`` afterwards (callers bind theirs before use)."""
+def fill_words(ctx, buffer, value: int, programs: ProgramMemo | None = None, *, count: int | None = None,
+               barrier: bool = True) -> None:
+    """Set the first ``count`` 32-bit words of ``buffer`` (default: every word; the size a
+    multiple of 4) to ``value`` on the GPU, then (``barrier``) a barrier so that later shader
+    accesses and reads see it (callers that clear several buffers give one barrier after them).
+    ``programs``: as clear_texture's. The buffer is bound at ``B_FILL`` afterwards (callers bind
+    theirs before use)."""
     size = int(buffer.size)
-    if size % 4:
-        raise UsageError(f"cannot fill a {size}-byte buffer by 32-bit words")
+    if count is None:
+        if size % 4:
+            raise UsageError(f"cannot fill a {size}-byte buffer by 32-bit words")
+        count = size // 4
+    count = int(count)
+    if not 0 <= count <= size // 4:
+        raise UsageError(f"cannot fill {count} words of a {size}-byte buffer")
     value = int(value)
     if not 0 <= value <= 0xFFFFFFFF:
         raise UsageError(f"a fill word must be 0 .. 0xFFFFFFFF, got {value}")
     build = lambda: compute_shader(ctx, FILL_SOURCE)   # noqa: E731
     cs = build() if programs is None else programs.get("fill_words", (), build)
-    n = size // 4
-    write_uniform(cs["u_count"], n)
+    write_uniform(cs["u_count"], count)
     write_uniform(cs["u_value"], value)
     buffer.bind_to_storage_buffer(B_FILL)
-    cs.run(max(1, min(FILL_GROUPS, -(-n // 256))))
-    ctx.memory_barrier(FILL_BARRIERS)
+    cs.run(max(1, min(FILL_GROUPS, -(-count // 256))))
+    if barrier:
+        ctx.memory_barrier(FILL_BARRIERS)

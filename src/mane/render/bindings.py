@@ -53,7 +53,6 @@ B_OIT_KEYS = 10           # K-buffer / random subsets / ShortCut keys (or depths
 B_OIT_COLORS = 11
 B_SORT_KEYS = 12          # sorted blending (sort_keys.comp, bitonic.comp, sort_indices.comp)
 B_SORT_INDICES = 13
-B_CLEAR = 0               # oit/clear.comp's buffer
 # transparency, compute fill (oit_raster.comp, oit_resolve.comp)
 B_OIT_HEADS = 10          # A-buffer: list heads, node pool, counter
 B_OIT_NODES = 11

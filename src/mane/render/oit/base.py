@@ -25,9 +25,10 @@ import numpy as np
 from ...errors import GLFeatureError, GPUMemoryError, UsageError
 from ...gpu.buffers import buffer as gpu_buffer
 from ...gpu.buffers import check_allocation
+from ...gpu.clear import fill_words
 from ...gpu.glsl import compute_shader, program
 from ...gpu.uniforms import write_uniform
-from ..bindings import B_CLEAR, IMG_CLEAR
+from ..bindings import IMG_CLEAR
 from ..coverage_lod import box_corners
 from ..passes.base import HERE as PASSES_DIR
 from ..passes.base import PASS_SHADE, RENDER_DIR, Frame, bind_lighting, draw_hair, hair_program, set_uniform
@@ -162,16 +163,12 @@ class OitMethod:
 
     # ------------------------------------------------------------------ GL helpers
     def clear_buffer(self, buf, value: int, count: int | None = None) -> None:
-        count = int(count if count is not None else buf.size // 4)
-        cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 0})
-        buf.bind_to_storage_buffer(B_CLEAR)
-        write_uniform(cs["u_value"], int(value) & 0xFFFFFFFF)
-        write_uniform(cs["u_count"], count)
-        gx, gy = _groups(count)
-        cs.run(gx, gy, 1)
+        """The first ``count`` words (default all) of ``buf`` set to ``value``; the caller's
+        barrier follows its clears."""
+        fill_words(self.ctx, buf, int(value) & 0xFFFFFFFF, count=count, barrier=False)
 
     def clear_image(self, tex, value: int) -> None:
-        cs = compute_shader(self.ctx, HERE / "clear.comp", defines={"CLEAR_IMAGE": 1})
+        cs = compute_shader(self.ctx, HERE / "clear.comp")
         tex.bind_to_image(IMG_CLEAR, read=False, write=True)
         write_uniform(cs["u_value"], int(value) & 0xFFFFFFFF)
         w, h = tex.size
