@@ -118,6 +118,25 @@ def test_compute_image_matches_the_hardware_one_without_antialiasing(gl):
     assert np.percentile(d, 99) <= 16
 
 
+def test_compute_hair_has_the_hardware_hairs_colour(gl):
+    # hair alone on black, 4 samples: each channel's share of the light (the RGB balance) as
+    # the hardware rasteriser draws it (measured within 0.003; a shading pass that mixes up
+    # its colour words is off by ~0.09), and about as much light
+    groom, _ = default_scene(num_guides=150, points=12, subdivisions=3)
+    sums = {}
+    for mode in ("hardware", "compute"):
+        r = _render(gl, groom, None, rasterizer=mode, msaa=4, size=(160, 120), shadows="deep_opacity",
+                    shadow_map_size=128, background=(0.0, 0.0, 0.0))
+        try:
+            sums[mode] = r.read_image().astype(float).reshape(-1, 3).sum(0)
+        finally:
+            r.release()
+    hw, cp = sums["hardware"], sums["compute"]
+    assert hw[0] > 1.2 * hw[2]   # brown: the balance can tell red from blue
+    assert np.abs(cp / cp.sum() - hw / hw.sum()).max() < 0.01, (cp / cp.sum(), hw / hw.sum())
+    assert 0.85 < cp.sum() / hw.sum() < 1.15
+
+
 @pytest.mark.parametrize("msaa", [1, 4])
 def test_the_shading_pass_leaves_every_sample_reset(gl, msaa):
     # hair_shade.comp resets only the samples a segment reached (an empty sample holds no
