@@ -227,16 +227,29 @@ bool raster_thread_span(out RasterSpan s, out int i) {
     return true;
 }
 
-// A span from what a work group keeps of it in shared memory (a, d; za, zb, ha, hb; ca, cb,
-// inv_cos; x0, steep, first point) and its column count: the balanced and tiled forms.
-RasterSpan raster_span_unpacked(vec4 ad, vec4 zh, vec3 c, ivec3 m, int columns) {
+// What the balanced and tiled forms keep of a span in shared memory, 13 words: ad (a, d), zh
+// (za, zb, ha, hb), ci (ca, cb, inv_cos as bits; the first point i) and xs (the first column
+// x0 >= 0 | steep << 31). A vec3 and an ivec3 array had taken 16 words a span: a work group's
+// shared memory bounds how many share an SM (H200: the tiled close-up's raster 2.97 -> 2.50 ms,
+// the target frame's balanced raster 0.53 -> 0.48 ms).
+uvec4 raster_span_ci(RasterSpan s, int i) {
+    return uvec4(floatBitsToUint(vec3(s.ca, s.cb, s.inv_cos)), uint(i));
+}
+
+int raster_span_xs(RasterSpan s, int x0) {
+    return x0 | (s.steep ? int(0x80000000) : 0);
+}
+
+// the span back from those words and its column count
+RasterSpan raster_span_unpacked(vec4 ad, vec4 zh, uvec4 ci, int xs, int columns) {
     RasterSpan t;
     t.a = ad.xy; t.d = ad.zw;
     t.za = zh.x; t.zb = zh.y; t.ha = zh.z; t.hb = zh.w;
+    vec3 c = uintBitsToFloat(ci.xyz);
     t.ca = c.x; t.cb = c.y; t.inv_cos = c.z;
-    t.steep = m.y != 0;
-    t.x0 = m.x;
-    t.x1 = m.x + columns - 1;
+    t.steep = xs < 0;
+    t.x0 = xs & 0x7FFFFFFF;
+    t.x1 = t.x0 + columns - 1;
     return t;
 }
 
@@ -244,8 +257,8 @@ RasterSpan raster_span_unpacked(vec4 ad, vec4 zh, vec3 c, ivec3 m, int columns) 
 #define RASTER_GROUP int(gl_WorkGroupSize.x)
 shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
 shared vec4 rs_zh[gl_WorkGroupSize.x];      // za, zb, ha, hb
-shared vec3 rs_c[gl_WorkGroupSize.x];       // ca, cb, inv_cos
-shared ivec3 rs_meta[gl_WorkGroupSize.x];   // x0, steep, first point
+shared uvec4 rs_ci[gl_WorkGroupSize.x];     // ca, cb, inv_cos (bits), first point
+shared int rs_xs[gl_WorkGroupSize.x];       // x0 | steep << 31
 shared int rs_scan[2u * gl_WorkGroupSize.x];   // the column counts' prefix sum, two halves in turn
 
 void raster_expanded_segment() {
@@ -255,8 +268,8 @@ void raster_expanded_segment() {
     int lid = int(gl_LocalInvocationID.x);
     rs_ad[lid] = vec4(s.a, s.d);
     rs_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
-    rs_c[lid] = vec3(s.ca, s.cb, s.inv_cos);
-    rs_meta[lid] = ivec3(s.x0, int(s.steep), i);
+    rs_ci[lid] = raster_span_ci(s, i);
+    rs_xs[lid] = raster_span_xs(s, s.x0);
     rs_scan[lid] = raster_columns(s);
     barrier();
     int src = 0;   // Hillis-Steele inclusive scan, reading one half and writing the other
@@ -281,8 +294,9 @@ void raster_expanded_segment() {
         if (lo != cur) {   // a new segment for this thread: its span from shared memory
             cur = lo;
             start = lo > 0 ? rs_scan[src + lo - 1] : 0;
-            t = raster_span_unpacked(rs_ad[lo], rs_zh[lo], rs_c[lo], rs_meta[lo], rs_scan[src + lo] - start);
-            RASTER_SEGMENT(rs_meta[lo].z);
+            uvec4 ci = rs_ci[lo];
+            t = raster_span_unpacked(rs_ad[lo], rs_zh[lo], ci, rs_xs[lo], rs_scan[src + lo] - start);
+            RASTER_SEGMENT(int(ci.w));
         }
         raster_column(t, t.x0 + j - start, u_raster_size);
     }

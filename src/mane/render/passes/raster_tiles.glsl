@@ -19,7 +19,7 @@
 // indirect dispatches; past the entries' capacity the frame's step runs the balanced form
 // instead (its indirect dispatch gets the work groups, the tiled raster none).
 // RASTER_TILED_PHASE 3 (raster): a work group a non-empty tile. Walk 1 takes the tile's entries
-// RT_GROUP at a time: each thread sets up one (the same raster_span), clips its columns to the
+// RT_BATCH at a time: a thread each sets up one (the same raster_span), clips its columns to the
 // tile; the batch's columns are prefix-summed and dealt to the threads (as the balanced form),
 // each column's samples (raster_column_range, clipped to the tile's rows) visited with
 // visit()'s depth-min and coverage-add rules on shared words. Walk 2 visits them again for the
@@ -41,13 +41,18 @@
 // fall (depth) and rise (coverage) during the walk, so a block's value stays a valid bound. Walk
 // 2 skips a column whose depth bits pass every sample's final depth bits in its blocks (it
 // cannot equal any). Every loop is bounded: strips <= (RASTER_MAX_STEPS + 1) / RT_SIDE + 2, rows
-// <= the grid, a tile's entries <= the capacity, a batch's columns <= RT_GROUP x RT_SIDE.
+// <= the grid, a tile's entries <= the capacity, a batch's columns <= RT_BATCH x RT_SIDE.
 // RT_SHIFT (log2 of a tile's side in samples) and the index buffer's layout (RT_TILED_ARGS,
 // RT_FALLBACK_ARGS, RT_OVERFLOW, RT_TOTAL, RT_PEAK, RT_HEADER) come from raster_tiles.py
 #define RT_SIDE (1 << RT_SHIFT)
 #define RT_PACKED (VIS64 && RT_PACKED_OK)
 #define RT_AREA (RT_SIDE * RT_SIDE)
 #define RT_GROUP 128
+// a walk's entries a batch (<= RT_GROUP). A work group's shared memory is what bounds how many
+// share an SM (H200, the 100k close-up: 4 KB more per group took the raster 2.97 -> 3.94 ms):
+// at 64 the batch's spans take half of what they took at 128 (raster 2.49 -> 2.16 ms; 32: 2.26,
+// more batches, and the 1M close-up 7.2 -> 8.1 ms)
+#define RT_BATCH 64
 #define RT_SUB_SHIFT 3                          // the cull blocks: 8 x 8 samples, 4 x 4 a tile
 #define RT_SUBS ((RT_SIDE >> RT_SUB_SHIFT) * (RT_SIDE >> RT_SUB_SHIFT))
 #define RT_SLOTS 256                            // the bin's shared table (a power of two)
@@ -172,11 +177,11 @@ shared uint rt_id[RT_AREA];      // 32-bit path: id + 1 (0: none); VIS64: the id
 shared uint rt_cover[RT_AREA];
 shared uint rt_head[RT_AREA];    // the head's window depth bits at the sample's pixel
 shared uint rt_sub[RT_SUBS];     // the cull blocks' bounds (walk 1: float bits; walk 2: depth bits)
-shared vec4 rt_ad[RT_GROUP];     // a batch's spans: a, d
-shared vec4 rt_zh[RT_GROUP];     // za, zb, ha, hb
-shared vec3 rt_c[RT_GROUP];      // ca, cb, inv_cos
-shared ivec3 rt_meta[RT_GROUP];  // first column in the tile, steep, first point
-shared int rt_scan[2 * RT_GROUP];
+shared vec4 rt_ad[RT_BATCH];     // a batch's spans: a, d
+shared vec4 rt_zh[RT_BATCH];     // za, zb, ha, hb
+shared uvec4 rt_ci[RT_BATCH];    // raster_span_ci: ca, cb, inv_cos, first point
+shared int rt_xs[RT_BATCH];      // raster_span_xs: the first column in the tile, steep
+shared int rt_scan[2 * RT_BATCH];
 
 // walk 1's bound at a sample: visits at 0 < z with bits at or past it are no-ops
 uint rt_no_op_from(int li) {
@@ -255,14 +260,14 @@ void rt_visit(int walk, int li, float z, float cov, uint id) {
 // one walk over the tile's entries begin..end-1; t0: the tile's first sample
 void rt_walk(int walk, int begin, int end, ivec2 t0) {
     int lid = int(gl_LocalInvocationID.x);
-    for (int base = begin; base < end; base += RT_GROUP) {
+    for (int base = begin; base < end; base += RT_BATCH) {
         rt_refresh(walk);
         uint tile_bound = rt_bound(ivec2(0), ivec2(RT_SIDE - 1));
         RasterSpan s;
         s.x0 = 0;
         s.x1 = -1;
         int i = 0, cx0 = 0, cols = 0;
-        if (base + lid < end) {
+        if (lid < RT_BATCH && base + lid < end) {
             i = int(rt_entries[base + lid]);
             vec4 p0 = expanded[2 * i];
             vec4 p1 = expanded[2 * i + 2];
@@ -293,26 +298,31 @@ void rt_walk(int walk, int begin, int end, ivec2 t0) {
                 cols = 0;
             }
         }
-        rt_ad[lid] = vec4(s.a, s.d);
-        rt_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
-        rt_c[lid] = vec3(s.ca, s.cb, s.inv_cos);
-        rt_meta[lid] = ivec3(cx0, int(s.steep), i);
-        rt_scan[lid] = cols;
+        if (lid < RT_BATCH) {
+            rt_ad[lid] = vec4(s.a, s.d);
+            rt_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
+            rt_ci[lid] = raster_span_ci(s, i);
+            rt_xs[lid] = raster_span_xs(s, cx0);
+            rt_scan[lid] = cols;
+        }
         barrier();
         int src = 0;   // Hillis-Steele inclusive scan (raster_segment.glsl's balanced form)
-        for (int off = 1; off < RT_GROUP; off <<= 1) {
-            int v = rt_scan[src + lid];
-            if (lid >= off) v += rt_scan[src + lid - off];
-            src = RT_GROUP - src;
-            rt_scan[src + lid] = v;
+        for (int off = 1; off < RT_BATCH; off <<= 1) {
+            int v = 0;
+            if (lid < RT_BATCH) {
+                v = rt_scan[src + lid];
+                if (lid >= off) v += rt_scan[src + lid - off];
+            }
+            src = RT_BATCH - src;
+            if (lid < RT_BATCH) rt_scan[src + lid] = v;
             barrier();
         }
-        int total = rt_scan[src + RT_GROUP - 1];   // <= RT_GROUP x RT_SIDE
+        int total = rt_scan[src + RT_BATCH - 1];   // <= RT_BATCH x RT_SIDE
         int lo = 0, cur = -1, start = 0;
         RasterSpan t;
         uint id = 0u;
         for (int j = lid; j < total; j += RT_GROUP) {
-            int hi = RT_GROUP - 1;
+            int hi = RT_BATCH - 1;
             while (lo < hi) {
                 int mid = (lo + hi) >> 1;
                 if (rt_scan[src + mid] > j) hi = mid; else lo = mid + 1;
@@ -320,8 +330,9 @@ void rt_walk(int walk, int begin, int end, ivec2 t0) {
             if (lo != cur) {
                 cur = lo;
                 start = lo > 0 ? rt_scan[src + lo - 1] : 0;
-                t = raster_span_unpacked(rt_ad[lo], rt_zh[lo], rt_c[lo], rt_meta[lo], rt_scan[src + lo] - start);
-                id = uint(rt_meta[lo].z);
+                uvec4 ci = rt_ci[lo];
+                t = raster_span_unpacked(rt_ad[lo], rt_zh[lo], ci, rt_xs[lo], rt_scan[src + lo] - start);
+                id = ci.w;
             }
             int x = t.x0 + j - start;
             int y0, y1;
