@@ -12,7 +12,12 @@
 // that lowers a sample's depth clears its id, so that the id pass after it sets it from this
 // dispatch's segments alone (the tiled form's fallback after a step that left ids).
 #include "hair_vis.glsl"
+// the tiled raster's groups hold 256 threads (raster_tiles.glsl's RT_BATCH: shared memory per thread)
+#if RASTER_BALANCE == 2 && RASTER_TILED_PHASE == 3
+layout(local_size_x = 256) in;
+#else
 layout(local_size_x = 128) in;
+#endif
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 uniform sampler2D u_scene_depth;   // the head's window depth per pixel
 uniform int u_points_per_strand;

@@ -13,7 +13,12 @@
 // superset of the tiles of its samples, never fewer). Counts and ranks go through a work
 // group's shared table of RT_SLOTS tiles (a close-up's consecutive segments share tiles; a far
 // head's segments all hit a few: one global atomic per table slot instead of per segment), a
-// tile that finds no slot in RT_PROBES probes going to the global counter itself.
+// tile that finds no slot in RT_PROBES probes going to the global counter itself. The scatter
+// keeps the slot and the rank its count's shared atomic returned for a thread's first RT_KEEP
+// tiles, and writes those entries at the slot's base + rank once the group has reserved its
+// slots' ranges: no second walk of the span and no second atomic (H200, the 100k close-up's
+// raster 2.08 -> 2.06 ms, the 1M close-up's 6.89 -> 6.81); a thread's further tiles take a
+// global cursor's slot at once.
 // raster_tiles_scan.comp then turns the counts into list offsets, the cursors the scatter fills
 // the lists with (entries: the segment's first point), the list of non-empty tiles and the
 // indirect dispatches; past the entries' capacity the frame's step runs the balanced form
@@ -47,12 +52,15 @@
 #define RT_SIDE (1 << RT_SHIFT)
 #define RT_PACKED (VIS64 && RT_PACKED_OK)
 #define RT_AREA (RT_SIDE * RT_SIDE)
-#define RT_GROUP 128
+// phase 3's threads a group (hair_raster.comp: 256, the others 128)
+#define RT_GROUP int(gl_WorkGroupSize.x)
 // a walk's entries a batch (<= RT_GROUP). A work group's shared memory is what bounds how many
 // share an SM (H200, the 100k close-up: 4 KB more per group took the raster 2.97 -> 3.94 ms):
-// at 64 the batch's spans take half of what they took at 128 (raster 2.49 -> 2.16 ms; 32: 2.26,
-// more batches, and the 1M close-up 7.2 -> 8.1 ms)
-#define RT_BATCH 64
+// with 128 threads a batch of 64 took the raster 2.49 -> 2.16 ms against 128 (32: 2.26, more
+// batches, and the 1M close-up 7.2 -> 8.1 ms); 256 threads a group with a batch of 128 hold
+// twice the threads in the same shared memory (2.16 -> 2.08 ms; the 1M close-up 7.18 -> 6.89;
+// a batch of 64 at 256 threads: 2.75, 9.51)
+#define RT_BATCH 128
 #define RT_SUB_SHIFT 3                          // the cull blocks: 8 x 8 samples, 4 x 4 a tile
 #define RT_SUBS ((RT_SIDE >> RT_SUB_SHIFT) * (RT_SIDE >> RT_SUB_SHIFT))
 #define RT_SLOTS 256                            // the bin's shared table (a power of two)
@@ -101,10 +109,15 @@ int rt_slot(uint t, bool claim) {
     return -1;
 }
 
-// every tile span s may touch: walk 0 counts it (phase 1: shared or global count; phase 2:
-// shared count, or a global cursor's slot written at once), walk 1 (phase 2) writes the entry
-// at its table slot's base and rank
-void rt_bin_walk(RasterSpan s, uint entry, int walk) {
+// the scatter's kept tiles a thread: (slot | rank << 8)
+#define RT_KEEP 8
+uint rt_kept[RT_KEEP];
+int rt_n_kept = 0;
+
+// every tile span s may touch: phase 1 counts it (the shared table's or the global count);
+// phase 2 counts it in the shared table and keeps its slot and rank (the first RT_KEEP), or
+// takes a global cursor's slot and writes the entry at once
+void rt_bin_walk(RasterSpan s, uint entry) {
     int ny = s.steep ? u_raster_size.x : u_raster_size.y;
     int n = u_rt_tiles.x * u_rt_tiles.y;
     for (int sx = s.x0 >> RT_SHIFT; sx <= (s.x1 >> RT_SHIFT); ++sx) {
@@ -114,21 +127,20 @@ void rt_bin_walk(RasterSpan s, uint entry, int walk) {
         for (int sy = lo >> RT_SHIFT; sy <= (hi >> RT_SHIFT); ++sy) {
             ivec2 t2 = s.steep ? ivec2(sy, sx) : ivec2(sx, sy);
             uint t = uint(t2.y * u_rt_tiles.x + t2.x);
-            int j = rt_slot(t, walk == 0);
-            if (walk == 0) {
-                if (j >= 0) atomicAdd(rt_n[j], 1u);
 #if RASTER_TILED_PHASE == 1
-                else atomicAdd(rt_counts[t], 1u);
+            int j = rt_slot(t, true);
+            if (j >= 0) atomicAdd(rt_n[j], 1u);
+            else atomicAdd(rt_counts[t], 1u);
 #else
-                else {
-                    uint pos = atomicAdd(rt_counts[n + int(t)], 1u);
-                    if (pos < u_rt_capacity) rt_entries[pos] = entry;
-                }
-#endif
-            } else if (j >= 0) {
-                uint pos = rt_base[j] + atomicAdd(rt_n[j], 1u);
+            int j = rt_n_kept < RT_KEEP ? rt_slot(t, true) : -1;
+            if (j >= 0) {
+                rt_kept[rt_n_kept] = uint(j) | (atomicAdd(rt_n[j], 1u) << 8);
+                ++rt_n_kept;
+            } else {
+                uint pos = atomicAdd(rt_counts[n + int(t)], 1u);
                 if (pos < u_rt_capacity) rt_entries[pos] = entry;
             }
+#endif
         }
     }
 }
@@ -146,7 +158,7 @@ void raster_tiled_main() {
     RasterSpan s;
     int i;
     bool any = raster_thread_span(s, i);
-    if (any) rt_bin_walk(s, uint(i), 0);
+    if (any) rt_bin_walk(s, uint(i));
     barrier();
     int n = u_rt_tiles.x * u_rt_tiles.y;
     for (uint j = lid; j < uint(RT_SLOTS); j += gl_WorkGroupSize.x) {
@@ -156,12 +168,14 @@ void raster_tiled_main() {
         atomicAdd(rt_counts[t], rt_n[j]);
 #else
         rt_base[j] = atomicAdd(rt_counts[n + int(t)], rt_n[j]);
-        rt_n[j] = 0u;
 #endif
     }
 #if RASTER_TILED_PHASE == 2
     barrier();
-    if (any) rt_bin_walk(s, uint(i), 1);
+    for (int k = 0; k < rt_n_kept; ++k) {
+        uint pos = rt_base[rt_kept[k] & 0xFFu] + (rt_kept[k] >> 8);
+        if (pos < u_rt_capacity) rt_entries[pos] = uint(i);
+    }
 #endif
 }
 

@@ -12,8 +12,9 @@ coverage has saturated or whose nearest hair is nearer). Here the visits go to s
    work group's shared table (raster_tiles.glsl);
 2. raster_tiles_scan.comp (three dispatches): the counts' exclusive scan into list offsets, the
    scatter's cursors, the non-empty tiles and two indirect dispatches;
-3. RASTER_TILED_PHASE 2: the same walk writes each segment's first point into its tiles' lists;
-4. RASTER_TILED_PHASE 3, a work group per non-empty tile (indirect): the tile's depth, id,
+3. RASTER_TILED_PHASE 2: the same walk writes each segment's first point into its tiles' lists
+   (at the rank its count took in the group's shared table);
+4. RASTER_TILED_PHASE 3, a work group of 256 threads per non-empty tile (indirect): the tile's depth, id,
    coverage and head depth loaded into shared memory, its segments' columns clipped to the
    tile and dealt to the threads, the depth min and coverage add done there (walk 1), the ids
    by a second walk (the 32-bit path's id pass folded in; VIS64's min id at the min depth
