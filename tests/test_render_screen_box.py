@@ -1,6 +1,6 @@
 """The HDR depth cleared over the head's screen box of this frame and the last (render/screen_box.py):
-the box against the projected mesh, and every frame of a moving camera, head and no head the
-picture a fresh renderer draws."""
+the box against the projected points, the hull's points against every vertex, and every frame of
+a moving camera, head and no head the picture a fresh renderer draws."""
 from __future__ import annotations
 
 import moderngl
@@ -10,7 +10,8 @@ import pytest
 from mane.grooming.scene import default_groom, default_head
 from mane.render import Renderer, RenderSettings
 from mane.render.camera import Camera, look_at, perspective
-from mane.render.screen_box import FULL, screen_box, union
+from mane.render.coverage_lod import box_corners
+from mane.render.screen_box import FULL, hull_points, screen_box, union
 
 
 def _pixels(view_proj, pts, model, size):
@@ -19,46 +20,82 @@ def _pixels(view_proj, pts, model, size):
     return (ndc + 1.0) * 0.5 * np.asarray(size)
 
 
+def _view(rng, size):
+    eye = rng.normal(0.0, 1.0, 3)
+    eye *= rng.uniform(0.8, 1.5) / np.linalg.norm(eye)
+    return perspective(40.0, size[0] / size[1], 0.05, 10.0) @ look_at(eye, (0.0, 0.0, 0.0))
+
+
 @pytest.mark.parametrize("seed", range(6))
 def test_the_box_holds_every_projected_point_and_little_more(seed):
     rng = np.random.default_rng(seed)
     size = (320, 200)
     pts = rng.normal(0.0, 0.1, (500, 3))
-    lo, hi = pts.min(0), pts.max(0)
     model = np.eye(4)
     model[:3, 3] = rng.uniform(-0.1, 0.1, 3)
-    eye = rng.normal(0.0, 1.0, 3)
-    eye *= rng.uniform(0.8, 1.5) / np.linalg.norm(eye)
-    vp = perspective(40.0, size[0] / size[1], 0.05, 10.0) @ look_at(eye, (0.0, 0.0, 0.0))
-    box = screen_box(vp, lo, hi, model, size)
+    vp = _view(rng, size)
+    box = screen_box(vp, pts, model, size)
     px = _pixels(vp, pts, model, size)
-    inside = (px[:, 0] >= 0) & (px[:, 0] < size[0]) & (px[:, 1] >= 0) & (px[:, 1] < size[1])
     assert box not in (None, FULL)
     x, y, w, h = box
-    assert np.all(px[inside, 0] >= x) and np.all(px[inside, 0] <= x + w)
-    assert np.all(px[inside, 1] >= y) and np.all(px[inside, 1] <= y + h)
-    corners = _pixels(vp, np.array([[a, b, c] for a in (lo[0], hi[0]) for b in (lo[1], hi[1])
-                                    for c in (lo[2], hi[2])]), model, size)
-    cx0, cy0 = np.clip(corners.min(0), 0, size), np.clip(corners.max(0), 0, size)
-    assert x >= cx0[0] - 2 and x + w <= cy0[0] + 2 and y >= cx0[1] - 2 and y + h <= cy0[1] + 2
+    lo, hi = np.clip(px.min(0), 0, size), np.clip(px.max(0), 0, size)
+    # every point's pixel inside, and at most the rounding pixel and one more each side past them
+    assert x <= lo[0] and x + w >= hi[0] and y <= lo[1] and y + h >= hi[1]
+    assert x >= lo[0] - 2 and x + w <= hi[0] + 2 and y >= lo[1] - 2 and y + h <= hi[1] + 2
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_the_hull_bounds_every_vertex_in_any_view(seed):
+    """The box of the hull's points is the box of all the points (a convex set's projection is
+    the hull of its vertices'), from fewer points; a head's hull is inside its box corners'."""
+    rng = np.random.default_rng(seed)
+    pts = rng.normal(0.0, 0.1, (2000, 3)) * (1.0, 1.3, 0.8)
+    hull = hull_points(pts)
+    assert len(hull) < len(pts) // 4
+    assert all(any(np.array_equal(h, p) for p in pts) for h in hull[:20])   # vertices, not new points
+    size = (320, 200)
+    for _ in range(5):
+        vp = _view(rng, size)
+        model = np.eye(4)
+        model[:3, 3] = rng.uniform(-0.1, 0.1, 3)
+        assert screen_box(vp, hull, model, size) == screen_box(vp, pts, model, size)
+    head = default_head(3)
+    hb = hull_points(head.vertices)
+    vp = perspective(40.0, 1.6, 0.05, 10.0) @ look_at((0.05, 0.02, 0.25), (0.0, 0.0, 0.0))
+    a = screen_box(vp, hb, np.eye(4), size)
+    b = screen_box(vp, box_corners(*head.bbox()), np.eye(4), size)
+    assert a not in (None, FULL) and b not in (None, FULL)
+    assert a[2] * a[3] <= b[2] * b[3]
+
+
+def test_degenerate_hulls_keep_every_point():
+    flat = np.c_[np.random.default_rng(0).uniform(-1, 1, (50, 2)), np.zeros(50)]
+    assert len(hull_points(flat)) == 50
+    assert len(hull_points(np.zeros((3, 3)))) == 3
+    vp = perspective(40.0, 1.0, 0.05, 10.0) @ look_at((0.0, 0.0, 3.0), (0.0, 0.0, 0.0))
+    assert screen_box(vp, np.zeros((0, 3)), np.eye(4), (64, 64)) is None
 
 
 def test_behind_the_eye_off_screen_and_unions():
     vp = perspective(40.0, 1.0, 0.05, 10.0) @ look_at((0.0, 0.0, 1.0), (0.0, 0.0, 0.0))
-    assert screen_box(vp, (-0.1, -0.1, 0.9), (0.1, 0.1, 1.1), np.eye(4), (64, 64)) == FULL   # around the eye
-    assert screen_box(vp, (5.0, 5.0, -0.1), (5.1, 5.1, 0.1), np.eye(4), (64, 64)) is None  # beside the view
+    around = box_corners((-0.1, -0.1, 0.9), (0.1, 0.1, 1.1))
+    assert screen_box(vp, around, np.eye(4), (64, 64)) == FULL   # around the eye
+    beside = box_corners((5.0, 5.0, -0.1), (5.1, 5.1, 0.1))
+    assert screen_box(vp, beside, np.eye(4), (64, 64)) is None  # beside the view
     assert union(None, None) is None and union((1, 2, 3, 4), None) == (1, 2, 3, 4)
     assert union((0, 0, 10, 10), (5, 8, 10, 10)) == (0, 0, 15, 18)
     assert union(FULL, (0, 0, 1, 1)) == FULL
 
 
 @pytest.mark.gpu
-def test_every_frame_is_a_fresh_renderers(gl, monkeypatch):
+@pytest.mark.parametrize("supersample", [1, 2])
+def test_every_frame_is_a_fresh_renderers(gl, monkeypatch, supersample):
     """A camera that turns and comes close, a head that moves, then none, then drawn again: the
-    depth left by the last frame's head is cleared, and the clears are smaller than the target."""
+    depth left by the last frame's head is cleared, and the clears are smaller than the target
+    (supersampled: the box in the target's pixels, not the output's)."""
     head = default_head(3)
     groom = default_groom(head, 60, 8)
-    s = RenderSettings(size=(128, 96), rasterizer="compute", msaa=1)
+    s = RenderSettings(size=(128, 96), rasterizer="compute", msaa=1, supersample=supersample)
     moved = np.eye(4)
     moved[:3, 3] = (0.03, 0.01, 0.0)
     steps = [(20, 1.0, None, True), (20, 1.0, None, True), (60, 0.8, None, True), (60, 0.8, moved, True),
@@ -97,4 +134,4 @@ def test_every_frame_is_a_fresh_renderers(gl, monkeypatch):
             assert np.array_equal(img, want), (az, dist, draw, int(np.abs(img.astype(int) - want).max()))
     finally:
         r.release()
-    assert areas and min(areas) < 0.8 * 128 * 96
+    assert areas and min(areas) < 0.8 * 128 * 96 * supersample ** 2
