@@ -261,31 +261,39 @@ class HairComputePass(Pass):
         def begin(cs):
             return self._bind_step(cs, frame, common, depth, side, split, tiles)
 
-        groups = None
-        for phase in (1, 2, 3):
+        def tiled(phase):
             cs = program(("tiled", phase), {"RASTER_BALANCE": TILED, **cull, "RASTER_PASS": 0,
                                             "RASTER_TILED_PHASE": phase, **raster_tiles.defines()})
             groups = begin(cs)
+            if groups is not None:
+                rt.bind(cs)
+            return cs, groups
+
+        for phase in (1, 2):
+            cs, groups = tiled(phase)
             if groups is None:   # no segments
                 return
-            rt.bind(cs)
-            if phase == 3:
-                rt.dispatch_tiles(cs)
-            else:
-                cs.run(*groups)
+            cs.run(*groups)
             ctx.memory_barrier()
             if phase == 1:
                 rt.scan(groups)
         # the balanced form where the lists overflowed (the 32-bit path's depths clearing the
-        # ids an earlier step left, then its id pass): the same buffers, slower
+        # ids an earlier step left, then its id pass): the same buffers, slower. It runs before
+        # the tiled raster with no barrier between them: the scan gives work groups to one of
+        # the two, never both (an empty dispatch's barrier cost ~8 us, H200)
         fallback_cull = {"RASTER_HEAD_CULL": int(tiles is not None), "RASTER_CULL_SPANS": 1, "RASTER_CULL_COLUMNS": 1}
-        for raster_pass in ((0,) if self.vis64 else (0, 1)):
+        passes = (0,) if self.vis64 else (0, 1)
+        for raster_pass in passes:
             reset = {"RASTER_RESET_ID": 1} if not self.vis64 and raster_pass == 0 else {}
             cs = program(("fallback", raster_pass), {"RASTER_BALANCE": 1, **fallback_cull, "RASTER_PASS": raster_pass,
                                                      **reset})
             begin(cs)
             rt.dispatch_fallback(cs)
-            ctx.memory_barrier()
+            if raster_pass != passes[-1]:
+                ctx.memory_barrier()
+        cs, _ = tiled(3)
+        rt.dispatch_tiles(cs)
+        ctx.memory_barrier()
 
     # ------------------------------------------------------------------ statistics
     def count_samples(self, camera=None, lights=None) -> dict:
