@@ -65,6 +65,31 @@ def test_multisampled_heads_keep_the_fragment_shader(gl, monkeypatch):
     assert not used_compute and used_frag
 
 
-def test_cpu_rasterisers_use_the_fragment_shader_by_default(gl, monkeypatch):
+def test_the_default_shades_by_compute_on_gpus_only(gl, monkeypatch):
+    """CPU rasterisers keep the fragment shader (SHADE_BY_COMPUTE None: by the renderer)."""
+    from mane.gpu.capabilities import get_capabilities
+
     _, used_compute, used_frag = _image(gl, monkeypatch, None, False, rasterizer="compute")
-    assert not used_compute and used_frag
+    software = get_capabilities(gl).is_software
+    assert used_compute == (not software) and used_frag == software
+
+
+@pytest.mark.parametrize("azimuth, distance, supersample", [(70, 0.6, 1), (20, 0.35, 1), (200, 0.5, 2)])
+def test_every_head_pixel_is_shaded_and_no_other(gl, monkeypatch, azimuth, distance, supersample):
+    """head_shade.comp runs over the head's screen box only (Renderer.head_screen_box): every
+    pixel the raster units gave the head's depth is written (alpha 1), none else (alpha 0)."""
+    monkeypatch.setattr(head_pass, "SHADE_BY_COMPUTE", True)
+    r = Renderer(RenderSettings(size=(160, 120), rasterizer="compute", supersample=supersample), ctx=gl,
+                 profile=False)
+    try:
+        r.set_head(default_head(3))
+        r.render(r.default_camera(azimuth=azimuth, distance_scale=distance, points=None))
+        color, depth = r.hdr_textures()
+        w, h = depth.size
+        alpha = np.frombuffer(color.read(), np.float16).reshape(h, w, 4)[..., 3]
+        head = np.frombuffer(depth.read(), np.float32).reshape(h, w) < 1.0
+        assert 0.05 < head.mean() < 1.0   # a head on screen, and pixels without it
+        assert np.array_equal(alpha == 1.0, head)
+        assert np.all(alpha[~head] == 0.0)
+    finally:
+        r.release()

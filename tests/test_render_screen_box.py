@@ -7,6 +7,7 @@ import moderngl
 import numpy as np
 import pytest
 
+import mane.render.passes.head_pass as head_pass
 from mane.grooming.scene import default_groom, default_head
 from mane.render import Renderer, RenderSettings
 from mane.render.camera import Camera, look_at, perspective
@@ -88,11 +89,13 @@ def test_behind_the_eye_off_screen_and_unions():
 
 
 @pytest.mark.gpu
-@pytest.mark.parametrize("supersample", [1, 2])
-def test_every_frame_is_a_fresh_renderers(gl, monkeypatch, supersample):
+@pytest.mark.parametrize("supersample, head_by_compute", [(1, False), (2, False), (1, True), (2, True)])
+def test_every_frame_is_a_fresh_renderers(gl, monkeypatch, supersample, head_by_compute):
     """A camera that turns and comes close, a head that moves, then none, then drawn again: the
     depth left by the last frame's head is cleared, and the clears are smaller than the target
-    (supersampled: the box in the target's pixels, not the output's)."""
+    (supersampled: the box in the target's pixels, not the output's); the head shaded by compute
+    (GPUs) over that box only."""
+    monkeypatch.setattr(head_pass, "SHADE_BY_COMPUTE", head_by_compute)
     head = default_head(3)
     groom = default_groom(head, 60, 8)
     s = RenderSettings(size=(128, 96), rasterizer="compute", msaa=1, supersample=supersample)

@@ -585,7 +585,7 @@ class Renderer(GpuOwner):
         target = self._targets["hdr"]
         if "hdr_depth" not in self._targets:
             self._targets["hdr_depth"] = (self.ctx.framebuffer(depth_attachment=target.depth),)
-        box = self._head_screen_box(view)
+        box = self.head_screen_box(view)
         written = self._depth_written   # (the depth texture, the box its last frame's head wrote)
         area = union(box, written[1] if written is not None and written[0] is target.depth else FULL)
         if area == FULL:
@@ -596,7 +596,7 @@ class Renderer(GpuOwner):
         clear_texture(self.ctx, target.color, programs=self._programs)
         fbo.use()
 
-    def _head_screen_box(self, view):
+    def head_screen_box(self, view):
         """The head's screen box in ``view`` (screen_box; None without a head drawn), kept while
         the view, the head and its transform are the same."""
         if self.head is None or not self.settings.draw_head:

@@ -10,6 +10,7 @@ from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import ProgramMemo, compute_shader, program
 from ...gpu.uniforms import write_uniform
 from ..camera import mat_bytes
+from ..screen_box import FULL
 from ..bindings import B_HEAD_FACES, B_HEAD_VERTICES, IMG_HDR, TEX_HEAD_ID, TEX_SCENE_DEPTH
 from .base import RENDER_DIR, shader_path, Frame, Pass, bind_lighting, set_uniforms, set_view, shadow_defines
 
@@ -111,9 +112,14 @@ class HeadPass(Pass):
         vbo.bind_to_storage_buffer(B_HEAD_VERTICES)
         ibo.bind_to_storage_buffer(B_HEAD_FACES)
         target.color.bind_to_image(IMG_HDR, read=False, write=True)
-        w, h = depth.size
-        cs.run(math.ceil(w / 8), math.ceil(h / 8))
-        ctx.memory_barrier()
+        # the pixels of the head's screen box only (the renderer's, as the depth's clear): the
+        # head drew none outside it
+        box = r.head_screen_box(frame.view)
+        x, y, w, h = (0, 0, *depth.size) if box == FULL else box if box is not None else (0, 0, 0, 0)
+        if w > 0 and h > 0:
+            write_uniform(cs["u_origin"], (x, y))
+            cs.run(math.ceil(w / 8), math.ceil(h / 8))
+            ctx.memory_barrier()
         target.fbo.use()
 
     def _inverse_uniforms(self, view) -> dict:

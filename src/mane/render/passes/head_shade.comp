@@ -14,13 +14,14 @@ uniform sampler2D u_scene_depth;   // the head's window depth (1: none)
 uniform usampler2D u_head_id;      // its triangle there
 uniform mat4 u_head_model;
 uniform mat4 u_inv_view_proj;
+uniform ivec2 u_origin;             // the first pixel of the dispatch (the head's screen box)
 
 vec3 head_vertex(uint v, int k) {
     return vec3(head_v[7u * v + uint(k)], head_v[7u * v + uint(k) + 1u], head_v[7u * v + uint(k) + 2u]);
 }
 
 void main() {
-    ivec2 p = ivec2(gl_GlobalInvocationID.xy);
+    ivec2 p = u_origin + ivec2(gl_GlobalInvocationID.xy);
     ivec2 size = textureSize(u_scene_depth, 0);
     if (p.x >= size.x || p.y >= size.y) return;
     if (!(texelFetch(u_scene_depth, p, 0).r < 1.0)) return;
