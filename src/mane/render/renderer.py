@@ -40,7 +40,7 @@ from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .passes.scan_form import ScanForms
-from .screen_box import FULL, hull_points, screen_box, union
+from .screen_box import FULL, bound_points, screen_box, union
 from .settings import RenderSettings
 from .shading import ShadingSettings, hair_preset
 from .strand_buffers import StrandBuffers
@@ -134,7 +134,7 @@ class Renderer(GpuOwner):
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
         self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
         self._depth_written = None      # (HDR depth texture, the head's screen box last drawn into it)
-        self._head_box = None            # (view, transform bytes, the head's screen box, its hull's points)
+        self._head_box = None            # (view, transform bytes, the head's screen box, its bounding points)
         if self.compute_raster and not self.settings.head_msaa:
             self.samples = 1
         if not self.compute_raster and wants_compute(self.settings, self._renderer_string) and self.settings.rasterizer == "compute":
@@ -605,9 +605,9 @@ class Renderer(GpuOwner):
         memo = self._head_box   # (set_head forgets it)
         if memo is not None and memo[0] is view and memo[1] == model:
             return memo[2]
-        hull = memo[3] if memo is not None else hull_points(self.head.vertices)
-        box = screen_box(view.view_proj, hull, self.head_transform, self.settings.render_size)   # the target's pixels
-        self._head_box = (view, model, box, hull)
+        points = memo[3] if memo is not None else bound_points(self.head.vertices)
+        box = screen_box(view.view_proj, points, self.head_transform, self.settings.render_size)   # the target's pixels
+        self._head_box = (view, model, box, points)
         return box
 
     def hdr_target(self) -> Target:

@@ -4,8 +4,9 @@ On the H200 a depth clear of the 1080p HDR target takes 0.12-0.14 ms a frame, th
 its few raster units, and only the head writes that depth with the compute rasteriser: clearing
 the head's screen box of this frame and the last is the same frame for a third of the texels on
 the target frame (docs/performance.md, "The HDR depth's clear"). The box is that of the head's
-convex hull's vertices (hull_points), the projected mesh's own extent: in the bench's 100k-strand
-close-up the head's bounding box's corners project past the whole frame, its hull onto 54 % of it.
+vertices (bound_points; a large mesh's occupied grid cells), the projected mesh's own extent:
+in the bench's 100k-strand close-up the head's bounding box's corners project past the whole
+frame, its vertices onto 54 % of it.
 """
 from __future__ import annotations
 
@@ -17,20 +18,35 @@ import numpy as np
 FULL = "full"   # the whole target: a corner behind the eye, or nothing known of what is there
 
 
-def hull_points(vertices) -> np.ndarray:
-    """The vertices of the convex hull of ``vertices`` (N, 3): the points whose projections
-    bound every vertex's (a convex set's projection is the hull of its vertices'); all of them
-    where the hull is degenerate (a flat or tiny mesh)."""
+MAX_POINTS = 4096   # a mesh of more vertices is bounded by its occupied cells' corners
+CELLS = 16          # the grid's cells a side over the mesh's box
+
+
+def bound_points(vertices) -> np.ndarray:
+    """Points whose projections' box holds every vertex's in any view: the vertices themselves
+    where there are at most MAX_POINTS (the default head's 2,562), else the corners of the cells
+    of a CELLS^3 grid over their box that hold a vertex (each vertex lies in its cell, a cell in
+    the hull of its corners: at most a cell's size looser than the vertices, and O(vertices)
+    once a head)."""
     v = np.asarray(vertices, np.float64).reshape(-1, 3)
     v = v[np.all(np.isfinite(v), axis=1)]
-    if len(v) <= 8:
+    if len(v) <= MAX_POINTS:
         return v
-    try:
-        from scipy.spatial import ConvexHull, QhullError
+    lo, hi = v.min(axis=0), v.max(axis=0)
+    pad = 1e-6 * (float(np.max(hi - lo)) + 1e-12)   # the corners' rounding, outward
+    lo, hi = lo - pad, hi + pad
+    size = (hi - lo) / CELLS
+    cell = np.clip(((v - lo) / size).astype(np.int64), 0, CELLS - 1)
+    n = CELLS + 1   # lattice points a side
+    occupied = np.unique((cell[:, 0] * CELLS + cell[:, 1]) * CELLS + cell[:, 2])
+    ijk = np.stack([occupied // (CELLS * CELLS), occupied // CELLS % CELLS, occupied % CELLS], axis=1)
+    corners = (ijk[:, None, :] + _CORNER_STEPS[None]).reshape(-1, 3)
+    ids = np.unique((corners[:, 0] * n + corners[:, 1]) * n + corners[:, 2])
+    lattice = np.stack([ids // (n * n), ids // n % n, ids % n], axis=1)
+    return lo + lattice * size
 
-        return v[ConvexHull(v).vertices]
-    except (QhullError, ValueError):   # coplanar or too few distinct points
-        return v
+
+_CORNER_STEPS = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], np.int64)
 
 
 def screen_box(view_proj, points, model, size) -> tuple | str | None:
