@@ -269,3 +269,29 @@ def test_the_lists_scan_is_numpys_over_many_blocks(gl, monkeypatch, block):
             assert list(fallback) == ([17, 3, 1] if overflow else [0, 1, 1])
     finally:
         rt.release()
+
+
+@pytest.mark.parametrize("sub, want", [
+    ({"size": 32, "stages": 0xFF, "features": 0xFF}, True),    # NVIDIA
+    ({"size": 8, "stages": 0x20, "features": 0x5}, True),
+    ({"size": 4, "stages": 0xFF, "features": 0xFF}, False),    # smaller than RT_MIN_SUBGROUP
+    ({"size": 24, "stages": 0xFF, "features": 0xFF}, False),   # not a power of two
+    ({"size": 32, "stages": 0x10, "features": 0xFF}, False),   # no compute stage
+    ({"size": 32, "stages": 0xFF, "features": 0x1}, False),    # no arithmetic
+    ({}, False),                                               # no GL_KHR_shader_subgroup
+])
+def test_the_subgroup_scan_where_subgroups_fit(monkeypatch, sub, want):
+    """The column scans by subgroup operations (the tiled walk's RT_SUBGROUP, the balanced form's
+    RASTER_SUBGROUP) only where their assumptions hold; where they run (GPUs), the bit-identity
+    tests above and in test_render_compute_balance.py run them."""
+    class Caps:
+        subgroup = sub
+
+    monkeypatch.setattr(raster_segment, "get_capabilities", lambda ctx: Caps())
+    assert raster_segment.subgroup_scan(object()) is want
+    assert raster_tiles.defines(object())["RT_SUBGROUP"] == int(want)
+    assert raster_tiles.defines()["RT_SUBGROUP"] == 0
+    assert raster_segment.subgroup_defines(object(), 1) == {"RASTER_SUBGROUP": int(want)}
+    assert raster_segment.subgroup_defines(object(), 0) == {"RASTER_SUBGROUP": 0}
+    monkeypatch.setattr(raster_segment, "SUBGROUP_SCAN", False)
+    assert raster_segment.subgroup_scan(object()) is False

@@ -177,6 +177,9 @@ LIMITS: dict[str, tuple[str, int, str]] = {
     "max_vertex_attribs": ("GL_MAX_VERTEX_ATTRIBS", 0x8869, "int"),
     "max_uniform_block_size": ("GL_MAX_UNIFORM_BLOCK_SIZE", 0x8A30, "int64"),
 }
+# GL_KHR_shader_subgroup's values, read where the extension is: invocations a subgroup, the
+# stages (bits: compute 0x20) and features (basic 0x1, arithmetic 0x4) that have them
+SUBGROUP = {"size": 0x9532, "stages": 0x9533, "features": 0x9534}
 
 # Extensions that change what mane can do (a core feature is judged by the version instead).
 EXTENSIONS_THAT_MATTER = (
@@ -482,6 +485,7 @@ class Capabilities:
     limits: dict = field(hash=False, compare=False)
     memory: GPUMemory = field(hash=False, compare=False)
     features: dict = field(hash=False, compare=False, repr=False)
+    subgroup: dict = field(default_factory=dict, hash=False, compare=False)   # SUBGROUP's values; {} without it
 
     @classmethod
     def query(cls, ctx) -> "Capabilities":
@@ -492,6 +496,8 @@ class Capabilities:
         with _current(ctx):
             reader = _GLReader(ctx)
             limits = _read_limits(ctx, reader)
+            subgroup = ({k: reader.integer(enum) for k, enum in SUBGROUP.items()}
+                        if "GL_KHR_shader_subgroup" in exts else {})
             glsl = reader.string(GL_SHADING_LANGUAGE_VERSION)
         memory = gpu_memory(ctx, exts, software)
         if not glsl:
@@ -507,6 +513,7 @@ class Capabilities:
             limits=limits,
             memory=memory,
             features=_features(int(ctx.version_code), exts, limits, software),
+            subgroup=subgroup,
         )
 
     def has_extension(self, name: str) -> bool:

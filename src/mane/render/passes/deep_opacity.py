@@ -31,7 +31,7 @@ from .base import (FAR, HERE, shader_path, PASS_DOM_DEPTH, PASS_DOM_OPACITY, REN
                    read_f32, set_uniform, set_uniforms, set_view)
 from ..coverage_lod import light_strand_step, mean_width
 from .light_depth import LightDepthPass
-from .raster_segment import raster_defines
+from .raster_segment import raster_defines, subgroup_defines
 
 
 Z0_EVERY_STRAND = True
@@ -199,12 +199,13 @@ def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.
     ``strand_step`` m: every m-th strand, its opacity x m."""
     ctx = renderer.ctx
     defines = raster_defines(ctx, balance)
+    defines.update(subgroup_defines(ctx, defines["RASTER_BALANCE"]))
 
     def build():
         return compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **defines},
                               include_dirs=[RENDER_DIR])
 
-    cs = build() if programs is None else programs.get(("dom_raster", dom_pass, defines["RASTER_BALANCE"]), (), build)
+    cs = build() if programs is None else programs.get(("dom_raster", dom_pass, *defines.values()), (), build)
     set_view(cs, view)
     set_uniforms(cs, _scan_uniforms(int(n), layer_ends, strand_opacity, int(strand_step)))
     renderer.get_pass("expand").dispatch_segments(cs, strand_step)

@@ -6,6 +6,9 @@
 // z0, since atomics run at the L2's atomic rate). DOM_PASS 1: strand_opacity x coverage added
 // (fixed point, 1/DOM_SCALE) to the fragment's own layer only, one atomic a fragment; dom_pack
 // sums the layers in front of each (the map's layers are cumulative), exactly: integers.
+#if RASTER_SUBGROUP   // raster_segment.glsl's column scan by subgroups (raster_segment.subgroup_defines)
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#endif
 layout(local_size_x = 128) in;
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 layout(std430, binding = B_DOM_Z0) buffer DomZ0 { uint dom_z0[]; };

@@ -59,7 +59,7 @@ from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG
 from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, bounce_defines, set_uniforms, set_view,
                    shadow_defines)
 from . import depth_tiles, occlusion_tiles, raster_tiles
-from .raster_segment import TILED, raster_defines
+from .raster_segment import TILED, raster_defines, subgroup_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
@@ -163,7 +163,7 @@ class HairComputePass(Pass):
             form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
         else:
             form = site.current()
-        balance = raster_defines(ctx, form)
+        balance = {**raster_defines(ctx, form), **subgroup_defines(ctx, form)}
         tiled = balance["RASTER_BALANCE"] == TILED
         cull = depth_tiles.cull_defines(ctx, form)
         hair_cull = occlusion_tiles.hair_cull(ctx, form)
@@ -199,7 +199,7 @@ class HairComputePass(Pass):
                     self._tiled_step(frame, side, tiles, split, common, cull, stats is not None)
                     continue
                 cs = self._programs.get(("raster", raster_pass, stats is not None),
-                                        (balance["RASTER_BALANCE"], *cull.values()),
+                                        (*balance.values(), *cull.values()),
                                         lambda: compute_shader(ctx, shader_path("hair_raster.comp"), {
                                             **defines, **balance, **cull, "RASTER_PASS": raster_pass,
                                             **({"RASTER_STATS": 1} if stats is not None else {})},
@@ -263,7 +263,7 @@ class HairComputePass(Pass):
 
         def tiled(phase):
             cs = program(("tiled", phase), {"RASTER_BALANCE": TILED, **cull, "RASTER_PASS": 0,
-                                            "RASTER_TILED_PHASE": phase, **raster_tiles.defines()})
+                                            "RASTER_TILED_PHASE": phase, **raster_tiles.defines(ctx)})
             groups = begin(cs)
             if groups is not None:
                 rt.bind(cs)

@@ -11,6 +11,9 @@
 // coverage in one dispatch on both paths). RASTER_RESET_ID (32-bit path, RASTER_PASS 0): a visit
 // that lowers a sample's depth clears its id, so that the id pass after it sets it from this
 // dispatch's segments alone (the tiled form's fallback after a step that left ids).
+#if RT_SUBGROUP || RASTER_SUBGROUP   // the column scans by subgroups (raster_segment.subgroup_scan)
+#extension GL_KHR_shader_subgroup_arithmetic : require
+#endif
 #include "hair_vis.glsl"
 // the tiled raster's groups hold 256 threads (raster_tiles.glsl's RT_BATCH: shared memory per thread)
 #if RASTER_BALANCE == 2 && RASTER_TILED_PHASE == 3

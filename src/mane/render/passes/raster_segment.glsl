@@ -259,7 +259,18 @@ shared vec4 rs_ad[gl_WorkGroupSize.x];      // a, d
 shared vec4 rs_zh[gl_WorkGroupSize.x];      // za, zb, ha, hb
 shared uvec4 rs_ci[gl_WorkGroupSize.x];     // ca, cb, inv_cos (bits), first point
 shared int rs_xs[gl_WorkGroupSize.x];       // x0 | steep << 31
+#ifndef RASTER_SUBGROUP
+#define RASTER_SUBGROUP 0
+#endif
+#if RASTER_SUBGROUP
+// the column counts' prefix sum by subgroups (GL_KHR_shader_subgroup_arithmetic, declared by the
+// including kernel; subgroups of consecutive invocations of >= 8: raster_segment.subgroup_scan),
+// then each subgroup's total in front: two barriers where Hillis-Steele takes log2(group) + 1
+shared int rs_scan[gl_WorkGroupSize.x];
+shared int rs_wsum[gl_WorkGroupSize.x / 8u];
+#else
 shared int rs_scan[2u * gl_WorkGroupSize.x];   // the column counts' prefix sum, two halves in turn
+#endif
 
 void raster_expanded_segment() {
     RasterSpan s;
@@ -270,6 +281,15 @@ void raster_expanded_segment() {
     rs_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
     rs_ci[lid] = raster_span_ci(s, i);
     rs_xs[lid] = raster_span_xs(s, s.x0);
+#if RASTER_SUBGROUP
+    int incl = subgroupInclusiveAdd(raster_columns(s));
+    if (gl_SubgroupInvocationID == gl_SubgroupSize - 1u) rs_wsum[gl_SubgroupID] = incl;
+    barrier();
+    for (uint w = 0u; w < gl_SubgroupID; ++w) incl += rs_wsum[w];
+    rs_scan[lid] = incl;
+    barrier();
+    int src = 0;
+#else
     rs_scan[lid] = raster_columns(s);
     barrier();
     int src = 0;   // Hillis-Steele inclusive scan, reading one half and writing the other
@@ -280,6 +300,7 @@ void raster_expanded_segment() {
         rs_scan[src + lid] = v;
         barrier();
     }
+#endif
     // rs_scan[src + k]: the columns of segments 0..k; column j of the group is column
     // j - (end of k - 1) of the first segment k whose end passes j
     int total = rs_scan[src + RASTER_GROUP - 1];   // <= group size x (RASTER_MAX_STEPS + 1): bounded

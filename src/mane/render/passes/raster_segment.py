@@ -62,6 +62,27 @@ def balance_for(ctx) -> int:
     return form_for(ctx, 2)
 
 
+SUBGROUP_SCAN = None     # column scans by subgroup operations: None where subgroup_scan(ctx) says
+
+
+def subgroup_scan(ctx) -> bool:
+    """Whether the balanced form's and the tiled walk's column scans use subgroup operations
+    (RASTER_SUBGROUP, RT_SUBGROUP): compute shaders with GL_KHR_shader_subgroup's basic and
+    arithmetic features, subgroups of a power of two of at least 8 invocations (NVIDIA: 32;
+    llvmpipe has none)."""
+    if SUBGROUP_SCAN is not None:
+        return bool(SUBGROUP_SCAN)
+    sub = get_capabilities(ctx).subgroup
+    size, stages, features = (sub.get(k) or 0 for k in ("size", "stages", "features"))
+    return size >= 8 and size & (size - 1) == 0 and bool(stages & 0x20) and features & 0x5 == 0x5
+
+
+def subgroup_defines(ctx, form: int) -> dict:
+    """RASTER_SUBGROUP for a kernel that includes raster_segment.glsl in ``form`` and declares
+    the subgroup extension under it (hair_raster.comp, dom_raster.comp)."""
+    return {"RASTER_SUBGROUP": int(form == 1 and subgroup_scan(ctx))}
+
+
 def raster_defines(ctx, balance: int | None = None) -> dict:
     """The defines of every kernel that includes raster_segment.glsl: ``balance`` the form (a
     site's tuner's, scan_form.py; the tiled form 2 where the caller has it), None the fixed rule

@@ -195,7 +195,16 @@ shared vec4 rt_ad[RT_BATCH];     // a batch's spans: a, d
 shared vec4 rt_zh[RT_BATCH];     // za, zb, ha, hb
 shared uvec4 rt_ci[RT_BATCH];    // raster_span_ci: ca, cb, inv_cos, first point
 shared int rt_xs[RT_BATCH];      // raster_span_xs: the first column in the tile, steep
+#if RT_SUBGROUP
+// the batch's columns scanned by subgroups (GL_KHR_shader_subgroup_arithmetic, subgroups of
+// consecutive invocations of >= RT_MIN_SUBGROUP: raster_tiles.subgroup_scan), then each
+// subgroup's total in front: two barriers where the Hillis-Steele scan takes log2(RT_BATCH) + 1
+#define RT_MIN_SUBGROUP 8
+shared int rt_scan[RT_BATCH];
+shared int rt_wsum[RT_BATCH / RT_MIN_SUBGROUP];
+#else
 shared int rt_scan[2 * RT_BATCH];
+#endif
 
 // walk 1's bound at a sample: visits at 0 < z with bits at or past it are no-ops
 uint rt_no_op_from(int li) {
@@ -317,8 +326,21 @@ void rt_walk(int walk, int begin, int end, ivec2 t0) {
             rt_zh[lid] = vec4(s.za, s.zb, s.ha, s.hb);
             rt_ci[lid] = raster_span_ci(s, i);
             rt_xs[lid] = raster_span_xs(s, cx0);
+#if !RT_SUBGROUP
             rt_scan[lid] = cols;
+#endif
         }
+#if RT_SUBGROUP
+        int incl = subgroupInclusiveAdd(cols);   // (0 past the batch)
+        if (lid < RT_BATCH && gl_SubgroupInvocationID == gl_SubgroupSize - 1u) rt_wsum[gl_SubgroupID] = incl;
+        barrier();
+        if (lid < RT_BATCH) {
+            for (uint w = 0u; w < gl_SubgroupID; ++w) incl += rt_wsum[w];
+            rt_scan[lid] = incl;
+        }
+        barrier();
+        int src = 0;
+#else
         barrier();
         int src = 0;   // Hillis-Steele inclusive scan (raster_segment.glsl's balanced form)
         for (int off = 1; off < RT_BATCH; off <<= 1) {
@@ -331,6 +353,7 @@ void rt_walk(int walk, int begin, int end, ivec2 t0) {
             if (lid < RT_BATCH) rt_scan[src + lid] = v;
             barrier();
         }
+#endif
         int total = rt_scan[src + RT_BATCH - 1];   // <= RT_BATCH x RT_SIDE
         int lo = 0, cur = -1, start = 0;
         RasterSpan t;

@@ -34,6 +34,7 @@ import numpy as np
 
 from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import get_capabilities
+from . import raster_segment
 from ...gpu.fence import Fence
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import B_TILE_COUNTS, B_TILE_ENTRIES, B_TILE_INDEX
@@ -55,10 +56,12 @@ CHECK_EVERY = 16         # steps between copies of the largest total (read once 
 CAPACITY = None          # tests: a fixed capacity in entries (None: by the rule above)
 
 
-def defines() -> dict:
+def defines(ctx=None) -> dict:
     """The defines of the programs that include raster_tiles.glsl or run raster_tiles_scan.comp
-    (RT_PACKED: raster_tiles.glsl's one walk with 64-bit shared atomics, on when VIS64 is)."""
-    return {"RT_SHIFT": TILE_SHIFT, "RT_PACKED_OK": int(PACKED), **INDEX}
+    (RT_PACKED: raster_tiles.glsl's one walk with 64-bit shared atomics, on when VIS64 is;
+    RT_SUBGROUP: the walk's subgroup scan, raster_segment.subgroup_scan(ctx); off without a context)."""
+    return {"RT_SHIFT": TILE_SHIFT, "RT_PACKED_OK": int(PACKED), **INDEX,
+            "RT_SUBGROUP": int(ctx is not None and raster_segment.subgroup_scan(ctx))}
 
 
 class RasterTiles:
