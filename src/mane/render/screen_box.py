@@ -20,6 +20,7 @@ FULL = "full"   # the whole target: a corner behind the eye, or nothing known of
 
 MAX_POINTS = 4096   # a mesh of more vertices is bounded by its occupied cells' corners
 CELLS = 16          # the grid's cells a side over the mesh's box
+_CORNER_STEPS = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], np.int64)
 
 
 def bound_points(vertices) -> np.ndarray:
@@ -44,9 +45,6 @@ def bound_points(vertices) -> np.ndarray:
     ids = np.unique((corners[:, 0] * n + corners[:, 1]) * n + corners[:, 2])
     lattice = np.stack([ids // (n * n), ids // n % n, ids % n], axis=1)
     return lo + lattice * size
-
-
-_CORNER_STEPS = np.array([[x, y, z] for x in (0, 1) for y in (0, 1) for z in (0, 1)], np.int64)
 
 
 def screen_box(view_proj, points, model, size) -> tuple | str | None:

@@ -113,10 +113,10 @@ class HeadPass(Pass):
         ibo.bind_to_storage_buffer(B_HEAD_FACES)
         target.color.bind_to_image(IMG_HDR, read=False, write=True)
         # the pixels of the head's screen box only (the renderer's, as the depth's clear): the
-        # head drew none outside it
+        # head drew none outside it; None: it is off screen
         box = r.head_screen_box(frame.view)
-        x, y, w, h = (0, 0, *depth.size) if box == FULL else box if box is not None else (0, 0, 0, 0)
-        if w > 0 and h > 0:
+        if box is not None:
+            x, y, w, h = (0, 0, *depth.size) if box == FULL else box
             write_uniform(cs["u_origin"], (x, y))
             cs.run(math.ceil(w / 8), math.ceil(h / 8))
             ctx.memory_barrier()
