@@ -91,7 +91,7 @@ def test_the_cold_runs_first_frame_in_phases(gl, sync):
     out = scale_bench._cold_run(spec)
     ph = out["phases"]
     # each scan-form site's state at the end (the tuner's, where it runs: GPUs)
-    assert set(out["scan_forms"]) == {"hair", "dom"}
+    assert set(out["scan_forms"]) == {"hair", "dom_z0", "dom"}
     assert all(v["form"] in FORM_NAMES for v in out["scan_forms"].values())
     for name in ("groom_check", "rest_data", "state_upload", "friction_grid", "first_step", "first_render",
                  "first_passes", "first_finish", "first_frame"):

@@ -290,12 +290,13 @@ def _frames_alternating(gl, monkeypatch, ms_hair, ms_dom, frames=9, **kw):
         sites = r.scan_forms
         sites.hair.timer = FakeTimer(sites.hair, ms_hair)
         sites.dom.timer = FakeTimer(sites.dom, ms_dom)
+        sites.dom_z0.timer = FakeTimer(sites.dom_z0, {f: ms_dom[1 - f] for f in ms_dom})   # the other way
         hc = r.get_pass("hair_compute")
         hc.capture = True
         out = []
         for _ in range(frames):
             img = r.render_image(cam)
-            out.append(dict(forms=(sites.hair.form, sites.dom.form), bufs={k: v.copy() for k, v in hc.captured.items()},
+            out.append(dict(forms=(sites.hair.form, sites.dom.form, sites.dom_z0.form), bufs={k: v.copy() for k, v in hc.captured.items()},
                             dom=r.get_pass("deep_opacity").read(), image=img))
         return out, r.stats()
     finally:
@@ -305,15 +306,18 @@ def _frames_alternating(gl, monkeypatch, ms_hair, ms_dom, frames=9, **kw):
 def test_alternating_forms_give_identical_frames(gl, monkeypatch):
     from test_render_compute_balance import assert_cover_equal
 
-    # per-thread faster at the hair site, balanced at the deep opacity maps'
+    # per-thread faster at the hair site and the deep opacity z0, balanced at its layers
     # (the hair site's three forms: 3 first uses and 6 timed frames, decided at the 10th)
     frames, stats = _frames_alternating(gl, monkeypatch, {0: 1.0, 1: 2.0, 2: 3.0}, {0: 3.0, 1: 1.0}, frames=10)
     hair_forms = [f["forms"][0] for f in frames]
     dom_forms = [f["forms"][1] for f in frames]
-    assert {0, 1, 2} <= set(hair_forms[:6]) and {0, 1} <= set(dom_forms[:6])   # the probe switched forms
+    z0_forms = [f["forms"][2] for f in frames]
+    assert {0, 1, 2} <= set(hair_forms[:6]) and {0, 1} <= set(dom_forms[:6]) and {0, 1} <= set(z0_forms[:6])
     assert any(a != b for a, b in zip(hair_forms, hair_forms[1:]))
-    assert hair_forms[-1] == 0 and dom_forms[-1] == 1
-    assert stats["scan_form"] == {"hair": "per_thread", "dom": "balanced"} and stats["scan_form_by"] == "tuner"
+    # each deep opacity dispatch its own choice: the layers balanced, z0 per thread
+    assert hair_forms[-1] == 0 and dom_forms[-1] == 1 and z0_forms[-1] == 0
+    assert stats["scan_form"] == {"hair": "per_thread", "dom_z0": "per_thread", "dom": "balanced"}
+    assert stats["scan_form_by"] == "tuner"
     first = frames[0]
     assert (first["bufs"]["ids"] >= 0).sum() > 100 and (first["dom"][..., 3] < 1e8).sum() > 300
     for f in frames[1:]:
@@ -448,14 +452,14 @@ def test_memory_key_covers_gpu_driver_settings_and_sizes():
 
 def test_a_second_renderer_starts_on_the_kept_forms(gl, monkeypatch):
     """A renderer made after another decided (a second launch, its cache warm) draws its first
-    frame with the kept forms at both sites, and the same images."""
+    frame with the kept forms at every site, and the same images."""
     default = raster_segment.balance_for(gl)
     other = 1 - default
     hair = {default: 2.0, other: 1.0, 2: 3.0}
     first, _ = _frames_alternating(gl, monkeypatch, hair, {default: 1.0, other: 3.0}, frames=10)
-    assert first[-1]["forms"] == (other, default)
+    assert first[-1]["forms"] == (other, default, other)   # hair, dom (layers), dom_z0
     second, stats = _frames_alternating(gl, monkeypatch, hair, {default: 1.0, other: 3.0}, frames=2)
-    assert [f["forms"] for f in second] == [(other, default)] * 2
+    assert [f["forms"] for f in second] == [(other, default, other)] * 2
     for f in second:
         np.testing.assert_array_equal(f["image"], first[0]["image"])
 

@@ -117,23 +117,21 @@ class DeepOpacityPass(LightDepthPass):
         z0.bind_to_storage_buffer(B_DOM_Z0)
         layers.bind_to_storage_buffer(B_DOM_LAYERS)
         layer_ends, opacity = self._layer_uniforms(frame.hair_depth_range)
-        # the form by measurement (scan_form.py): both dispatches timed; the extra lights' maps
-        # (extra_shadows.py) take the main light's choice untimed
-        site = r.scan_forms.dom
+        # each dispatch's form by measurement (scan_form.py: the sites dom_z0 and dom, each
+        # dispatch timed); the extra lights' maps (extra_shadows.py) take the main light's choices untimed
         main = r.get_pass("deep_opacity") is self
         if main:
             expand = r.get_pass("expand")
             expand.ensure()
-            form = site.begin(r.settings, (expand.segments, 1 if r.instances is None else len(r.instances)))
-        else:
-            form = site.current()
+            sizes = (expand.segments, 1 if r.instances is None else len(r.instances))
         step = self.last_step = self.strand_step(frame)
-        for dom_pass in (0, 1):
+        for dom_pass, site in ((0, r.scan_forms.dom_z0), (1, r.scan_forms.dom)):
+            form = site.begin(r.settings, sizes) if main else site.current()
             scan_light_depths(r, frame.light_view, n, dom_pass, layer_ends=layer_ends, strand_opacity=opacity,
                               balance=form, programs=self._programs,
                               strand_step=1 if dom_pass == 0 and Z0_EVERY_STRAND else step)
-        if main:
-            site.end()
+            if main:
+                site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
                                                                     include_dirs=[RENDER_DIR]))
         set_uniforms(pack, _pack_uniforms(n))

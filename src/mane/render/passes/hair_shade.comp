@@ -4,10 +4,11 @@
 // sample; past MAX_SHADED distinct ids, by sample), with the sample's coverage as alpha over
 // what is already there (the head and background, premultiplied), the samples averaged into the
 // HDR image. The buffers are reset for the next frame on the way.
-// A work group (8 x 8 pixels) lists its pixels' shading jobs in shared memory, shades the list
-// with every thread, then each thread sums its samples from it: a thread a pixel shading its own
-// 1-4 jobs left most lanes idle (H200, 1080p: the 100k close-up's shading 1.94 -> 1.58 ms, the
-// 50k target frame's 1.33 -> 0.96; the same image). A sample no segment reached is not reset
+// A work group (SHADE_GROUP_X x SHADE_GROUP_Y pixels: hair_compute.shade_group) lists its pixels'
+// shading jobs in shared memory, shades the list with every thread, then each thread sums its
+// samples from it: a thread a pixel shading its own 1-4 jobs left most lanes idle (H200, 1080p:
+// the 100k close-up's shading 1.94 -> 1.58 ms, the 50k target frame's 1.33 -> 0.96; the same
+// image). 16 x 8 pixels a group rather than 8 x 8 (up to 4 samples): the close-up 3.96 -> 3.84 ms. A sample no segment reached is not reset
 // (it is already empty) and a pixel with none is not written: those writes over the whole screen
 // had cost the pass more than its shading (H200: the target frame 0.96 -> 0.20 ms, the 100k
 // close-up 1.58 -> 0.98; the same image). SHADE_GRID: the samples per pixel along x
@@ -15,7 +16,7 @@
 #include "shading/hair_shading.glsl"
 #include "hair_radiance.glsl"
 #include "hair_vis.glsl"
-layout(local_size_x = 8, local_size_y = 8) in;
+layout(local_size_x = SHADE_GROUP_X, local_size_y = SHADE_GROUP_Y) in;
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 layout(rgba16f, binding = IMG_HDR) uniform image2D u_hdr;
 uniform int u_points_per_strand;
@@ -32,7 +33,8 @@ vec3 shade_segment(uint i, vec2 q) {
 }
 
 #define SAMPLES (SHADE_GRID * SHADE_GRID)
-#define MAX_JOBS (64 * SAMPLES)
+#define GROUP_PIXELS (SHADE_GROUP_X * SHADE_GROUP_Y)
+#define MAX_JOBS (GROUP_PIXELS * SAMPLES)
 shared uint s_job_id[MAX_JOBS];
 shared uint s_job_q[MAX_JOBS];   // the sample shaded: x | y << 16
 shared vec3 s_color[MAX_JOBS];
@@ -135,7 +137,7 @@ void main() {
     }
     barrier();
     uint n = s_jobs;
-    for (uint j = gl_LocalInvocationIndex; j < n; j += 64u) {
+    for (uint j = gl_LocalInvocationIndex; j < n; j += uint(GROUP_PIXELS)) {
         uint qb = s_job_q[j];
         s_color[j] = shade_segment(s_job_id[j], vec2(float(qb & 0xFFFFu), float(qb >> 16)) + 0.5);
     }
