@@ -67,9 +67,10 @@ COVER_SCALE = 4096.0    # hair_vis.glsl
 
 def shade_group(grid: int) -> tuple[int, int]:
     """hair_shade.comp's work group in pixels (SHADE_GROUP_X, _Y) at ``grid`` x ``grid`` samples a
-    pixel: 16 x 8 up to 2 x 2 samples (H200: the 100k close-up 3.96 -> 3.84 ms against 8 x 8, the
-    target frame 1.235 -> 1.230), else 8 x 8, so that its job list (20 bytes a sample) stays
-    within the 32 KiB of shared memory every GL 4.3 context has."""
+    pixel: 16 x 8 up to 2 x 2 samples (H200 at 2 x 2, the default: the 100k close-up 3.96 -> 3.84
+    ms against 8 x 8, the target frame 1.235 -> 1.230; one sample a pixel not timed), else 8 x 8,
+    so that its job list (20 bytes a sample) stays within the 32 KiB of shared memory every GL 4.3
+    context has."""
     return (16, 8) if grid <= 2 else (8, 8)
 
 
