@@ -228,11 +228,12 @@ class HairComputePass(Pass):
             hook(frame)
         with r.profiler.section("hair_shade"):
             bounce = bounce_defines(r)
+            gx, gy = shade_group(grid)
             cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID"),
                                               grid), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
-                                                       **bounce, "SHADE_GRID": int(grid), "SHADE_GROUP_X": shade_group(grid)[0],
-                                                       "SHADE_GROUP_Y": shade_group(grid)[1]}, include_dirs=[RENDER_DIR]))
+                                                       **bounce, "SHADE_GRID": int(grid), "SHADE_GROUP_X": gx,
+                                                       "SHADE_GROUP_Y": gy}, include_dirs=[RENDER_DIR]))
             set_view(cs, frame.view)
             set_uniforms(cs, common)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)
@@ -240,7 +241,6 @@ class HairComputePass(Pass):
             bind_lighting(r, cs, frame)
             color.bind_to_image(IMG_HDR, read=True, write=True)
             w, h = r.settings.render_size
-            gx, gy = shade_group(grid)
             cs.run(math.ceil(w / gx), math.ceil(h / gy))
             ctx.memory_barrier()
 

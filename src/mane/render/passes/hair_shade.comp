@@ -8,11 +8,11 @@
 // shading jobs in shared memory, shades the list with every thread, then each thread sums its
 // samples from it: a thread a pixel shading its own 1-4 jobs left most lanes idle (H200, 1080p:
 // the 100k close-up's shading 1.94 -> 1.58 ms, the 50k target frame's 1.33 -> 0.96; the same
-// image). 16 x 8 pixels a group rather than 8 x 8 (up to 4 samples): the close-up 3.96 -> 3.84 ms. A sample no segment reached is not reset
-// (it is already empty) and a pixel with none is not written: those writes over the whole screen
-// had cost the pass more than its shading (H200: the target frame 0.96 -> 0.20 ms, the 100k
-// close-up 1.58 -> 0.98; the same image). SHADE_GRID: the samples per pixel along x
-// and y (u_grid), a constant here for the per-thread arrays.
+// image; 16 x 8 pixels a group rather than 8 x 8, up to 4 samples: the close-up 3.96 -> 3.84 ms).
+// A sample no segment reached is not reset (it is already empty) and a pixel with none is not
+// written: those writes over the whole screen had cost the pass more than its shading (H200: the
+// target frame 0.96 -> 0.20 ms, the 100k close-up 1.58 -> 0.98; the same image). SHADE_GRID: the
+// samples per pixel along x and y (u_grid), a constant here for the per-thread arrays.
 #include "shading/hair_shading.glsl"
 #include "hair_radiance.glsl"
 #include "hair_vis.glsl"
