@@ -38,8 +38,9 @@ def test_png_and_stats(groom_file, tmp_path, capsys):
     assert img.shape == (72, 96, 3) and img.std() > 1
     s = json.loads(stats.read_text())
     assert {"passes", "frames", "size", "renderer", "rendered_strands", "rendered_segments"} <= set(s)
-    assert s["frames"] == 1 and s["size"] == [96, 72] and s["rendered_strands"] == 12 * 5
-    assert {"shadow_map", "resolve"} <= set(s["passes"])
+    # a still picture: its first frame and the 16 moved ones its mean averages (RenderSettings.accumulate)
+    assert s["frames"] == 17 and s["still_frames"] == 16 and s["size"] == [96, 72] and s["rendered_strands"] == 12 * 5
+    assert {"shadow_map", "resolve", "accumulate"} <= set(s["passes"])
     assert ("hair" in s["passes"]) != ("hair_compute" in s["passes"])   # raster units or compute (H100/H200)
     assert all(v >= 0 for v in s["passes"].values())
 
@@ -109,7 +110,8 @@ def test_hair_presets_melanin_and_multiple_scattering(groom_file, tmp_path, caps
     for name, extra in (("black", ["--hair", "black"]), ("blond", ["--melanin", "0.3,0.1"])):
         out = tmp_path / f"{name}.png"
         assert main(["render", str(groom_file), "--out", str(out), "--size", "64x48", "--aa", "none",
-                     "--shadows", "none", "--head", "none", "--turntable", "0", *extra]) == 0
+                     "--shadows", "none", "--head", "none", "--turntable", "0", "--set", "accumulate=1",
+                     *extra]) == 0   # one frame: thin strands whole, not spread by the still's jitter
         imgs[name] = np.asarray(Image.open(out), np.float64)[..., :3]
     hair = np.abs(imgs["blond"] - imgs["black"]).max(-1) > 8
     assert hair.sum() > 20

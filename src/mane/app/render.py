@@ -307,8 +307,11 @@ def _render(args, settings, renderer, groom, head, lights, out, video, parse_cam
 
     quiet = getattr(args, "quiet", False)
     frames = progress(range(args.frames), desc="render", unit="frame", quiet=quiet or args.frames <= 1)
-    # one frame: a bar over the renderer's passes (a 10,000-strand file on a CPU takes minutes)
-    pass_bar = progress(total=len(renderer.passes), desc="render passes", unit="pass",
+    # one frame: a bar over the renderer's passes (a 10,000-strand file on a CPU takes minutes),
+    # of every frame its still picture averages (settings.accumulate)
+    still = args.frames == 1
+    pass_bar = progress(total=len(renderer.passes) * (1 + (int(settings.accumulate) if still and settings.accumulate > 1 else 0)),
+                        desc="render passes", unit="pass",
                         quiet=quiet or args.frames > 1)
     renderer.on_pass = lambda name: (pass_bar.set_postfix_str(name, refresh=False), pass_bar.update(1))
     drawn = 0
@@ -328,7 +331,7 @@ def _render(args, settings, renderer, groom, head, lights, out, video, parse_cam
                         sim.advance(1.0 / args.fps)
                     renderer.strands_changed()
                 cam = camera.orbited(turn * i / args.frames) if turn else camera
-                image = renderer.render_image(cam, lights)
+                image = renderer.render_still(cam, lights) if still else renderer.render_image(cam, lights)
                 drawn += bool(np.any(image != image[0, 0]))
                 if writer is not None:
                     writer.append_data(image)

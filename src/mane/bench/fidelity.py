@@ -138,11 +138,12 @@ def drawn_strands(ctx, settings, groom, head):
 
 
 def realtime_linear(renderer, camera=None, lights=None) -> np.ndarray:
-    """Render a frame and read the renderer's linear HDR target: (H, W, 4) float32, RGB
-    premultiplied by coverage (= radiance over black) and alpha, top row first. Needs
-    ``settings.supersample == 1`` (else the target is averaged 2 x 2)."""
-    renderer.render(camera, lights)
-    tex = renderer.resolved_hdr()
+    """Render a still picture (``Renderer.render_still``: the mean of ``settings.accumulate``
+    frames) and read the linear HDR colour it shows: (H, W, 4) float32, RGB premultiplied by
+    coverage (= radiance over black) and alpha, top row first; a 2x supersampled target is
+    averaged 2 x 2."""
+    renderer.render_still(camera, lights)
+    tex = renderer.shown_hdr()
     w, h = renderer.settings.render_size
     raw = np.frombuffer(tex.read(), np.float16 if tex.dtype == "f2" else np.float32)
     img = raw.reshape(h, w, tex.components)[::-1].astype(np.float32)

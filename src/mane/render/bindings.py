@@ -76,6 +76,7 @@ IMG_OIT_FRONT = 1         # DBK front depths
 IMG_CLEAR = 0             # oit/clear.comp's image
 IMG_OUTPUT = 1            # the 8-bit output written by resolve.comp
 IMG_BOUNCE_GRID = 0       # the skin bounce's grid written by skin_bounce_grid.comp
+IMG_ACCUM = 0             # a still scene's running mean (accumulate.comp)
 
 # texture units
 TEX_HDR = 0               # resolve.comp's input

@@ -16,7 +16,8 @@ from .settings import RenderSettings
 def render_image(groom=None, head=None, *, settings: RenderSettings | None = None, camera: Camera | None = None,
                  lights=None, ctx=None, azimuth: float = 25.0, elevation: float = 12.0, as_pil: bool = False,
                  **overrides):
-    """Render ``groom`` (a Groom, StrandBuffers or Simulator; None: the default scene) and ``head``.
+    """Render a still picture of ``groom`` (a Groom, StrandBuffers or Simulator; None: the
+    default scene) and ``head``: the mean of ``settings.accumulate`` frames (Renderer.render_still).
 
     ``overrides`` are RenderSettings fields (size=(w, h), shadows=..., msaa=...). Returns an
     (H, W, 3) uint8 array, or with ``as_pil=True`` a ``PIL.Image.Image`` (which a Jupyter
@@ -35,7 +36,7 @@ def render_image(groom=None, head=None, *, settings: RenderSettings | None = Non
         r.set_strands(groom)
         r.set_head(head)
         cam = camera if camera is not None else r.default_camera(azimuth, elevation)
-        image = r.render_image(cam, lights)
+        image = r.render_still(cam, lights)
     finally:
         r.release()
     if as_pil:

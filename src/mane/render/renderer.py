@@ -35,6 +35,7 @@ from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass, SkinBouncePass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
+from .passes.accumulate import AccumulatePass, jittered_view, still_jitter
 from .passes.expand import ExpandPass
 from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
@@ -121,6 +122,9 @@ class Renderer(GpuOwner):
         self._default_lights = None
         self._frames_dirty = True
         self._geometry_version = 0
+        self._still = (None, 0)       # (what the last frame showed: _scene_key, its place in a still scene's mean)
+        self._strand_writes = 0       # strands_changed calls (a still scene has none between its frames)
+        self._sim_rebuilds = 0        # geometry versions that rebuilt a simulator's frames every frame
         self._targets: dict = {}
         self.frames_rendered = 0
         self.warnings: list[str] = []
@@ -142,7 +146,7 @@ class Renderer(GpuOwner):
         self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
                                    SkinBouncePass(self), HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
-                                   ResolvePass(self)]
+                                   AccumulatePass(self), ResolvePass(self)]
         self.last_frame: Frame | None = None
         self._released = False
         # multi / hybrid interpolation (mane.render.multi_strand) and distance LOD
@@ -362,6 +366,7 @@ class Renderer(GpuOwner):
     def strands_changed(self) -> None:
         """Positions were written (a simulation step): rebuild the frames on the next render."""
         self._frames_dirty = True
+        self._strand_writes += 1
 
     @property
     def frames_dirty(self) -> bool:
@@ -380,6 +385,7 @@ class Renderer(GpuOwner):
         self._geometry_version += 1   # pipeline="compute": expand again
         # a simulator's buffer changes behind our back: rebuild every frame
         self._frames_dirty = not self.strands.owns_positions
+        self._sim_rebuilds += self._frames_dirty
 
     def set_head(self, mesh) -> None:
         if self._head_gpu is not None:
@@ -737,7 +743,12 @@ class Renderer(GpuOwner):
         return out
 
     # ------------------------------------------------------------------ rendering
-    def render(self, camera: Camera | None = None, lights: list[Light] | None = None) -> Frame:
+    def render(self, camera: Camera | None = None, lights: list[Light] | None = None, *, refine: bool = False) -> Frame:
+        """Draw a frame. ``refine``: a frame of a still scene (the same camera, lights, hair and
+        settings as the last frame, itself drawn with ``refine``) is moved by a sub-pixel offset
+        and folded into the still picture's mean, which the output shows (settings.accumulate,
+        passes/accumulate.py; the viewer refines, render_still does); without it the frame is
+        drawn at the pixel centres and shown as it is."""
         camera = camera if camera is not None else self.default_camera()
         if lights is None:
             if self._default_lights is None:
@@ -755,9 +766,11 @@ class Renderer(GpuOwner):
         if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
         self._hdr_resolved = False
-        frame = Frame(self, camera, lights, self.camera_view(camera), index=self.frames_rendered)
-        self.lod_eye = frame.view.eye
-        self.lod_view = frame.view
+        still = self._still_place(camera, lights) if refine else 0
+        view = self.camera_view(camera)
+        frame = Frame(self, camera, lights, self._still_view(view, still), index=self.frames_rendered, still=still)
+        self.lod_eye = view.eye
+        self.lod_view = view   # the LOD's plan is kept while the still frames' views move
         if self.instances is not None:
             from .passes.expand import pulls
 
@@ -785,7 +798,61 @@ class Renderer(GpuOwner):
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame
+        self._still = (self._scene_key(camera, lights), still) if refine else (None, 0)
         return frame
+
+    def _scene_key(self, camera, lights) -> tuple:
+        """What a frame shows besides its targets: equal keys on consecutive frames make a still
+        scene (passes/accumulate.py). A simulator's buffer counts as changed when the simulator
+        has stepped or strands_changed was called, not by the frames rebuilt from it every frame."""
+        st = self.strands
+        steps = None if st is None or st.owns_positions else getattr(getattr(st.source, "state", None), "steps", None)
+        return (camera, tuple(lights), self.settings, self._geometry_version - self._sim_rebuilds, id(st),
+                self._strand_writes, steps, id(self.head), self.head_model()[0] if self.head is not None else None,
+                id(self.instances))
+
+    def _still_place(self, camera, lights) -> int:
+        """A refining frame's place in a still scene's mean: 0 when anything changed since the
+        last frame (or a simulation writes the hair), else one more than the last frame's."""
+        if int(self.settings.accumulate) < 2:
+            return 0
+        key, place = self._still
+        return place + 1 if key == self._scene_key(camera, lights) else 0
+
+    def _still_view(self, view: View, still: int) -> View:
+        """The camera's ``view``, moved by the still frame's sub-pixel offset while the mean grows."""
+        if not 1 <= still <= int(self.settings.accumulate):
+            return view
+        grid = self.raster_grid if self.compute_raster and self.settings.oit == "none" else sample_grid(self.samples)
+        dx, dy = still_jitter(still, grid)
+        return jittered_view(view, dx, dy, self.settings.render_size)
+
+    @property
+    def still_frames(self) -> int:
+        """The frames in the mean the last frame showed (0: that frame alone; at most
+        settings.accumulate)."""
+        return min(self._still[1], int(self.settings.accumulate))
+
+    def shown_hdr(self):
+        """The linear HDR colour the last frame's output shows: a still scene's mean (RGBA32F) or
+        the frame's own target (resolved_hdr)."""
+        acc = self.get_pass("accumulate")
+        if self.still_frames >= 1 and acc.texture is not None:
+            return acc.texture
+        return self.resolved_hdr()
+
+    def render_still(self, camera: Camera | None = None, lights=None) -> np.ndarray:
+        """Render a still picture: the refining frames its mean still needs (settings.accumulate;
+        one frame when that is 1, or when the hair changes every frame), then read_image."""
+        camera = camera if camera is not None else self.default_camera()
+        n = int(self.settings.accumulate)
+        self.render(camera, lights, refine=True)
+        while n >= 2 and self.still_frames < n:
+            before = self._still[1]
+            self.render(camera, lights, refine=True)
+            if self._still[1] <= before:   # the scene changed: a simulation's buffer
+                break
+        return self.read_image()
 
     def read_image(self) -> np.ndarray:
         """(H, W, 3) uint8 sRGB of the last frame, top row first."""
@@ -842,6 +909,7 @@ class Renderer(GpuOwner):
         return {
             "passes": {k: round(v, 4) for k, v in self.profiler.means(wait=True).items()},
             "frames": self.frames_rendered,
+            "still_frames": self.still_frames,
             "size": list(self.settings.size),
             "renderer": renderer_name(self.ctx),
             "timing": self.profiler.source,

@@ -286,6 +286,13 @@ class RenderSettings:
         help="Samples per pixel (1, 2, 4, 8, 16; clamped to GL_MAX_SAMPLES).")
     supersample: int = setting(1, choices=(1, 2),
         help="1, or 2: render at twice the size per axis and resolve with Chen's 5-tap filter.")
+    accumulate: int = setting(16, lo=1, hi=1024, slider=(1, 64), unit="frames",
+        help="""Frames a still picture averages: while the camera, lights, hair, head and settings
+        stay the same, each frame after the first is drawn with the image moved by a new sub-pixel
+        offset and folded into a mean, which the output shows, up to this many frames (16 at msaa 4:
+        64 samples a pixel, spread over the pixel as a path tracer's). ``Renderer.render_still``
+        draws what the mean still needs. A moving scene (a simulation) draws every frame at the
+        pixel centres as without it; 1: off.""")
     tone_mapping: str = setting("aces", choices=TONE_MAPS,
         help='Tone curve from linear radiance to the display: "aces" (the ACES filmic fit), "reinhard" or "none" (clamp).')
     exposure: float = setting(1.0, lo=0.0, hi=1000.0, slider=(0.0, 4.0),

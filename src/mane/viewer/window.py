@@ -524,7 +524,7 @@ class Viewer:
         aspect = self.render_size()[0] / self.render_size()[1]
         camera = self.orbit.camera()
         try:
-            self.renderer.render(camera, self.render_lights())
+            self.renderer.render(camera, self.render_lights(), refine=True)   # sharpens while still
         except ManeError as exc:
             self.error = str(exc)
         self._last_camera, self._last_aspect = camera, aspect

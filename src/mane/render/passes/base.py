@@ -113,6 +113,7 @@ class Frame:
     hair_depth_range: tuple[float, float] = (0.0, 1.0)   # hair extent along the key light (m)
     shadow_views: list = field(default_factory=list)     # (View, depth range) of lights 1.. that cast
     index: int = 0
+    still: int = 0   # the frame's place in a still scene's mean (passes/accumulate.py): 0 first or moving
     targets: dict = field(default_factory=dict)
     memo: dict = field(default_factory=dict)   # uniforms the passes share, made once a frame
 
