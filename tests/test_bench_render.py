@@ -76,7 +76,7 @@ def test_every_sweep_present_with_measured_rows(quick):
 @pytest.mark.slow
 def test_timings_positive(quick):
     for r in quick[0]["results"]:
-        if r["status"] != "ok":
+        if r["status"] != "ok" or r["bench"] == "still":
             continue
         for key in ("frame_ms", "passes_sum_ms", "wall_ms", "submit_ms"):
             s = r[key]
@@ -224,3 +224,20 @@ def test_a_spent_budget_skips_the_row_and_goes_on(gl):
         bench.release()
     assert [r["status"] for r in bench.rows] == ["skipped", "skipped"]
     assert all("time budget" in r["reason"] for r in bench.rows)
+
+
+def test_the_still_row_times_the_averaged_frames_and_the_ones_after(quick):
+    """The target frame as a still picture: the frames moved and folded into the mean (with the
+    accumulate pass) and the frames after it, timed apart."""
+    from mane.render import RenderSettings
+
+    rows = [r for r in quick[0]["results"] if r["bench"] == "still"]
+    assert len(rows) == 1 and rows[0]["status"] == "ok", rows
+    r = rows[0]
+    n = RenderSettings().accumulate
+    assert r["accumulate"] == n and r["still_frames"] == n
+    for phase in ("averaged", "after"):
+        for key in ("frame_ms", "wall_ms", "submit_ms"):
+            assert r[phase][key]["n"] == n and _positive(r[phase][key]["min"]), (phase, key)
+    assert _positive(r["averaged"]["accumulate_ms"]["mean"])
+    assert r["after"]["accumulate_ms"]["max"] == 0.0   # the mean is kept: the pass does not run

@@ -576,6 +576,42 @@ class Bench(BenchRows):
                          points=TARGET_POINTS, settings={**settings, "head_msaa": True}, required=("head_msaa",),
                          budget_scale=5.0, shading=TARGET_SHADING, shadows="deep_opacity", shadow_map_size=512,
                          msaa=4, dom_layers=3, rasterizer="compute")
+        self.still(guides, name, settings)
+
+    def still(self, guides: int, name: str, settings: dict) -> None:
+        """The target frame as a still picture (RenderSettings.accumulate, its default): the GPU and
+        issue ms of the frames that are moved and folded into the mean (1..accumulate) against
+        the frames after it, and the accumulate pass's own ms; the second still of two (the
+        first compiles), each begun by a frame from another camera."""
+        from ..render import Renderer
+        from ..render.settings import RenderSettings
+
+        n = int(RenderSettings().accumulate)
+        with self._guard("still", f"{name}, {n} frames averaged", guides=guides, accumulate=n):
+            self._before_config()
+            s, _ = make_settings({**settings, "accumulate": n})
+            r = Renderer(s, ctx=self.ctx, profile=1, profiler_source=self.profiler_source)
+            try:
+                r.set_strands(self.work.groom(guides, TARGET_POINTS))
+                r.set_head(self.work.head)
+                cam = r.default_camera(points=None)
+                other = cam.orbited(5.0)
+                rp, prof = r.profiler, self.prof
+                phases = {}
+                for _ in range(2):
+                    r.render(other)
+                    r.render(cam, refine=True)   # the still picture's first frame, drawn as a moving one's
+                    for phase, frames in (("averaged", n), ("after", n)):
+                        prof.reset()
+                        rp.reset()
+                        wall, submit = time_each(self.ctx, lambda: r.render(cam, refine=True), frames, prof, "frame")
+                        rp.flush()
+                        phases[phase] = {"frame_ms": stats(prof.samples("frame", wait=True)), "wall_ms": stats(wall),
+                                         "submit_ms": stats(submit), "accumulate_ms": stats(rp.samples("accumulate") or [0.0])}
+                self._row("still", f"{name}, {n} frames averaged", guides=guides, accumulate=n,
+                          still_frames=r.still_frames, frame_source=prof.source, **phases, settings=settings_dict(s))
+            finally:
+                r.release()
 
     def _hunz_base(self, strands: int) -> tuple[int, dict]:
         spg = 16
@@ -930,6 +966,11 @@ def format_text(result: dict) -> str:
         pass_cols = [(n, _pass(n), "{:.3f}") for n in names if n in seen and n != "frames"]
         out.append(table(rs, [("config", "name", "{}")] + size_cols + frame_cols + pass_cols,
                          title=titles[section]))
+    for r in ok("still"):
+        a, b = r["averaged"], r["after"]
+        out += ["", f"Still picture ({r['name']}): the frames averaged {a['frame_ms']['median']:.3f} ms "
+                    f"(accumulate pass {a['accumulate_ms']['median']:.3f}, issue {a['submit_ms']['median']:.3f}), "
+                    f"the frames after {b['frame_ms']['median']:.3f} ms (issue {b['submit_ms']['median']:.3f})"]
     if result.get("scale") is not None:
         from .scale_rows import format_text as scale_text
 
