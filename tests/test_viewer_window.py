@@ -659,3 +659,25 @@ def test_demo_viewer_scales_itself_and_reports_it(x_display, tmp_path):
         applied.update(dict(SOFTWARE_LADDER)[label])
     assert all(out["settings"][k] == val for k, val in applied.items()), (out["steps"], out["settings"])
     assert out["size"] == [960, 540]     # it never scales the resolution
+
+
+def test_a_paused_view_sharpens_and_a_gizmo_change_starts_again(viewer):
+    """Paused and still, the viewer's frames fold into a still picture's mean
+    (RenderSettings.accumulate); playing (the simulation steps) or a change of what the gizmos
+    draw starts it again."""
+    v = viewer
+    v.playing = True
+    frames(v, 2)
+    assert v.renderer.still_frames == 0
+    v.playing = False
+    frames(v, 4)
+    assert v.renderer.still_frames == 4   # the last playing frame drew the hair as it stays
+    v.show_light_handles = not v.show_light_handles
+    frames(v, 1)
+    assert v.renderer.still_frames == 0
+    frames(v, 3)
+    assert v.renderer.still_frames == 2   # a frame as it is, then 2 moved
+    v.show_light_handles = not v.show_light_handles
+    v.playing = True
+    frames(v, 3)
+    assert v.renderer.still_frames == 0

@@ -198,6 +198,7 @@ class Viewer:
         self._mods = (False, False, False)
         self.dragging_sphere = False
         self.hover_sphere = False
+        self._last_overlay = None   # the gizmos' state the last frame drew (_overlay_key)
         self._drag: PlaneDrag | SphereDrag | None = None
         self._drag_mode: str | None = None
         self._last = None
@@ -353,7 +354,9 @@ class Viewer:
             r.set_strands(self.sim)
             r.set_head(self.head)
             r.set_head_transform(self.sim.state.head)
-            r.passes.insert(len(r.passes) - 1, GizmoPass(r, self))   # before the resolve
+            # into the frame before a still picture's mean takes it (the gizmos' own state in
+            # _overlay_key starts the mean again), so that the mean shows them
+            r.passes.insert(r.passes.index(r.get_pass("accumulate")), GizmoPass(r, self))
         except ManeError as exc:
             self.error = f"render settings refused: {exc}"
             if old is None:
@@ -524,7 +527,10 @@ class Viewer:
         aspect = self.render_size()[0] / self.render_size()[1]
         camera = self.orbit.camera()
         try:
-            self.renderer.render(camera, self.render_lights(), refine=True)   # sharpens while still
+            overlay = self._overlay_key()
+            # sharpens while still (RenderSettings.accumulate); a change of the gizmos starts again
+            self.renderer.render(camera, self.render_lights(), refine=overlay == self._last_overlay)
+            self._last_overlay = overlay
         except ManeError as exc:
             self.error = str(exc)
         self._last_camera, self._last_aspect = camera, aspect
@@ -560,6 +566,15 @@ class Viewer:
             phase = 2 * math.pi * self.sim_time / SWEEP_PERIOD
             self.sphere.move_to(self._sweep_centre + self._sweep_radius *
                                 np.array([1.6 * math.cos(phase), 0.2, 1.6 * math.sin(phase)]))
+
+    def _overlay_key(self) -> tuple:
+        """What the gizmos draw besides the lights (GizmoPass): the sphere, the handles' place and
+        what is hovered, dragged or selected."""
+        sphere = self.sphere
+        return (self.show_sphere, self.hover_sphere, self.dragging_sphere, self.show_light_handles, self.hover_light,
+                self.dragging_light, self.selected_light, np.asarray(self.light_centre, float).tobytes(),
+                float(self.light_distance), None if sphere is None else
+                (np.asarray(sphere.transform, float).tobytes(), float(sphere.radius)))
 
     def _blit(self) -> None:
         out_fbo, tex = self.renderer.output_target()
