@@ -2,6 +2,7 @@
 
     r.render(camera, lights)                     # builds the frame's shadow maps
     T = probe_visibility(r, points)              # (M,) in [0, 1], same look-up as the shading
+    B = probe_visibility(r, points, term="behind")   # light0_visibility_ms's terms
 
 A compute shader (``passes/shadow_probe.comp``) includes ``lighting.glsl`` with the renderer's
 SHADOWS method, binds the last frame's maps exactly as the hair pass does and writes
@@ -17,8 +18,16 @@ from .bindings import B_PROBE_OUT, B_PROBE_POINTS
 from .passes.base import HERE, RENDER_DIR, bind_lighting, set_uniform, shadow_defines
 
 
-def probe_visibility(renderer, points, frame=None) -> np.ndarray:
-    """(M,) float32 visibility of light 0 at ``points`` (M, 3) metres, from ``frame`` (default: the last)."""
+TERMS = ("visibility", "direct", "ms", "behind")
+
+
+def probe_visibility(renderer, points, frame=None, term: str = "visibility") -> np.ndarray:
+    """(M,) float32 visibility of light 0 at ``points`` (M, 3) metres, from ``frame`` (default:
+    the last). ``term``: "visibility" (light0_visibility), or light0_visibility_ms's "direct",
+    "ms" (the multiple scattering's transmittance) or "behind" (the share of it that meets hair
+    beyond the point, which scales light 0's multiple scattering)."""
+    if term not in TERMS:
+        raise ValueError(f"term must be one of {', '.join(TERMS)}, got {term!r}")
     frame = frame if frame is not None else renderer.last_frame
     if frame is None:
         raise ValueError("render a frame first: the shadow maps come from it")
@@ -38,6 +47,7 @@ def probe_visibility(renderer, points, frame=None) -> np.ndarray:
         src.bind_to_storage_buffer(B_PROBE_POINTS)
         out.bind_to_storage_buffer(B_PROBE_OUT)
         set_uniform(cs, "u_probe_count", m)
+        set_uniform(cs, "u_probe_term", TERMS.index(term))
         cs.run((m + 63) // 64)
         ctx.memory_barrier()
         return np.frombuffer(out.read(), np.float32).copy()

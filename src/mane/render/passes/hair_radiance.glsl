@@ -35,21 +35,25 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
 #if VERTEX_SHADOWS
     vec4 vis = g_vis;
     vec4 vis_ms = g_vis;
+    float behind = 1.0;
 #else
     // the multiple scattering's transmittance: the direct light's, except light 0's with deep
-    // opacity maps and MS_FOOTPRINT > 0 (light0_visibility_ms: the map over a wider box)
-    vec2 v0 = light0_visibility_ms(P);
+    // opacity maps (light0_visibility_ms: the map over the ms_shadow_footprint box, and
+    // the share of its light that meets hair beyond P, which scales light 0's multiple scattering)
+    vec3 v0 = light0_visibility_ms(P);
     vec4 vis = light_visibilities_from(1, P);
     vec4 vis_ms = vis;
     vis.x = v0.x;
     vis_ms.x = v0.y;
+    float behind = v0.z;
 #endif
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, P, falloff);
         vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis[i] + hair_multiple_scattering(T, V, L, m, vis_ms[i]));
+        color += radiance * (hair_bsdf(T, V, L, m) * vis[i]
+                             + hair_multiple_scattering(T, V, L, m, vis_ms[i]) * (i == 0 ? behind : 1.0));
     }
 
 

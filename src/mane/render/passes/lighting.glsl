@@ -142,25 +142,39 @@ float light_visibility(int i, vec3 P) {
     return 1.0;
 }
 
-// (direct, multiple scattering) transmittance of light 0 at P. With deep opacity maps and
+// (direct, multiple scattering, behind) of light 0 at P. With deep opacity maps and
 // MS_FOOTPRINT > 0 (settings.ms_shadow_footprint) the multiple-scattering term sees the deep
 // opacity map's transmittance averaged over a MS_FOOTPRINT x MS_FOOTPRINT texel box (PCF_BOX),
 // the direct light the PCF box's (the shadow map looked up once for both): a fibre-resolving map
 // (1024^2, strand_opacity 0.7, pcf 1) gives the direct light its strand-resolved shadows while
 // the dual-scattering term (its fibre count n = -log t, the forward-scattered T_f) stays the
 // light's mean over a wider footprint (Zinke et al. 2008: directFraction per fibre, the global
-// term smooth). Otherwise both are light0_visibility. Costs (MS_FOOTPRINT + 1)^2 more texel
-// fetches and dom_opacity calls.
-vec2 light0_visibility_ms(vec3 P) {
-#if SHADOWS == 2 && MS_FOOTPRINT > 0
+// term smooth). "behind" is the share of that light which meets hair beyond P, away from the
+// light: 1 - T_total / t, T_total the same box's transmittance through the whole column (the
+// map's last layer). Zinke's terms hold inside a volume of hair; where little hair lies beyond
+// a point (the tips, the far side) the light scattered there mostly leaves it, and the
+// multiple scattering is scaled by "behind" (hair_radiance.glsl; docs/quality.md). MS_FOOTPRINT
+// 0: the box is the direct light's (PCF), the same transmittance for both. Other methods: both
+// are light0_visibility and behind is 1. Costs (MS_BOX + 1)^2 more texel fetches and
+// dom_opacity calls.
+#if MS_FOOTPRINT > 0
+#define MS_BOX MS_FOOTPRINT
+#else
+#define MS_BOX PCF
+#endif
+vec3 light0_visibility_ms(vec3 P) {
+#if SHADOWS == 2
     vec3 q = light_uvz(P);
     ivec2 size = textureSize(u_dom, 0);
-    float ms;
-    PCF_BOX(ms, q.xy * vec2(size) - 0.5, size, t, MS_FOOTPRINT,
-            exp(-u_shadow_density * dom_opacity(texelFetch(u_dom, t, 0), q.z, u_dom_layers)))
-    return vec2(dom_transmittance(P), ms) * shadow_map_visibility(P);
+    vec2 ms;   // (at P's depth, through the whole column)
+    vec4 texel;
+    PCF_BOX2(ms, q.xy * vec2(size) - 0.5, size, t, MS_BOX,
+             (texel = texelFetch(u_dom, t, 0),
+              exp(-u_shadow_density * vec2(dom_opacity(texel, q.z, u_dom_layers), texel.b))))
+    float behind = 1.0 - min(ms.y / max(ms.x, 1e-30), 1.0);
+    return vec3(vec2(dom_transmittance(P), ms.x) * shadow_map_visibility(P), behind);
 #else
-    return vec2(light0_visibility(P));
+    return vec3(vec2(light0_visibility(P)), 1.0);
 #endif
 }
 
