@@ -152,7 +152,10 @@ class ShadingSettings:
                     discounted counting every occluder as a fibre met; with the Poisson count
                     from the deep opacity map's own transmittance the packing is already in n,
                     so 1: measured against the path tracer, docs/quality.md)
-    dual_density_back   Zinke's d_b (back-scattering density factor)
+    dual_density_back   Zinke's d_b (back-scattering density factor; the paper's 0.6-0.8 stands
+                    for hair that is not a dense volume everywhere; with deep opacity maps the
+                    multiple scattering is scaled by the share of light meeting hair beyond the
+                    point, which measures that, so 1: against the path tracer, docs/quality.md)
     dual_max_hairs  cap on the number of fibres met towards the light, -log t (transmittance
                     0, e.g. the head's shadow, gives this many)
     dual_size       dual-scattering table resolution (texels per row, 7 rows)
@@ -183,7 +186,7 @@ class ShadingSettings:
     multiple_scattering: str = "auto"
     lut_size: int = 256
     dual_density_front: float = 1.0
-    dual_density_back: float = 0.7
+    dual_density_back: float = 1.0
     dual_max_hairs: float = 64.0
     dual_size: int = 64
     tables: str = "exact"

@@ -106,7 +106,7 @@ ROW_AB, ROW_DELTA_B, ROW_SIGMA_B2, ROW_AF, ROW_BETA_F2, ROW_NG0, ROW_NG1, ROW_NG
 
 # Zinke 2008 sec. 4: density factors d_f, d_b of human hair are ~0.6-0.8; 0.7 in the paper.
 DENSITY_FRONT = 1.0   # mane's default (ShadingSettings.dual_density_front says why)
-DENSITY_BACK = 0.7
+DENSITY_BACK = 1.0    # mane's default (ShadingSettings.dual_density_back says why)
 
 
 @dataclass(frozen=True)
