@@ -17,23 +17,28 @@ pytestmark = pytest.mark.gpu
 LIGHT = shadow_light()
 
 
+def numpy_box_of(value, uv, n_box, n):
+    """The mean of ``value(tx, ty)`` (each point's value at texels tx, ty) over lighting.glsl's
+    PCF_BOX of n_box x n_box texels of an n x n map centred on uv, in float64."""
+    s = uv * n - 0.5 - 0.5 * (n_box - 1)
+    b = np.floor(s)
+    f = s - b
+    out = 0.0
+    for j in range(n_box + 1):
+        wy = np.where(j == 0, 1 - f[:, 1], np.where(j == n_box, f[:, 1], 1.0))
+        for i in range(n_box + 1):
+            wx = np.where(i == 0, 1 - f[:, 0], np.where(i == n_box, f[:, 0], 1.0))
+            tx = np.clip(b[:, 0].astype(int) + i, 0, n - 1)
+            ty = np.clip(b[:, 1].astype(int) + j, 0, n - 1)
+            out = out + wx * wy * value(tx, ty)
+    return out / n_box ** 2
+
+
 def numpy_pcf(depth_map, uv, ref, pcf):
     """PCF of ``ref <= texel`` over a pcf x pcf texel box centred on uv (continuous texel units:
     texel i's centre at i), each texel weighted by its overlap with the box, texels clamped to
     the map: (M,) in [0, 1]. The filter lighting.glsl documents, in float64."""
-    n = depth_map.shape[0]
-    s = uv * n - 0.5 - 0.5 * (pcf - 1)
-    b = np.floor(s)
-    f = s - b
-    out = np.zeros(len(uv))
-    for j in range(pcf + 1):
-        wy = np.where(j == 0, 1 - f[:, 1], np.where(j == pcf, f[:, 1], 1.0))
-        for i in range(pcf + 1):
-            wx = np.where(i == 0, 1 - f[:, 0], np.where(i == pcf, f[:, 0], 1.0))
-            tx = np.clip(b[:, 0].astype(int) + i, 0, n - 1)
-            ty = np.clip(b[:, 1].astype(int) + j, 0, n - 1)
-            out += wx * wy * (ref <= depth_map[ty, tx])
-    return out / pcf ** 2
+    return numpy_box_of(lambda tx, ty: ref <= depth_map[ty, tx], uv, pcf, depth_map.shape[0])
 
 
 @pytest.mark.parametrize("pcf", [1, 2, 3])
@@ -92,23 +97,6 @@ def test_hair_vertex_lookups_match_the_fragment_lookups(gl, pipeline):
     assert shadow > 1.0                                   # the shadows show
     ratio = np.abs(img["vertex"] - img["fragment"]).mean() / shadow
     assert 0.0 < ratio < 0.1, ratio                       # 0: the setting did nothing
-
-
-def numpy_box_of(value, uv, n_box, n):
-    """The mean of ``value(tx, ty)`` (each point's value at texels tx, ty) over lighting.glsl's
-    PCF_BOX of n_box x n_box texels of an n x n map centred on uv, in float64."""
-    s = uv * n - 0.5 - 0.5 * (n_box - 1)
-    b = np.floor(s)
-    f = s - b
-    out = 0.0
-    for j in range(n_box + 1):
-        wy = np.where(j == 0, 1 - f[:, 1], np.where(j == n_box, f[:, 1], 1.0))
-        for i in range(n_box + 1):
-            wx = np.where(i == 0, 1 - f[:, 0], np.where(i == n_box, f[:, 0], 1.0))
-            tx = np.clip(b[:, 0].astype(int) + i, 0, n - 1)
-            ty = np.clip(b[:, 1].astype(int) + j, 0, n - 1)
-            out = out + wx * wy * value(tx, ty)
-    return out / n_box ** 2
 
 
 @pytest.mark.parametrize("footprint", [2, 3])

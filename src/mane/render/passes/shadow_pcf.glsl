@@ -19,30 +19,12 @@ vec3 light_space(mat4 view_proj, vec3 eye, vec3 dir, vec3 P) {
 // it is bilinear interpolation of EXPR between the 4 nearest texels: the result moves
 // continuously with X, with no steps at texel edges (what a box of nearest texels shows).
 // PCF_BOX(RESULT, X, SIZE, T, N, EXPR) is the same over an N x N box (PCF_BILINEAR: N = PCF, a compile-time constant).
-#define PCF_BOX(RESULT, X, SIZE, T, N, EXPR) {                              \
+#define PCF_BOX_OF(TYPE, RESULT, X, SIZE, T, N, EXPR) {                   \
     vec2 pcf_s_ = (X) - 0.5 * float((N) - 1);                               \
     vec2 pcf_b_ = floor(pcf_s_);                                              \
     vec2 pcf_f_ = pcf_s_ - pcf_b_;                                            \
     ivec2 pcf_c_ = ivec2(pcf_b_);                                             \
-    float pcf_sum_ = 0.0;                                                     \
-    for (int pcf_j_ = 0; pcf_j_ <= (N); ++pcf_j_) {                         \
-        float pcf_wy_ = pcf_j_ == 0 ? 1.0 - pcf_f_.y : (pcf_j_ == (N) ? pcf_f_.y : 1.0); \
-        for (int pcf_i_ = 0; pcf_i_ <= (N); ++pcf_i_) {                     \
-            float pcf_wx_ = pcf_i_ == 0 ? 1.0 - pcf_f_.x : (pcf_i_ == (N) ? pcf_f_.x : 1.0); \
-            ivec2 T = clamp(pcf_c_ + ivec2(pcf_i_, pcf_j_), ivec2(0), (SIZE) - 1); \
-            pcf_sum_ += pcf_wx_ * pcf_wy_ * (EXPR);                           \
-        }                                                                     \
-    }                                                                         \
-    RESULT = pcf_sum_ / float((N) * (N));                                 \
-}
-#define PCF_BILINEAR(RESULT, X, SIZE, T, EXPR) PCF_BOX(RESULT, X, SIZE, T, PCF, EXPR)
-// PCF_BOX of a vec2 EXPR: two box means from one pass over the texels.
-#define PCF_BOX2(RESULT, X, SIZE, T, N, EXPR) {                             \
-    vec2 pcf_s_ = (X) - 0.5 * float((N) - 1);                               \
-    vec2 pcf_b_ = floor(pcf_s_);                                              \
-    vec2 pcf_f_ = pcf_s_ - pcf_b_;                                            \
-    ivec2 pcf_c_ = ivec2(pcf_b_);                                             \
-    vec2 pcf_sum_ = vec2(0.0);                                                \
+    TYPE pcf_sum_ = TYPE(0.0);                                                \
     for (int pcf_j_ = 0; pcf_j_ <= (N); ++pcf_j_) {                         \
         float pcf_wy_ = pcf_j_ == 0 ? 1.0 - pcf_f_.y : (pcf_j_ == (N) ? pcf_f_.y : 1.0); \
         for (int pcf_i_ = 0; pcf_i_ <= (N); ++pcf_i_) {                     \
@@ -53,6 +35,10 @@ vec3 light_space(mat4 view_proj, vec3 eye, vec3 dir, vec3 P) {
     }                                                                         \
     RESULT = pcf_sum_ / float((N) * (N));                                 \
 }
+#define PCF_BOX(RESULT, X, SIZE, T, N, EXPR) PCF_BOX_OF(float, RESULT, X, SIZE, T, N, EXPR)
+// PCF_BOX of a vec2 EXPR: two box means from one pass over the texels.
+#define PCF_BOX2(RESULT, X, SIZE, T, N, EXPR) PCF_BOX_OF(vec2, RESULT, X, SIZE, T, N, EXPR)
+#define PCF_BILINEAR(RESULT, X, SIZE, T, EXPR) PCF_BOX(RESULT, X, SIZE, T, PCF, EXPR)
 
 // PCF_BILINEAR's box of a depth comparison, texel depth >= ref lit, by textureGather: 4 texels
 // a fetch (2x2 blocks, gathered at the corner they share, so the texels are the ones the box
