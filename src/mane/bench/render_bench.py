@@ -582,7 +582,7 @@ class Bench(BenchRows):
         """The target frame as a still picture (RenderSettings.accumulate, its default): the GPU and
         issue ms of the frames that are moved and folded into the mean (1..accumulate) against
         the frames after it, and the accumulate pass's own ms; the second still of two (the
-        first compiles), each begun by a frame from another camera."""
+        first compiles; the quick mode's one), each begun by a frame from another camera."""
         from ..render import Renderer
         from ..render.settings import RenderSettings
 
@@ -598,7 +598,7 @@ class Bench(BenchRows):
                 other = cam.orbited(5.0)
                 rp, prof = r.profiler, self.prof
                 phases = {}
-                for _ in range(2):
+                for _ in range(1 if self.mode == "quick" else 2):
                     r.render(other)
                     r.render(cam, refine=True)   # the still picture's first frame, drawn as a moving one's
                     for phase, frames in (("averaged", n), ("after", n)):
