@@ -661,17 +661,25 @@ def test_demo_viewer_scales_itself_and_reports_it(x_display, tmp_path):
     assert out["size"] == [960, 540]     # it never scales the resolution
 
 
-def test_a_paused_view_sharpens_and_a_gizmo_change_starts_again(viewer):
+def test_a_paused_view_sharpens_and_a_gizmo_change_starts_again(viewer, monkeypatch):
     """Paused and still, the viewer's frames fold into a still picture's mean
-    (RenderSettings.accumulate); playing (the simulation steps) or a change of what the gizmos
-    draw starts it again."""
+    (RenderSettings.accumulate), which the panel counts; playing (the simulation steps) or a
+    change of what the gizmos draw starts it again."""
+    from imgui_bundle import imgui
+
+    shown = []
+    text = imgui.text
+    monkeypatch.setattr(imgui, "text", lambda s, *a: (shown.append(s), text(s, *a))[1])
     v = viewer
+    v.show_panel = True
     v.playing = True
     frames(v, 2)
     assert v.renderer.still_frames == 0
+    assert "moving: one frame a picture" in shown
     v.playing = False
     frames(v, 4)
     assert v.renderer.still_frames == 4   # the last playing frame drew the hair as it stays
+    assert "still picture: 3 of 16 frames averaged" in shown   # the panel is drawn before the frame
     v.show_light_handles = not v.show_light_handles
     frames(v, 1)
     assert v.renderer.still_frames == 0

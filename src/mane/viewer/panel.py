@@ -389,6 +389,9 @@ def draw_panel(v) -> None:
     try:
         last = v.frame_ms_history[-1] if v.frame_ms_history else 0.0
         imgui.text(f"{v.fps:5.1f} fps ({last:.1f} ms)  {v.renderer.rendered_strands:,} strands")
+        still, n = v.renderer.still_frames, int(v.renderer.settings.accumulate)
+        if n > 1:   # a paused, still view sharpens (RenderSettings.accumulate)
+            imgui.text(f"still picture: {still} of {n} frames averaged" if still else "moving: one frame a picture")
         if v.error:
             imgui.push_text_wrap_pos(0.0)
             imgui.text_colored(imgui.ImVec4(1.0, 0.35, 0.3, 1.0), f"error: {v.error}")
