@@ -310,8 +310,8 @@ def _render(args, settings, renderer, groom, head, lights, out, video, parse_cam
     # one frame: a bar over the renderer's passes (a 10,000-strand file on a CPU takes minutes),
     # of every frame its still picture averages (settings.accumulate)
     still = args.frames == 1
-    pass_bar = progress(total=len(renderer.passes) * (1 + (int(settings.accumulate) if still and settings.accumulate > 1 else 0)),
-                        desc="render passes", unit="pass",
+    per_picture = 1 + int(settings.accumulate) if still and settings.accumulate > 1 else 1
+    pass_bar = progress(total=len(renderer.passes) * per_picture, desc="render passes", unit="pass",
                         quiet=quiet or args.frames > 1)
     renderer.on_pass = lambda name: (pass_bar.set_postfix_str(name, refresh=False), pass_bar.update(1))
     drawn = 0

@@ -833,12 +833,14 @@ class Renderer(GpuOwner):
         settings.accumulate)."""
         return min(self._still[1], int(self.settings.accumulate))
 
-    def shown_hdr(self):
-        """The linear HDR colour the last frame's output shows: a still scene's mean (RGBA32F) or
-        the frame's own target (resolved_hdr)."""
-        acc = self.get_pass("accumulate")
-        if self.still_frames >= 1 and acc.texture is not None:
-            return acc.texture
+    def shown_hdr(self, place: int | None = None):
+        """The linear HDR colour the output shows at a frame's ``place`` in a still scene's mean
+        (default: the last frame's): the mean (RGBA32F) from place 1 on, else the frame's own
+        target (resolved_hdr, blitting a multisampled one)."""
+        place = self._still[1] if place is None else place
+        mean = self.get_pass("accumulate").texture
+        if place >= 1 and int(self.settings.accumulate) >= 2 and mean is not None:
+            return mean
         return self.resolved_hdr()
 
     def render_still(self, camera: Camera | None = None, lights=None) -> np.ndarray:

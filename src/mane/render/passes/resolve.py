@@ -46,10 +46,7 @@ class ResolvePass(Pass):
     def run(self, frame: Frame) -> None:
         r, ctx = self.renderer, self.ctx
         s = r.settings
-        # a still scene's mean (accumulate.py: made by its first moved frame), else the frame's
-        # target (blitting a multisampled one)
-        mean = r.get_pass("accumulate").texture if frame.still >= 1 and int(s.accumulate) >= 2 else None
-        hdr = mean if mean is not None else r.resolved_hdr()
+        hdr = r.shown_hdr(frame.still)   # a still scene's mean (accumulate.py) or this frame's target
         hdr.filter = (ctx.LINEAR, ctx.LINEAR)
         cs = self._programs.get("resolve", (s,), lambda: compute_shader(
             ctx, shader_path("resolve.comp"),
