@@ -10,6 +10,7 @@ import contextlib
 import io
 import json
 import math
+import os
 
 import numpy as np
 import pytest
@@ -115,7 +116,7 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert loop["rendered_strands"] == loop["rendered_strands_requested"]
     cold = rows["scale_cold_start"]
     assert cold["status"] == "ok", cold["reason"]
-    assert cold["process"] == "a fresh child process"
+    assert cold["process"] == "a fresh child process" and cold["launch"] == "as_is"
     assert len(cold["frames_ms"]) == cold["steps"]
     assert 0 < cold["to_first_frame_s"] <= cold["to_steady_s"]
     # where the cold start's seconds went: the sequential phases in the child lie within its wall,
@@ -294,3 +295,40 @@ def test_phase_text_lines_the_cold_rows_up():
     assert cells["compile"] == ["0.500", "(17)", "-"]
     assert cells["to_steady_s"][-2:] == ["1.250", "-"]
     assert scale_rows.phase_text([dict(name="x")]) == ""
+
+
+def test_cold_launch_environments(tmp_path, monkeypatch):
+    """A first launch gets new empty cache folders (the driver's shader cache and mane's own); the
+    second the same folders; "as_is" the caches where they are."""
+    monkeypatch.setenv("MANE_NO_CACHE", "1")
+    monkeypatch.setenv("MESA_SHADER_CACHE_DISABLE", "true")
+    env = scale_rows.launch_env("first", str(tmp_path))
+    driver = tmp_path / "driver"
+    assert driver.is_dir() and not any(driver.iterdir())
+    assert env["__GL_SHADER_DISK_CACHE_PATH"] == env["MESA_SHADER_CACHE_DIR"] == str(driver)
+    assert env["__GL_SHADER_DISK_CACHE"] == "1"
+    assert "MANE_NO_CACHE" not in env and "MESA_SHADER_CACHE_DISABLE" not in env
+    assert scale_rows.launch_env("second", str(tmp_path)) == env
+    assert scale_rows.launch_env("as_is", None)["MANE_NO_CACHE"] == "1"
+    with pytest.raises(ValueError, match="cache folder"):
+        scale_rows.launch_env("first", None)
+    with pytest.raises(ValueError, match="launch must be one of"):
+        scale_rows.launch_env("third", str(tmp_path))
+    # the child's mane cache is the folder's: what the first launch writes, the second reads
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", "import mane.disk_cache as d; print(d.root())"], env=env,
+                         capture_output=True, text=True, check=True).stdout.strip()
+    assert out == str(tmp_path / "user" / "mane")
+    assert scale_rows.SCALE_CONFIG["default"]["cold_launches"] == ("first", "second")
+    assert set(scale_rows.SCALE_CONFIG["quick"]["cold_launches"]) <= set(scale_rows.LAUNCHES)
+
+
+def test_cold_launches_share_one_new_folder():
+    seen = []
+    scale_rows.cold_launches(lambda launch, folder: seen.append((launch, folder, os.listdir(folder))),
+                             ("first", "second"))
+    assert [s[0] for s in seen] == ["first", "second"] and seen[0][1] == seen[1][1]
+    assert seen[0][2] == []              # new and empty
+    assert not os.path.exists(seen[0][1])  # removed after

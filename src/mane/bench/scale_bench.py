@@ -42,7 +42,9 @@ named in the mode's ``no_lod`` are measured again with it off (``lod_depth`` 0, 
     frame (GL_TIMESTAMP sections), the CPU's issue ms of each (``cpu_submit_ms``), the wall ms with
     a finish each frame, and frames back to back (``pipelined_ms``: ``measured_ms``).
 ``scale_cold_start``
-    In a fresh child process (programs are cached per context): seconds from creating the
+    In a fresh child process (programs are cached per context), once per ``cold_launches``
+    (``scale_rows.LAUNCHES``: the first launch after an install, its caches in new empty folders,
+    then the next launch with them; the quick mode: the caches as they are): seconds from creating the
     Simulator and the Renderer to the end of the first frame and of the first steady frame
     (``scale_rows.steady``), and the first ``cold_steps`` frames' mean; ``phases``: where the
     child's seconds went (``PHASE_NOTE``; ``mane.phases``), each program's compile in
@@ -64,7 +66,7 @@ import numpy as np
 from ..phases import add as add_phase
 from ..phases import phase, recording
 from .common import Skip, stats
-from .scale_rows import SCALE_CONFIG, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
+from .scale_rows import LAUNCH_NAMES, SCALE_CONFIG, cold_launches, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
 from .scale_rows import short_count as _k
 
 # --------------------------------------------------------------------------- coverage
@@ -415,22 +417,25 @@ class RenderScale:
     def cold_start(self) -> None:
         cfg, b = self.cfg, self.bench
         S, N, spg = int(cfg["loop_guides"]), int(cfg["loop_points"]), int(cfg["loop_spg"])
-        for cache in cfg["cold_driver_cache"]:
-            name = (f"cold start: simulate {_k(S)} x {N} + render {_k(S * spg)} strands, {cfg['cold_steps']} frames"
-                    + ("" if cache else ", no driver shader cache"))
+
+        def run(launch, folder):
+            name = (f"cold start ({LAUNCH_NAMES[launch]}): simulate {_k(S)} x {N} + render {_k(S * spg)} strands, "
+                    f"{cfg['cold_steps']} frames")
             fields = dict(sim_guides=S, sim_points=N, rendered_strands_requested=S * spg,
-                          steps=int(cfg["cold_steps"]))
+                          steps=int(cfg["cold_steps"]), launch=launch)
             n_before = len(b.rows)
             with b._guard("scale_cold_start", name, **fields):
                 b._before_config()
                 res = cold_start(dict(S=S, N=N, spg=spg, size=list(cfg["size"]), steps=int(cfg["cold_steps"]),
                                       grid=int(cfg["loop_grid"]), sdf=int(cfg["loop_sdf"]), render=True,
                                       render_settings=dict(cfg["render"])),
-                                 timeout=max(60.0, float(cfg["total_budget_s"]) / 2), driver_cache=cache)
+                                 timeout=max(60.0, float(cfg["total_budget_s"]) / 2), launch=launch, folder=folder)
                 row = b._row("scale_cold_start", name, **fields, **res)
                 row.update(issue_fields("cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
             if len(b.rows) > n_before and "issue_key" not in b.rows[-1]:
                 b.rows[-1].update(issue_fields("cold_start", None, unit="s"))
+
+        cold_launches(run, cfg["cold_launches"])
 
     def run(self) -> None:
         self.closeups()

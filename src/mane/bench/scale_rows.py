@@ -14,7 +14,8 @@ rows (``mane bench sim --section scale``) are here, timed by the sim bench's ``B
     (``pipelined_ms``, as the sim bench's target). The state is checked against the GPU's memory
     (``check_fits``) before the groom is made.
 ``scale_sim_cold_start``
-    The simulator alone in a fresh child process: seconds from creating it to the first steady
+    The simulator alone in a fresh child process, once per ``cold_launches`` (``LAUNCHES``: the
+    first launch after an install, then the next): seconds from creating it to the first steady
     step, and the first ``cold_steps`` steps' mean; ``phases`` as the render's cold start
     (``scale_bench.PHASE_NOTE``; ``phase_text`` puts the rows' phases side by side).
 
@@ -29,6 +30,7 @@ import math
 import os
 import subprocess
 import sys
+import tempfile
 import time
 
 from .common import Skip, stats
@@ -75,7 +77,7 @@ SCALE_CONFIG = {
                   crowd_heads=4, crowd_strands=256, crowd_spacing=0.6, crowd_lod_depth=32.0,
                   loop_guides=64, loop_points=8, loop_spg=4, loop_frames=3, loop_grid=16, loop_sdf=16,
                   cold_steps=4, sim_guides=[("sim_1m", 256)], sim_points=8,
-                  cold_driver_cache=(True,), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
+                  cold_launches=("as_is",), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
                   sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
     "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
                     # rows measured a second time with the coverage LOD off (key + "_no_lod")
@@ -93,9 +95,8 @@ SCALE_CONFIG = {
                     # one storage buffer, beyond an H200's 2 GiB; 32 keeps 1.66M (H200: 10.3 ms)
                     crowd_lod_depth=32.0,
                     loop_guides=20_000, loop_points=32, loop_spg=50, loop_frames=60, loop_grid=64, loop_sdf=64,
-                    # the cold start with the driver's on-disk shader cache as it is (a user's
-                    # second launch), then with it off (the first launch after an install)
-                    cold_steps=100, cold_driver_cache=(True, False),
+                    # the cold start's launches (LAUNCHES): the first after an install, the next
+                    cold_steps=100, cold_launches=("first", "second"),
                     sim_guides=[("sim_1m", 1_000_000), ("sim_2m", 2_000_000)], sim_points=32,
                     warmup=3, frames=30, config_budget_s=8.0, total_budget_s=240.0, sim_steps=60,
                     sim_budget_s=30.0, sim_total_budget_s=420.0),
@@ -163,17 +164,38 @@ def steady(ends: list, walls_ms: list) -> dict:
             "first_frames_ms": stats(walls_ms), "frames_ms": [round(w, 3) for w in walls_ms]}
 
 
-# what turns a driver's on-disk shader cache off (NVIDIA, Mesa)
-NO_DRIVER_SHADER_CACHE = {"__GL_SHADER_DISK_CACHE": "0", "MESA_SHADER_CACHE_DISABLE": "true"}
+# A cold start's launches: "first" the first launch after an install (the driver's on-disk shader
+# cache and mane's own cache, `mane.disk_cache`, in new empty folders), "second" the next launch
+# with the folders the first one left, "as_is" the caches where they are (the quick mode's: a
+# CPU rasteriser's empty shader cache costs a first frame of 10-15 s, docs/performance.md)
+LAUNCHES = ("first", "second", "as_is")
+LAUNCH_NAMES = {"first": "first launch, empty caches", "second": "second launch, the first one's caches",
+                "as_is": "the caches as they are"}
 
 
-def cold_start(spec: dict, *, timeout: float = 120.0, driver_cache: bool = True) -> dict:
-    """``mane.bench.scale_bench``'s cold run in a fresh Python process (nothing compiled, no
-    program cache of this process; ``driver_cache`` False: the driver's on-disk shader cache off
-    too): the child's JSON. A child that cannot fit or lacks a feature answers a skip."""
+def launch_env(launch: str, folder: str | None) -> dict:
+    """The environment a cold-start child of ``launch`` runs with: the driver's shader cache
+    (NVIDIA, Mesa) and mane's cache in ``folder`` (for "first" and "second")."""
+    if launch not in LAUNCHES:
+        raise ValueError(f"launch must be one of {LAUNCHES}, not {launch!r}")
     env = dict(os.environ)
-    if not driver_cache:
-        env.update(NO_DRIVER_SHADER_CACHE)
+    if launch != "as_is":
+        if folder is None:
+            raise ValueError(f"a {launch} launch needs a cache folder")
+        driver = os.path.join(folder, "driver")
+        os.makedirs(driver, exist_ok=True)
+        env.update({"__GL_SHADER_DISK_CACHE": "1", "__GL_SHADER_DISK_CACHE_PATH": driver,
+                    "MESA_SHADER_CACHE_DIR": driver, "XDG_CACHE_HOME": os.path.join(folder, "user")})
+        for key in ("MESA_SHADER_CACHE_DISABLE", "MANE_NO_CACHE"):
+            env.pop(key, None)
+    return env
+
+
+def cold_start(spec: dict, *, timeout: float = 120.0, launch: str = "as_is", folder: str | None = None) -> dict:
+    """``mane.bench.scale_bench``'s cold run in a fresh Python process (nothing compiled, no
+    program cache of this process), its caches as ``launch`` says (``launch_env``): the child's
+    JSON. A child that cannot fit or lacks a feature answers a skip."""
+    env = launch_env(launch, folder)
     src = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     env["PYTHONPATH"] = src + (os.pathsep + env["PYTHONPATH"] if env.get("PYTHONPATH") else "")
     t = time.perf_counter()
@@ -189,8 +211,15 @@ def cold_start(spec: dict, *, timeout: float = 120.0, driver_cache: bool = True)
     out = json.loads(done.stdout.strip().splitlines()[-1])
     if "skip" in out:
         raise Skip(out["skip"])
-    return dict(out, process="a fresh child process", driver_shader_cache=bool(driver_cache),
-                child_wall_s=time.perf_counter() - t)
+    return dict(out, process="a fresh child process", child_wall_s=time.perf_counter() - t)
+
+
+def cold_launches(run, launches) -> None:
+    """``run(launch, folder)`` for each launch in order, the first and second launches sharing one
+    new cache folder (removed after)."""
+    with tempfile.TemporaryDirectory(prefix="mane-cold-") as folder:
+        for launch in launches:
+            run(launch, folder)
 
 
 # --------------------------------------------------------------------------- sim rows
@@ -224,14 +253,19 @@ def sim_rows(bench, colliders) -> None:
             bench.rows[-1].update(issue_fields(key, None))
     S, G = int(cfg["loop_guides"]), int(cfg["cold_steps"])
     Np = int(cfg["loop_points"])
-    name = f"cold start: simulate {short_count(S)} x {Np} (full solver), {G} steps"
-    with bench._guard("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G):
-        res = cold_start(dict(S=S, N=Np, spg=1, size=[64, 64], steps=G, grid=int(cfg["loop_grid"]),
-                              sdf=int(cfg["loop_sdf"]), render=False))
-        row = bench._row("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, **res)
-        row.update(issue_fields("sim_cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
-    if bench.rows and bench.rows[-1]["bench"] == "scale_sim_cold_start" and "issue_key" not in bench.rows[-1]:
-        bench.rows[-1].update(issue_fields("sim_cold_start", None, unit="s"))
+
+    def run(launch, folder):
+        name = f"cold start ({LAUNCH_NAMES[launch]}): simulate {short_count(S)} x {Np} (full solver), {G} steps"
+        n_before = len(bench.rows)
+        with bench._guard("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, launch=launch):
+            res = cold_start(dict(S=S, N=Np, spg=1, size=[64, 64], steps=G, grid=int(cfg["loop_grid"]),
+                                  sdf=int(cfg["loop_sdf"]), render=False), launch=launch, folder=folder)
+            row = bench._row("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, launch=launch, **res)
+            row.update(issue_fields("sim_cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
+        if len(bench.rows) > n_before and "issue_key" not in bench.rows[-1]:
+            bench.rows[-1].update(issue_fields("sim_cold_start", None, unit="s"))
+
+    cold_launches(run, cfg["cold_launches"])
 
 
 # --------------------------------------------------------------------------- summary and text
