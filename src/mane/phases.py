@@ -10,6 +10,8 @@ steady frame go.
     with phases.phase("compile", "hair_raster.comp"):   # ``items``: (what, seconds) each time
         ...
     phases.add("pass", 0.004, "hair")        # seconds the caller measured itself
+    with phases.watching(lambda name, s, item: ...):   # told of each phase as it ends
+        ...
 
 A phase adds its seconds and one count to every recording open at the time; with none open it
 costs one list check. Phases nest (a program compiled during the first frame counts in both
@@ -76,3 +78,23 @@ def recording():
         yield rec
     finally:
         _open.remove(rec)
+
+
+class _Watcher(Recording):
+    def __init__(self, fn) -> None:
+        super().__init__()
+        self.fn = fn
+
+    def add(self, name: str, seconds: float, item: str | None = None) -> None:
+        self.fn(name, float(seconds), item)
+
+
+@contextmanager
+def watching(fn):
+    """Call ``fn(name, seconds, item)`` for each phase that ends inside the block (``add`` too)."""
+    w = _Watcher(fn)
+    _open.append(w)
+    try:
+        yield w
+    finally:
+        _open.remove(w)

@@ -6,12 +6,15 @@
 A tqdm bar on stderr with a rate and a time estimate, shown only when stderr is a terminal,
 ``quiet`` is off and ``MANE_QUIET`` is unset, and only once the work has run ``delay``
 seconds (2 by default), so quick jobs print nothing. ``stage(desc, total)`` gives a bar to
-advance by hand (``bar.update(k)``) for work that is not a loop.
+advance by hand (``bar.update(k)``) for work that is not a loop. ``compiles_shown()`` counts the
+GPU programs the driver compiles while its block runs (a first launch's 3-6 s; later launches
+read the driver's shader cache and print nothing).
 """
 from __future__ import annotations
 
 import os
 import sys
+from contextlib import contextmanager
 
 DELAY_S = 2.0
 
@@ -38,9 +41,35 @@ def progress(iterable=None, *, total=None, desc: str = "", unit: str = "it", qui
                 dynamic_ncols=True, leave=False)
 
 
-def stage(desc: str, total: int, unit: str = "step", quiet: bool = False, delay: float = DELAY_S):
+def stage(desc: str, total: int | None, unit: str = "step", quiet: bool = False, delay: float = DELAY_S):
     """A bar advanced by hand: ``bar = stage("convert", 3); ...; bar.update(); bar.close()``."""
     return progress(None, total=total, desc=desc, unit=unit, quiet=quiet, delay=delay)
+
+
+COMPILE_DESC = "compiling GPU programs (the driver keeps them for the next launch)"
+
+
+@contextmanager
+def compiles_shown(quiet: bool = False, delay: float = DELAY_S):
+    """A bar of the GPU programs compiled inside the block (``mane.gpu.glsl``'s "compile" phases),
+    shown once the block has run ``delay`` seconds and a program is compiled after that. Yields
+    the bar (None when bars are off)."""
+    if not enabled(quiet):
+        yield None
+        return
+    from . import phases
+
+    bar = stage(COMPILE_DESC, None, unit="program", delay=delay)
+
+    def tick(name, seconds, item):
+        if name == "compile":
+            bar.update(1)
+
+    try:
+        with phases.watching(tick):
+            yield bar
+    finally:
+        bar.close()
 
 
 class _NoBar:

@@ -60,6 +60,9 @@ def refuse_unknown(parser: argparse.ArgumentParser, extra: list[str]) -> None:
     parser.error(f"unrecognized arguments: {' '.join(extra)}{hint}")
 
 
+COMPILE_BAR_COMMANDS = ("render", "simulate", "view", "demo")
+
+
 class Terminated(KeyboardInterrupt):
     """SIGTERM, raised in the main thread so that writers clean up as for Ctrl-C."""
 
@@ -90,10 +93,13 @@ def main(argv: list[str] | None = None) -> int:
         parser.print_help()
         return 0
     previous = _install_sigterm()
+    from ..progress import compiles_shown
     from .options import one_line_warnings
 
     try:
-        with one_line_warnings(args.command):
+        # a first launch's compiles on a bar in the commands that draw (the bench logs its own)
+        quiet = bool(getattr(args, "quiet", False)) or args.command not in COMPILE_BAR_COMMANDS
+        with one_line_warnings(args.command), compiles_shown(quiet=quiet):
             return int(importlib.import_module(args._module).run(args) or 0)
     except ManeError as exc:
         print(f"mane {args.command}: error: {exc}", file=sys.stderr)
