@@ -20,8 +20,8 @@ SRC = Path(__file__).resolve().parents[1] / "src"
 # "" is the root package ``mane`` (mane.load, mane.render_image): a facade on top; any module may
 # read its ``__version__`` (a literal, set before the root imports anything).
 LAYERS: tuple[tuple[str, ...], ...] = (
-    ("errors",),
-    ("groom", "mesh", "progress", "setting", "phases", "disk_cache"),
+    ("errors", "phases"),
+    ("groom", "mesh", "progress", "setting", "disk_cache"),
     ("io", "grooming"),
     ("gpu",),
     ("sim", "render"),
