@@ -51,8 +51,8 @@ def _egl_libraries(backend: str) -> dict:
 DRIVER_DEFAULTS = {
     # NVIDIA's driver does its share of each GL call on a thread of its own, off the thread that
     # issues the frame (off by default on Linux): the 50k-strand target frame's CPU issue on an
-    # H200's host 0.57-0.70 -> 0.25-0.28 ms, its GPU time the same (docs/performance.md, "The
-    # driver's own thread"). Other drivers ignore it.
+    # H200's host 0.80 -> 0.18 ms, its GPU time the same; frames that read queries or pixels back
+    # wait for that thread (docs/performance.md, "The driver's own thread"). Other drivers ignore it.
     "__GL_THREADED_OPTIMIZATIONS": "1",
 }
 

@@ -581,14 +581,12 @@ class Renderer(GpuOwner):
         return self._targets["hdr"].fbo
 
     def _clear_hdr(self, fbo, view) -> None:
-        """Clear the HDR target ``fbo`` to transparent black and depth 1 and bind it (one bind a
-        frame: each costs ~12 us of CPU on an H200's driver). With the compute rasteriser and
+        """Clear the HDR target to transparent black and depth 1. With the compute rasteriser and
         one sample the colour is cleared by a compute shader (mane.gpu.clear: on an H200 0.01
         against 0.29 ms at 1080p), and the depth, which only the head writes there, by the raster
         units over the head's screen box of this frame and the last (screen_box)."""
         if self.samples > 1 or not self.compute_raster:
             fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
-            fbo.use()
             return
         target = self._targets["hdr"]
         if "hdr_depth" not in self._targets:
@@ -787,7 +785,8 @@ class Renderer(GpuOwner):
                 lv = self.light_view(light)
                 frame.shadow_views.append((lv, self._hair_depth_range(lv)))
         fbo = self.hdr_fbo()
-        with self.profiler.section("clear"):   # the target is bound after it   # a multisampled target's clear is not free (H200)
+        fbo.use()
+        with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
             self._clear_hdr(fbo, frame.view)
         on_pass = self.on_pass
         for p in self.passes:
