@@ -45,6 +45,9 @@ def test_envelope_and_top_level(quick):
                 "settings", "timing", "mode"):
         assert key in meta, key
     assert meta["mode"] == "quick" and meta["benchmark"] == "render"
+    # the driver settings the run had (the CLI's process made its context: mane's default, or the user's)
+    assert set(meta["host"]["driver_env"]) == {"__GL_THREADED_OPTIMIZATIONS"}
+    assert meta["host"]["driver_env"]["__GL_THREADED_OPTIMIZATIONS"] in ("0", "1")
     assert meta["timing"]["frame_source"] in ("gpu-timer", "cpu")
     assert meta["timing"]["pass_source"] in ("gpu-timer", "cpu")
     names = set(meta["timing"]["pass_names"])

@@ -216,6 +216,7 @@ def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,
              timing: dict | None = None) -> dict:
     """The ``meta`` object every benchmark's JSON starts with."""
     from .. import __version__
+    from ..gpu.context import DRIVER_DEFAULTS
 
     info = {}
     try:
@@ -234,7 +235,10 @@ def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,
         "software_renderer": None,
         "gpu_memory": None,
         "host": {"platform": platform.platform(), "cpu_count": os.cpu_count(),
-                 "argv": list(sys.argv)},
+                 "argv": list(sys.argv),
+                 # the driver settings mane asks for (gpu.context.DRIVER_DEFAULTS) as this run had
+                 # them: the driver's own thread changes every CPU-issue figure
+                 "driver_env": {k: os.environ.get(k) for k in DRIVER_DEFAULTS}},
         "versions": _versions(),
         "settings": dict(settings or {}),
         "timing": dict(timing or {}),
