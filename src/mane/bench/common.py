@@ -212,11 +212,15 @@ def sanitise(obj):
     return obj
 
 
+# NVIDIA's driver thread (CPU issue: docs/performance.md, "The driver's own thread") and shader
+# cache (cold starts), Mesa's shader cache
+DRIVER_ENV = ("__GL_THREADED_OPTIMIZATIONS", "__GL_SHADER_DISK_CACHE", "MESA_SHADER_CACHE_DISABLE")
+
+
 def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,
              timing: dict | None = None) -> dict:
     """The ``meta`` object every benchmark's JSON starts with."""
     from .. import __version__
-    from ..gpu.context import DRIVER_DEFAULTS
 
     info = {}
     try:
@@ -236,9 +240,8 @@ def envelope(ctx, *, target: str, mode: str, settings: dict | None = None,
         "gpu_memory": None,
         "host": {"platform": platform.platform(), "cpu_count": os.cpu_count(),
                  "argv": list(sys.argv),
-                 # the driver settings mane asks for (gpu.context.DRIVER_DEFAULTS) as this run had
-                 # them: the driver's own thread changes every CPU-issue figure
-                 "driver_env": {k: os.environ.get(k) for k in DRIVER_DEFAULTS}},
+                 # driver settings that change the figures, as this run had them (None: unset)
+                 "driver_env": {k: os.environ.get(k) for k in DRIVER_ENV}},
         "versions": _versions(),
         "settings": dict(settings or {}),
         "timing": dict(timing or {}),

@@ -8,7 +8,6 @@ refused with a message that says what to install.
 """
 from __future__ import annotations
 
-import os
 import threading
 import weakref
 
@@ -37,6 +36,7 @@ def _egl_libraries(backend: str) -> dict:
     """glcontext's ``libgl`` and ``libegl`` for the EGL backend: the usual names where both load
     (and no GLCONTEXT_LINUX_LIBGL / _LIBEGL setting names others), else nothing (its own search)."""
     import ctypes
+    import os
 
     if backend != "egl" or os.environ.get("GLCONTEXT_LINUX_LIBGL") or os.environ.get("GLCONTEXT_LINUX_LIBEGL"):
         return {}
@@ -48,26 +48,8 @@ def _egl_libraries(backend: str) -> dict:
     return dict(EGL_LIBRARIES)
 
 
-DRIVER_DEFAULTS = {
-    # NVIDIA's driver does its share of each GL call on a thread of its own, off the thread that
-    # issues the frame (off by default on Linux): the 50k-strand target frame's CPU issue on an
-    # H200's host 0.80 -> 0.18 ms, its GPU time the same; frames that read queries or pixels back
-    # wait for that thread (docs/performance.md, "The driver's own thread"). Other drivers ignore it.
-    "__GL_THREADED_OPTIMIZATIONS": "1",
-}
-
-
-def driver_defaults() -> None:
-    """``DRIVER_DEFAULTS`` into the environment where the user has not set them (their own
-    value, 0 say, is kept). A driver reads them once, when the process's first context loads
-    it: the headless context and the viewer's window call this before they make theirs."""
-    for key, value in DRIVER_DEFAULTS.items():
-        os.environ.setdefault(key, value)
-
-
 def headless_context(require: int = MIN_GL_VERSION, *, backend: str = "egl"):
     """A new standalone (window-less) context through EGL, OpenGL ``require`` core at least."""
-    driver_defaults()
     try:
         import moderngl
     except ImportError as exc:  # pragma: no cover - moderngl is a hard dependency

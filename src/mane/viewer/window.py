@@ -95,9 +95,6 @@ def create_window(size=(960, 540), title: str = "mane", visible: bool = True, vs
     except ImportError as exc:
         raise GPUError(f"the viewer needs moderngl-window and glfw ({exc}); pip install 'mane'") from None
     release_egl_current()
-    from ..gpu.context import driver_defaults
-
-    driver_defaults()
     try:
         wnd = Window(title=title, size=tuple(int(s) for s in size), gl_version=(4, 3), vsync=vsync,
                      resizable=True, visible=visible, samples=0)
