@@ -128,7 +128,9 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert sum(ph[k]["s"] for k in outer) <= cold["child_wall_s"]
     assert ph["first_frame"]["s"] == pytest.approx(cold["frames_ms"][0] / 1e3, rel=0.05, abs=5e-3)
     assert ph["sdf_bake"]["n"] == 1 and ph["compile"]["n"] >= 10
-    assert ph["compile"]["s"] <= sum(ph[k]["s"] for k in outer)
+    # compiles nest in the child's phases; on a GPU the scan-form tuner's probes compile its other
+    # forms in the frames after the first too, which no outer phase holds: the child's wall bounds them
+    assert ph["compile"]["s"] <= cold["child_wall_s"]
     assert "compile" in cold["phase_note"]
     crowd = [r for r in render_scale[0]["results"] if r["bench"] == "scale_crowd"]
     assert {r["lod"] for r in crowd} == {True, False}
