@@ -153,6 +153,12 @@ def test_targets(quick):
     assert (s["shading"], s["shadows"], s["shadow_map_size"], s["msaa"], s["segments"]) == \
         (render_bench.TARGET_SHADING, "deep_opacity", 512, 4, 32)
     assert row["rendered_segments"] == row["rendered_strands"] * 32
+    # the row's frames draw every pass; its still_hair block the same frame with the light-space
+    # targets reused (the stand-in has a head: its skin's bounce too)
+    still = row["still_hair"]
+    assert still["kept"] == ["shadow_map", "deep_opacity", "skin_bounce"]
+    assert _positive(still["pipelined_ms"]) and _positive(still["submit_bare_ms"]["median"])
+    assert t["stand_in"]["still_hair"]["kept"] == still["kept"]
 
 
 @pytest.mark.slow

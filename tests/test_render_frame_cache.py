@@ -176,3 +176,89 @@ def test_two_renderers_sharing_programs_do_not_see_each_others_uniforms(gl):
     finally:
         a.release()
         b.release()
+
+
+LIGHT_SPACE = ["shadow_map", "deep_opacity", "extra_shadows", "skin_bounce"]   # base_settings' frame
+
+
+def fresh_moved(settings, camera, lights, groom, transform) -> np.ndarray:
+    r = Renderer(settings, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(ball())
+        r.set_head_transform(transform)
+        return r.render_image(camera, lights)
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_light_space_targets_are_reused_while_lights_hair_and_head_are_still(gl, rasterizer):
+    """The shadow and opacity maps and the skin's bounce follow the lights, the hair and the head,
+    not the camera (light_key.py): a frame reuses them while those are still, and draws them
+    again after any of them changed; every frame equals a fresh renderer's."""
+    s = base_settings(rasterizer=rasterizer)
+    r = Renderer(s, ctx=gl, profile=False)
+
+    def frame(camera, lights):
+        kept = r.render(camera, lights).kept
+        return kept, r.read_image()
+
+    try:
+        r.set_strands(fan())
+        r.set_head(ball())
+        kept, first = frame(CAM, LIGHTS)
+        assert kept == []
+        kept, again = frame(CAM, LIGHTS)
+        assert kept == LIGHT_SPACE and np.array_equal(again, first)
+        assert r.stats()["reused_passes"] == LIGHT_SPACE
+        kept, image = frame(CAM2, LIGHTS)                    # the camera moved: the maps are the same
+        assert kept == LIGHT_SPACE and np.array_equal(image, fresh(s, CAM2, LIGHTS))
+        kept, image = frame(CAM2, LIGHTS2)                   # other lights
+        assert kept == [] and np.array_equal(image, fresh(s, CAM2, LIGHTS2))
+        assert frame(CAM2, LIGHTS2)[0] == LIGHT_SPACE
+        # positions written in place (a simulation step): the hair's maps and the skin's bounce again
+        pos = np.frombuffer(r.strands.positions.read(), np.float32).reshape(-1, 4).copy()
+        pos[:, 0] += 0.02
+        r.strands.positions.write(pos.tobytes())
+        r.strands_changed()
+        r.strands.bbox(refresh=True)
+        kept, image = frame(CAM2, LIGHTS2)
+        moved = fan(0.02)
+        assert kept == [] and np.array_equal(image, fresh_moved(s, CAM2, LIGHTS2, moved, np.eye(4)))
+        # the head moved: its shadow map (the skin's bounce, the maps that read it) again
+        m = np.eye(4)
+        m[:3, 3] = (0.0, -0.01, 0.01)
+        r.set_head_transform(m)
+        kept, image = frame(CAM2, LIGHTS2)
+        assert kept == [] and np.array_equal(image, fresh_moved(s, CAM2, LIGHTS2, moved, m))
+        r.set_head(r.head)   # uploaded again (its vertices may have been written in place)
+        assert frame(CAM2, LIGHTS2)[0] == [] and frame(CAM2, LIGHTS2)[0] == LIGHT_SPACE
+        # the distance LOD measures from the camera: a camera move thins the hair in every map
+        lod = replace(s, lod=True, lod_start=0.2, lod_end=1.0, lod_percent=0.3)
+        r.settings = lod
+        frame(CAM, LIGHTS2)
+        kept, image = frame(CAM2, LIGHTS2)
+        assert kept == [] and np.array_equal(image, fresh_moved(lod, CAM2, LIGHTS2, moved, m))
+    finally:
+        r.release()
+
+
+@pytest.mark.gpu
+def test_a_simulators_hair_draws_the_light_space_targets_every_frame(gl):
+    """A simulator's buffer changes behind the renderer's back: its maps are never reused."""
+    from mane.sim import Simulator
+
+    sim = Simulator(fan(), ctx=gl)
+    r = Renderer(base_settings(), ctx=gl, profile=False)
+    try:
+        r.set_strands(sim)
+        r.set_head(ball())
+        assert [r.render(CAM, LIGHTS).kept for _ in range(3)] == [[], [], []]
+        # the same hair uploaded: kept from the second frame
+        r.set_strands(fan())
+        assert [r.render(CAM, LIGHTS).kept for _ in range(2)] == [[], LIGHT_SPACE]
+    finally:
+        r.release()
+        sim.release()

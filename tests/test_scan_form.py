@@ -276,9 +276,12 @@ def _frames_alternating(gl, monkeypatch, ms_hair, ms_dom, frames=9, **kw):
     from mane.grooming.scene import default_scene
     from mane.render import Renderer, RenderSettings
 
+    from mane.render import light_key
+
     monkeypatch.setattr(scan_form, "TUNE", True)
     monkeypatch.setattr(scan_form, "SAMPLES", 2)
     monkeypatch.setattr(raster_segment, "FORCED", None)
+    monkeypatch.setattr(light_key, "KEEP", False)   # the deep opacity dispatches every frame, as with moving hair
     groom, head = default_scene(num_guides=120, points=10, subdivisions=3)
     r = Renderer(RenderSettings(**{"size": (120, 90), "msaa": 4, "rasterizer": "compute", "shadows": "deep_opacity",
                                    "shadow_map_size": 128, "strands_per_guide": 3, "width": 0.004, **kw}),

@@ -58,6 +58,12 @@ frames (the first compiles the shaders, its wall time is ``first_frame_s``), the
    ``gpu_passes_ms`` are the GPU's own time, without the idle gaps Python's issuing leaves in
    ``frame_ms``. ``targets`` uses ``gpu_ms`` where there is one.
 
+Every frame of these phases draws every pass, as when the hair or a light moves (the rows'
+figures as they were before the light-space targets were reused). The target row adds
+``still_hair``: phases 2 and 3 and the issue time again while the hair, head and lights are
+still, as a still groom is drawn, the shadow and opacity maps and the skin's bounce reused
+(mane.render.light_key).
+
 On software renderers (llvmpipe) GPU timer queries are unreliable, so both profilers fall
 back to CPU wall time around ``ctx.finish()`` (``meta.timing`` says which source was used).
 A configuration that fails (``GPUMemoryError``, a missing GL feature, a setting the renderer
@@ -370,10 +376,11 @@ class Bench(BenchRows):
     # ------------------------------------------------------------------ one configuration
     def measure(self, bench: str, name: str, *, guides: int, points: int, settings: dict,
                 required=(), lights=None, camera=None, budget_scale: float = 1.0, raster_stats: bool = False,
-                picture=None, **fields) -> None:
+                picture=None, still_hair: bool = False, **fields) -> None:
         """Render one configuration and add its row (or a skipped / error row). ``raster_stats``:
         where the compute rasteriser draws, one more frame (not timed) counts its samples;
-        ``picture``: a PNG path the last frame is written to (the row's ``picture``)."""
+        ``picture``: a PNG path the last frame is written to (the row's ``picture``);
+        ``still_hair``: the row's ``still_hair`` too (Bench._still_hair)."""
         fields = dict(guides=int(guides), guide_points=int(points),
                       strands_per_guide=settings.get("strands_per_guide"),
                       segments_requested=settings.get("segments"), **fields)
@@ -381,7 +388,7 @@ class Bench(BenchRows):
             self._before_config()
             s, dropped = make_settings(settings, required)
             groom = self.work.groom(guides, points)
-            timing = self._time(s, groom, lights, camera, budget_scale, raster_stats, picture)
+            timing = self._time(s, groom, lights, camera, budget_scale, raster_stats, picture, still_hair)
             row = self._row(bench, name, **fields, **timing)
             row["settings"] = settings_dict(s)
             if self._release_error:
@@ -390,7 +397,17 @@ class Bench(BenchRows):
                 row["settings_not_in_renderer"] = dropped
 
     def _time(self, s, groom, lights, camera, budget_scale: float = 1.0, raster_stats: bool = False,
-              picture=None) -> dict:
+              picture=None, still_hair: bool = False) -> dict:
+        from ..render import light_key
+
+        keep = light_key.KEEP
+        light_key.KEEP = False   # every pass every frame, as when the hair or a light moves (the rows since the first)
+        try:
+            return self._time_frames(s, groom, lights, camera, budget_scale, raster_stats, picture, still_hair)
+        finally:
+            light_key.KEEP = keep
+
+    def _time_frames(self, s, groom, lights, camera, budget_scale, raster_stats, picture, still_hair) -> dict:
         from ..render import Renderer
 
         ctx, cfg = self.ctx, self.cfg
@@ -448,6 +465,7 @@ class Bench(BenchRows):
 
             # 3. gapless GPU time: the GPU kept busy while the frame is issued (GPU timer queries only)
             gapless = self._gapless(r, cam, lights, N_eff, stats(submit)["mean"])
+            still = self._still_hair(r, cam, lights, N_eff, stats(submit)["mean"]) if still_hair else None
 
             info = {k: v for k, v in r.stats().items() if k != "passes"}
             # sample_visits, sample_writes, raster_atomics (HairComputePass.count_samples): one more frame
@@ -478,6 +496,7 @@ class Bench(BenchRows):
                 "pipelined_ms": pipelined,
                 **gapless,
                 "fps": (1e3 / pipelined) if pipelined > 0 else None,
+                **({"still_hair": still} if still is not None else {}),
                 "gpu_fps": (1e3 / gpu_mean) if gpu_mean else None,
                 "camera_distance_m": float(np.linalg.norm(eye - target)),
                 "lights": len(lights) if lights is not None else 3,
@@ -491,6 +510,31 @@ class Bench(BenchRows):
             except Exception as exc:
                 self._release_error = f"{type(exc).__name__}: {exc}"
                 self._log(f"  Renderer.release failed: {self._release_error}")
+
+    def _still_hair(self, r, cam, lights, n: int, submit_ms) -> dict:
+        """The same frame while the hair, the head and the lights are still, as a user's still
+        groom is drawn: the light-space passes' targets reused (mane.render.light_key; the rows'
+        own figures draw them every frame). Pipelined ms, the CPU's issue without profiler
+        sections, the gapless GPU ms and the passes reused."""
+        from ..render import light_key
+
+        ctx, rp = self.ctx, r.profiler
+        light_key.KEEP = True
+        try:
+            for _ in range(2):   # the first keeps the targets, the second reuses them
+                frame = r.render(cam, lights)
+            rp.enabled = False
+            try:
+                pipelined = time_pipelined(ctx, lambda: r.render(cam, lights), n)
+                submit_bare = time_each(ctx, lambda: r.render(cam, lights), n)[1]
+            finally:
+                rp.enabled = True
+            gapless = self._gapless(r, cam, lights, n, submit_ms)
+            return {"kept": list(frame.kept), "pipelined_ms": pipelined, "submit_bare_ms": stats(submit_bare),
+                    "gpu_ms": gapless.get("gpu_ms"),
+                    "gpu_passes_ms": gapless.get("gpu_passes_ms")}
+        finally:
+            light_key.KEEP = False
 
     def _gapless(self, r, cam, lights, n: int, submit_ms) -> dict:
         rp = r.profiler
@@ -564,7 +608,7 @@ class Bench(BenchRows):
         self.measure("target", name, guides=guides, points=TARGET_POINTS, settings=settings,
                      required=("shading", "shadows", "shadow_map_size", "msaa", "strands_per_guide", "segments"),
                      budget_scale=5.0, shading=TARGET_SHADING, shadows="deep_opacity", shadow_map_size=512,
-                     msaa=4, dom_layers=3, rasterizer=auto, raster_stats=True)
+                     msaa=4, dom_layers=3, rasterizer=auto, raster_stats=True, still_hair=True)
         # the same frame with the other rasteriser ("auto" picked one for this GPU)
         other = "hardware" if auto == "compute" else "compute"
         self.measure("target_rasterizer", f"{name} {other} rasteriser", guides=guides, points=TARGET_POINTS,
@@ -816,6 +860,11 @@ def _targets(rows: list[dict], mode: str) -> dict:
                    cpu_submit_ms=row["submit_ms"]["mean"],
                    cpu_submit_bare_ms=(row.get("submit_bare_ms") or {}).get("mean"), source=row["frame_source"],
                    rendered_strands=row["rendered_strands"], rendered_segments=row["rendered_segments"])
+    still = row.get("still_hair")
+    if still:   # the same frame with its light-space targets reused (Bench._still_hair)
+        summary["still_hair"] = dict(gpu_ms=(still.get("gpu_ms") or {}).get("mean"), pipelined_ms=still["pipelined_ms"],
+                                     cpu_submit_bare_ms=still["submit_bare_ms"]["mean"],
+                                     cpu_submit_bare_median_ms=still["submit_bare_ms"]["median"], kept=still["kept"])
     if not full:
         out["note"] = (f"not measured in {mode} mode (run without --quick); stand-in {row['name']}: "
                        f"{fmt(v)} ms")

@@ -8,6 +8,7 @@ import numpy as np
 
 from ..gpu.glsl import program
 from ..gpu.uniforms import write_uniform
+from .passes.base import Pass
 
 HERE = Path(__file__).resolve().parent
 
@@ -24,7 +25,7 @@ def _sphere_mesh(lat: int, lon: int) -> tuple[np.ndarray, np.ndarray]:
     return pts.astype(np.float32), idx.astype(np.int32)
 
 
-class GizmoPass:
+class GizmoPass(Pass):
     """Draws the collision sphere (see-through, depth tested) and the lights' handles (small
     balls in each light's colour, with a line from the scene's centre for directional lights;
     faint where the scene hides them) into the renderer's HDR target: 5 draws in all."""
@@ -37,8 +38,8 @@ class GizmoPass:
     MAX_LINES = 8
 
     def __init__(self, renderer, viewer):
-        self.renderer, self.viewer = renderer, viewer
-        self.ctx = renderer.ctx
+        super().__init__(renderer)
+        self.viewer = viewer
         self._prog = self._handle_prog = self._line_prog = None
         self._vao = self._handle_vao = self._line_vao = None
         self._balls = self._lines = None

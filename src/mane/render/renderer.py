@@ -31,6 +31,7 @@ from ..gpu.uniforms import write_uniform
 from ..groom import Groom
 from .camera import Camera, look_at, orthographic, perspective
 from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
+from .light_key import light_key
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass, SkinBouncePass)
@@ -367,6 +368,11 @@ class Renderer(GpuOwner):
         """Positions were written (a simulation step): rebuild the frames on the next render."""
         self._frames_dirty = True
         self._strand_writes += 1
+
+    @property
+    def strand_writes(self) -> int:
+        """Counts strands_changed calls: positions written in place."""
+        return self._strand_writes
 
     @property
     def frames_dirty(self) -> bool:
@@ -789,8 +795,22 @@ class Renderer(GpuOwner):
         with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
             self._clear_hdr(fbo, frame.view)
         on_pass = self.on_pass
+        key = None
         for p in self.passes:
-            if p.enabled(frame):
+            if not p.enabled(frame):
+                p.kept = None
+            elif p.light_space:   # reused while the lights, the hair and the head are still (light_key.py)
+                if key is None:
+                    key = light_key(self, frame) or False
+                if key and key.matches(p.kept[0] if p.kept is not None else None):
+                    frame.targets.update(p.kept[1])
+                    frame.kept.append(p.name)
+                else:
+                    before = dict(frame.targets)
+                    with self.profiler.section(p.name):
+                        p.run(frame)
+                    p.kept = (key, {k: v for k, v in frame.targets.items() if before.get(k) is not v}) if key else None
+            else:
                 with self.profiler.section(p.name):
                     p.run(frame)
             if on_pass is not None:
@@ -924,6 +944,7 @@ class Renderer(GpuOwner):
             "rasterizer": "compute" if self.compute_raster else "hardware",
             "scan_form": self.scan_forms.stats(),
             "scan_form_by": self.scan_forms.by(),
+            "reused_passes": list(self.last_frame.kept) if self.last_frame is not None else [],   # light_key.py
             "raster_samples": self.raster_grid ** 2 if self.compute_raster else self.samples,
             "supersample": self.settings.supersample,
             "shadows": self.settings.shadows,

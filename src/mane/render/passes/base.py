@@ -115,6 +115,7 @@ class Frame:
     index: int = 0
     still: int = 0   # the frame's place in a still scene's mean (passes/accumulate.py): 0 first or moving
     targets: dict = field(default_factory=dict)
+    kept: list = field(default_factory=list)   # light-space passes whose last targets this frame reused
     memo: dict = field(default_factory=dict)   # uniforms the passes share, made once a frame
 
 
@@ -502,15 +503,21 @@ def read_f32(texture) -> np.ndarray:
 
 
 class Pass:
-    """A step of the frame. ``reads``/``writes`` name the frame targets (documentation and checks)."""
+    """A step of the frame. ``reads``/``writes`` name the frame targets (documentation and checks).
+    ``light_space``: the pass's targets follow from the lights, the hair, the head and the
+    settings, not from the camera (shadow and opacity maps, the skin's bounce): the renderer
+    reuses its last targets (``kept``: (the LightKey they were made under, the targets the run
+    published)) while Renderer.light_key is the same, instead of running it (light_key.py)."""
 
     name = "pass"
     reads: tuple[str, ...] = ()
     writes: tuple[str, ...] = ()
+    light_space = False
 
     def __init__(self, renderer):
         self.renderer = renderer
         self.ctx = renderer.ctx
+        self.kept = None
 
     def enabled(self, frame: Frame) -> bool:
         return True

@@ -28,6 +28,7 @@ class ExtraShadowsPass(Pass):
     name = "extra_shadows"
     reads = ("strands", "head")
     writes = ("extra_shadow_maps", "extra_doms")
+    light_space = True
 
     def __init__(self, renderer):
         super().__init__(renderer)

@@ -21,6 +21,7 @@ from .base import (PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair,
 
 class LightDepthPass(Pass):
     method = ""   # the settings.shadows value that turns the pass on
+    light_space = True
 
     def __init__(self, renderer):
         super().__init__(renderer)

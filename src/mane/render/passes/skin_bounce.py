@@ -101,6 +101,7 @@ class SkinBouncePass(Pass):
     name = "skin_bounce"
     reads = ("head", "shadow_map", "dom")
     writes = ("skin_rsm",)
+    light_space = True
 
     def __init__(self, renderer):
         super().__init__(renderer)
