@@ -9,10 +9,11 @@ picture) a frame reuses the targets the pass made last instead of drawing them a
 - by identity: the settings object, the strands, the head's buffers (new at every set_head, even
   of the same mesh), the instances, light 0's view and the extra lights' views (the renderer
   keeps one view object per light and scene box);
-- by value: the lights, the hair's depth ranges along them, the strands' writes
-  (``strands_changed``), the head's transform and the expand pass's key: the rendered strands,
-  made of the geometry version (new frames; a simulator's buffer moves it every frame), the
-  strands the coverage LOD keeps and, with the distance LOD, the eye (both follow the camera).
+- by value: the lights, the hair's depth ranges along them, the hair's version
+  (``Renderer.hair_version``: new frames, ``strands_changed`` calls, a simulator's steps; the
+  still picture's notion of the hair moving, so a paused simulation's frames reuse them), the
+  head's transform and what of the rendered strands follows the camera
+  (``ExpandPass.camera_key``: the strands the coverage LOD keeps, with the distance LOD the eye).
 
 A light whose fields cannot be hashed (arrays) makes no key: its frames draw every pass, as
 every frame does while ``KEEP`` is False (tests of a pass's own work from frame to frame, such as
@@ -50,7 +51,7 @@ def light_key(renderer, frame) -> LightKey | None:
     s, st = r.settings, r.strands
     views = tuple(v for v, _ in frame.shadow_views)
     same = (s, st, r.head_buffers(), r.instances, frame.light_view, *views)
-    drawn = r.get_pass("expand").key() if st is not None else None
-    equal = (lights, frame.hair_depth_range, tuple(d for _, d in frame.shadow_views), r.strand_writes,
+    drawn = r.get_pass("expand").camera_key() if st is not None else None
+    equal = (lights, frame.hair_depth_range, tuple(d for _, d in frame.shadow_views), r.hair_version(),
              r.head_model()[0] if r.head is not None else None, drawn)
     return LightKey(same, equal)

@@ -370,11 +370,6 @@ class Renderer(GpuOwner):
         self._strand_writes += 1
 
     @property
-    def strand_writes(self) -> int:
-        """Counts strands_changed calls: positions written in place."""
-        return self._strand_writes
-
-    @property
     def frames_dirty(self) -> bool:
         """Whether the guides' frames must be rebuilt before the strands are drawn."""
         return self._frames_dirty
@@ -823,13 +818,17 @@ class Renderer(GpuOwner):
 
     def _scene_key(self, camera, lights) -> tuple:
         """What a frame shows besides its targets: equal keys on consecutive frames make a still
-        scene (passes/accumulate.py). A simulator's buffer counts as changed when the simulator
-        has stepped or strands_changed was called, not by the frames rebuilt from it every frame."""
+        scene (passes/accumulate.py)."""
+        return (camera, tuple(lights), self.settings, self.hair_version(), id(self.strands), id(self.head),
+                self.head_model()[0] if self.head is not None else None, id(self.instances))
+
+    def hair_version(self) -> tuple:
+        """Changes when the drawn hair's positions may have: the geometry version, strands_changed
+        calls and a simulator's steps. A simulator's buffer counts as changed when the simulator
+        has stepped (or strands_changed was called), not by the frames rebuilt from it every frame."""
         st = self.strands
         steps = None if st is None or st.owns_positions else getattr(getattr(st.source, "state", None), "steps", None)
-        return (camera, tuple(lights), self.settings, self._geometry_version - self._sim_rebuilds, id(st),
-                self._strand_writes, steps, id(self.head), self.head_model()[0] if self.head is not None else None,
-                id(self.instances))
+        return (self._geometry_version - self._sim_rebuilds, self._strand_writes, steps)
 
     def _still_place(self, camera, lights) -> int:
         """A refining frame's place in a still scene's mean: 0 when anything changed since the

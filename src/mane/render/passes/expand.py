@@ -66,11 +66,17 @@ class ExpandPass(Pass):
 
     def _make_key(self):
         r = self.renderer
+        return (id(r.strands), id(r.settings), r.geometry_version, *self.camera_key())
+
+    def camera_key(self) -> tuple:
+        """What of the expanded strands follows the camera: the distance LOD's eye (with
+        settings.lod), the strands the coverage LOD keeps per instance and the segments' levels."""
+        r = self.renderer
         eye = tuple(float(x) for x in r.lod_eye) if (r.settings.lod and r.lod_eye is not None) else None
         plan = r.lod_plan()
         N = r.strands.points_per_strand
         sub = plan.subdivisions(subdivisions(r.settings, N), N - 1)
-        return (id(r.strands), id(r.settings), r.geometry_version, eye, plan.kept, sub, plan.levels(sub, N - 1))
+        return (eye, plan.kept, sub, plan.levels(sub, N - 1))
 
     def ensure(self) -> None:
         """Expand now unless the buffer is up to date."""
