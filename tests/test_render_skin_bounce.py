@@ -73,6 +73,31 @@ void main() {{
 """)
     return path
 
+def _filter_tolerance(gl, exact: float, fixed: float) -> float:
+    """The twins' tolerance for a sum of bilinear look-ups: ``exact`` where the GL filters in
+    floating point (llvmpipe), ``fixed`` on a GPU, whose texture units keep a filter weight in
+    fixed point (8 fractional bits on NVIDIA's: a look-up between texels a and b off by up to
+    |a - b| / 512; the H200's gather 0.6 % off the exact twin at most)."""
+    from mane.gpu.capabilities import get_capabilities
+
+    return exact if get_capabilities(gl).is_software else fixed
+
+
+def _snap_undecided(box, size, levels, margin_cover=0.02, margin_cell=0.05):
+    """(nz, ny, nx): cells whose move to the skin (skin_bounce_grid.comp: a centre less than a cell
+    behind the skin of its column) hangs on a threshold the GPU's fixed-point filter can tip:
+    the column's coverage within ``margin_cover`` of 1/2, or the centre within ``margin_cell`` of
+    a cell of either end of the window. Either choice is the shader's; the two differ by up to
+    the skin's fluence against the head's inside."""
+    c = sb.grid_centres(box, size).reshape(-1, 3)
+    f = sb.bilinear(levels[0][0], c[:, :2])[:, 3]
+    zs = sb.bilinear(levels[1][0], c[:, :2])[:, 3] / np.maximum(f, 1e-30)
+    dz = (box[1][2] - box[0][2]) / size[2]
+    m = margin_cell * dz
+    near = (np.abs(f - 0.5) < margin_cover) | ((f > 0.5) & ((np.abs(c[:, 2] - zs) < m) | (np.abs(c[:, 2] - zs - dz) < m)))
+    return near.reshape(size[2], size[1], size[0])
+
+
 def test_plane_fluence_approaches_the_analytic_form_factor():
     """A Lambertian plane reflecting B per unit area (radiance B / pi) gives a point at height h
     the fluence 2 B (1 - h / sqrt(h^2 + R^2)) from the disc of radius R under it (the emitter's
@@ -163,7 +188,7 @@ def test_glsl_gather_matches_numpy(gl, tmp_path):
         o.release()
     assert want.max() > 0.1 and np.count_nonzero(want[:, 0] > 1e-3) > 300
     scale = np.maximum(np.abs(want), 1e-3 * want.max())
-    assert np.max(np.abs(got - want) / scale) < 2e-3, np.max(np.abs(got - want) / scale)
+    assert np.max(np.abs(got - want) / scale) < _filter_tolerance(gl, 2e-3, 1e-2), np.max(np.abs(got - want) / scale)
 
 
 # ---------------------------------------------------------------- the renderer
@@ -261,9 +286,12 @@ def _built_levels(p) -> list:
 
 def test_glsl_grid_matches_numpy(gl, tmp_path):
     """skin_bounce_grid.comp (the pass's grid, read back) against its twin, the NumPy gather at
-    every cell's centre, within 3e-3 (the gather's 2e-3 and the half floats' 5e-4); and the hair
+    every cell's centre, within 3e-3 (the gather's 2e-3 and the half floats' 5e-4; on a GPU, whose
+    filter weights are fixed point, 3 % for 99 % of the cells and 10 % of the grid's largest value for
+    all, the cells whose move to the skin a filter weight can tip left out: _snap_undecided); and the hair
     shaders' lookup (skin_bounce_grid in a probe) against the trilinear twin within 1 % of the
     grid's largest value (GL's filter weights are fixed point)."""
+    from mane.gpu.capabilities import get_capabilities
     from mane.gpu.glsl import compute_shader
     from mane.render.bindings import TABLE, TEX_RSM_GRID
     from mane.render.passes.base import HERE, RENDER_DIR, _lighting_uniforms, set_uniforms
@@ -288,7 +316,15 @@ def test_glsl_grid_matches_numpy(gl, tmp_path):
                              lv.forward, dom_levels=levels[2], layers=lu["u_dom_layers"], density=lu["u_shadow_density"])
         assert want.max() > 0.1 and np.count_nonzero(want[..., 0] > 1e-3) > 0.1 * want[..., 0].size
         scale = np.maximum(np.abs(want), 1e-3 * want.max())
-        assert np.max(np.abs(got - want) / scale) < 3e-3, np.max(np.abs(got - want) / scale)
+        err = np.abs(got - want)
+        if get_capabilities(gl).is_software:
+            assert np.max(err / scale) < 3e-3, np.max(err / scale)
+        else:   # fixed-point filter weights: the cells a weight can tip left out; 99 % of the rest within 3 %,
+            undecided = _snap_undecided(box, size, levels)    # all within 10 % of the largest value (a centre
+            assert undecided.mean() < 0.02, undecided.mean()  # at the skin: its nearest samples' depths and
+            decided = err[~undecided]                         # normals move its fluence most; H200: 6.9 %)
+            assert np.max(decided) < 0.1 * want.max(), np.max(decided) / want.max()
+            assert np.percentile((err / scale)[~undecided], 99) < 0.03, np.percentile((err / scale)[~undecided], 99)
 
         # the lookup: random points over the grid's box and a little beyond it (clamped to its border)
         probe = _probe_source(tmp_path, "skin_bounce_grid")
