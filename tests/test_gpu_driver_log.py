@@ -33,7 +33,7 @@ def test_records_an_error_while_on_and_nothing_after(gl):
     assert s["messages"] == 2 and s["errors"] == 2
     (kind,) = s["kinds"]
     assert kind["type"] == "error" and kind["source"] == "api" and kind["count"] == 2
-    assert "glBindFramebuffer" in kind["text"]
+    assert "Framebuffer" in kind["text"]   # Mesa names glBindFramebuffer, NVIDIA "Framebuffer name must be generated"
     _bad_call()                       # the callback is gone: nothing more is recorded
     assert log.summary()["messages"] == 2
     gl.finish()

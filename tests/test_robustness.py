@@ -109,7 +109,9 @@ def test_render_targets_refused_before_anything_is_allocated(gl, monkeypatch):
     from mane.render import Renderer, RenderSettings
 
     monkeypatch.setenv("MANE_GPU_MEMORY", "4G")
-    r = Renderer(RenderSettings(size=(8192, 8192), supersample=2, msaa=8, shadows="none"), ctx=gl)
+    # the raster units' target (with the compute rasteriser, a GPU's "auto", the target has one sample)
+    r = Renderer(RenderSettings(size=(8192, 8192), supersample=2, msaa=8, shadows="none", rasterizer="hardware"),
+                 ctx=gl)
     try:
         count = CountAllocations(monkeypatch, gl)
         t0 = time.perf_counter()
