@@ -692,10 +692,11 @@ class Simulator(GpuOwner):
         self._timer.queries = {}
 
     def pass_times(self) -> dict:
-        """Pass name -> mean GPU milliseconds per dispatch (needs ``profile=True``)."""
+        """Pass name -> mean GPU milliseconds per dispatch (needs ``profile=True``), every step
+        issued so far counted (a GPU's timer results arrive a frame or two late: this waits)."""
         if self._profiler is not None and hasattr(self._profiler, "means"):
             try:
-                return {k.removeprefix("sim."): v for k, v in self._profiler.means().items()
+                return {k.removeprefix("sim."): v for k, v in self._profiler.means(wait=True).items()
                         if k.startswith("sim.")}
             except Exception:
                 pass
