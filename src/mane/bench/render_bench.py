@@ -456,12 +456,7 @@ class Bench(BenchRows):
 
             # 2. pipelined: back to back, no per-pass timing, one finish; and the CPU's time to
             # issue a frame with no profiler section at all (what an application pays)
-            rp.enabled = False
-            try:
-                pipelined = time_pipelined(ctx, lambda: r.render(cam, lights), N_eff)
-                submit_bare = time_each(ctx, lambda: r.render(cam, lights), N_eff)[1]
-            finally:
-                rp.enabled = True
+            pipelined, submit_bare = self._unprofiled(r, cam, lights, N_eff)
 
             # 3. gapless GPU time: the GPU kept busy while the frame is issued (GPU timer queries only)
             gapless = self._gapless(r, cam, lights, N_eff, stats(submit)["mean"])
@@ -511,6 +506,17 @@ class Bench(BenchRows):
                 self._release_error = f"{type(exc).__name__}: {exc}"
                 self._log(f"  Renderer.release failed: {self._release_error}")
 
+    def _unprofiled(self, r, cam, lights, n: int) -> tuple:
+        """With the renderer's pass profiler off: (ms a frame over ``n`` back to back with one
+        finish, the CPU's issue ms of ``n`` frames each between two finishes)."""
+        ctx, rp = self.ctx, r.profiler
+        rp.enabled = False
+        try:
+            pipelined = time_pipelined(ctx, lambda: r.render(cam, lights), n)
+            return pipelined, time_each(ctx, lambda: r.render(cam, lights), n)[1]
+        finally:
+            rp.enabled = True
+
     def _still_hair(self, r, cam, lights, n: int, submit_ms) -> dict:
         """The same frame while the hair, the head and the lights are still, as a user's still
         groom is drawn: the light-space passes' targets reused (mane.render.light_key; the rows'
@@ -518,17 +524,11 @@ class Bench(BenchRows):
         sections, the gapless GPU ms and the passes reused."""
         from ..render import light_key
 
-        ctx, rp = self.ctx, r.profiler
         light_key.KEEP = True
         try:
             for _ in range(2):   # the first keeps the targets, the second reuses them
                 frame = r.render(cam, lights)
-            rp.enabled = False
-            try:
-                pipelined = time_pipelined(ctx, lambda: r.render(cam, lights), n)
-                submit_bare = time_each(ctx, lambda: r.render(cam, lights), n)[1]
-            finally:
-                rp.enabled = True
+            pipelined, submit_bare = self._unprofiled(r, cam, lights, n)
             gapless = self._gapless(r, cam, lights, n, submit_ms)
             return {"kept": list(frame.kept), "pipelined_ms": pipelined, "submit_bare_ms": stats(submit_bare),
                     "gpu_ms": gapless.get("gpu_ms"),
