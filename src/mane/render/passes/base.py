@@ -507,7 +507,7 @@ class Pass:
     ``light_space``: the pass's targets follow from the lights, the hair, the head and the
     settings, not from the camera (shadow and opacity maps, the skin's bounce): the renderer
     reuses its last targets (``kept``: (the LightKey they were made under, the targets the run
-    published)) while Renderer.light_key is the same, instead of running it (light_key.py)."""
+    published)) while the frame's key (render/light_key.py) matches it, instead of running it."""
 
     name = "pass"
     reads: tuple[str, ...] = ()
