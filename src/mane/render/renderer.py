@@ -38,6 +38,7 @@ from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, H
 from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
 from .passes.accumulate import AccumulatePass, jittered_view, still_jitter
 from .passes.expand import ExpandPass
+from .passes.ms_smooth import MsSmoothPass
 from .passes.frames import FramesPass
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
@@ -146,7 +147,8 @@ class Renderer(GpuOwner):
             self.warnings.append(unsupported_reason(self))
         self.passes: list[Pass] = [FramesPass(self), ExpandPass(self), ShadowMapPass(self), DeepOpacityPass(self),
                                    ADSMPass(self), OpacityMapsPass(self), DensityPass(self), ExtraShadowsPass(self),
-                                   SkinBouncePass(self), HeadPass(self), HairPass(self), HairComputePass(self), OitPass(self),
+                                   SkinBouncePass(self), HeadPass(self), HairPass(self), HairComputePass(self), MsSmoothPass(self),
+                                   OitPass(self),
                                    AccumulatePass(self), ResolvePass(self)]
         self.last_frame: Frame | None = None
         self._released = False

@@ -55,23 +55,26 @@ from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import has_atomic64  # noqa: F401  (importable from here too)
 from ...gpu.clear import fill_words
 from ...gpu.glsl import ProgramMemo, compute_shader
-from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, TEX_SCENE_DEPTH
+from ..bindings import B_COVER, B_EXPANDED, B_RASTER_STATS, B_VIS, B_VIS_ID, IMG_HDR, IMG_MS, TEX_SCENE_DEPTH
 from .base import (shader_path, RENDER_DIR, Frame, Pass, bind_lighting, bounce_defines, set_uniforms, set_view,
                    shadow_defines)
-from . import depth_tiles, occlusion_tiles, raster_tiles
+from . import depth_tiles, ms_smooth, occlusion_tiles, raster_tiles
 from .raster_segment import TILED, raster_defines, subgroup_defines
 
 STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
 
 
-def shade_group(grid: int) -> tuple[int, int]:
+def shade_group(grid: int, split: bool = False) -> tuple[int, int]:
     """hair_shade.comp's work group in pixels (SHADE_GROUP_X, _Y) at ``grid`` x ``grid`` samples a
     pixel: 16 x 8 up to 2 x 2 samples (H200 at 2 x 2, the default: the 100k close-up 3.96 -> 3.84
     ms against 8 x 8, the target frame 1.235 -> 1.230; one sample a pixel not timed), else 8 x 8,
-    so that its job list (20 bytes a sample) stays within the 32 KiB of shared memory every GL 4.3
-    context has."""
-    return (16, 8) if grid <= 2 else (8, 8)
+    so that its job list (24 bytes a sample as llvmpipe lays it out; 40 with ``split``, the
+    multiply scattered light's own list: MS_SPLIT) stays within the 32 KiB of shared memory every
+    GL 4.3 context has: 8 x 4 at 4 x 4 samples with ``split``."""
+    if grid <= 2:
+        return 16, 8
+    return (8, 4) if split and grid >= 4 else (8, 8)
 
 
 # renderer strings of GPUs with few raster units for their size: "auto" picks compute there
@@ -228,17 +231,21 @@ class HairComputePass(Pass):
             hook(frame)
         with r.profiler.section("hair_shade"):
             bounce = bounce_defines(r)
-            gx, gy = shade_group(grid)
+            split = int(ms_smooth.active(r))   # the multiply scattered light to a target of its own
+            gx, gy = shade_group(grid, bool(split))
             cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID"),
-                                              grid), lambda: compute_shader(
+                                              grid, split), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
                                                        **bounce, "SHADE_GRID": int(grid), "SHADE_GROUP_X": gx,
-                                                       "SHADE_GROUP_Y": gy}, include_dirs=[RENDER_DIR]))
+                                                       "SHADE_GROUP_Y": gy, "MS_SPLIT": split},
+                include_dirs=[RENDER_DIR]))
             set_view(cs, frame.view)
             set_uniforms(cs, common)
             expand.buffer.bind_to_storage_buffer(B_EXPANDED)
             r.shading.bind(cs, ctx, r.settings)
             bind_lighting(r, cs, frame)
+            if split:   # (cleared first: the clear binds its own image unit)
+                r.get_pass("ms_smooth").target().bind_to_image(IMG_MS, read=False, write=True)
             color.bind_to_image(IMG_HDR, read=True, write=True)
             w, h = r.settings.render_size
             cs.run(math.ceil(w / gx), math.ceil(h / gy))

@@ -25,6 +25,13 @@ in vec4 g_vis;
 
 uniform HairMaterial u_material;
 uniform float u_root_darkening;   // settings.root_darkening
+// MS_SPLIT (the compute rasteriser with settings.ms_smoothing > 0: passes/ms_smooth.py): the
+// multiply scattered light is left out of what hair_radiance returns and kept in g_hair_ms, which
+// the shading pass writes to a target of its own for ms_smooth.comp to smooth across the hair.
+#ifndef MS_SPLIT
+#define MS_SPLIT 0
+#endif
+vec3 g_hair_ms;
 
 // P: world point, T: unit tangent, s: 0 at the root .. 1 at the tip, rand: the strand's random.
 vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
@@ -47,14 +54,21 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
     vis_ms.x = v0.y;
     float behind = v0.z;
 #endif
+    vec3 ms = vec3(0.0);
     for (int i = 0; i < MAX_LIGHTS; ++i) {
         if (i >= u_num_lights) break;
         float falloff;
         vec3 L = light_dir_at(i, P, falloff);
         vec3 radiance = u_light_radiance[i] * falloff;
-        color += radiance * (hair_bsdf(T, V, L, m) * vis[i]
-                             + hair_multiple_scattering(T, V, L, m, vis_ms[i]) * (i == 0 ? behind : 1.0));
+        color += radiance * hair_bsdf(T, V, L, m) * vis[i];
+        ms += radiance * hair_multiple_scattering(T, V, L, m, vis_ms[i]) * (i == 0 ? behind : 1.0);
     }
+    float darkening = 1.0 - u_root_darkening * (1.0 - smoothstep(0.0, 0.25, s));
+#if MS_SPLIT
+    g_hair_ms = ms * darkening;
+#else
+    color += ms;
+#endif
 
 
 #if SKIN_BOUNCE
@@ -66,5 +80,5 @@ vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {
     color += (u_skin_bounce * 0.25 * INV_PI) * hair_isotropic_albedo(T, V, m) * bounce;
 #endif
     // settings.root_darkening: a painted occlusion toward the root (0: none, the default)
-    return color * (1.0 - u_root_darkening * (1.0 - smoothstep(0.0, 0.25, s)));
+    return color * darkening;
 }

@@ -19,6 +19,11 @@
 layout(local_size_x = SHADE_GROUP_X, local_size_y = SHADE_GROUP_Y) in;
 layout(std430, binding = B_EXPANDED) readonly buffer Expanded { vec4 expanded[]; };
 layout(rgba16f, binding = IMG_HDR) uniform image2D u_hdr;
+#if MS_SPLIT
+// the multiply scattered light (hair_radiance.glsl's g_hair_ms) times each sample's coverage, and
+// the coverage, averaged over the pixel's samples: ms_smooth.comp smooths it and adds it to u_hdr
+layout(rgba16f, binding = IMG_MS) writeonly uniform image2D u_ms;
+#endif
 uniform int u_points_per_strand;
 #include "raster_view.glsl"
 
@@ -38,6 +43,9 @@ vec3 shade_segment(uint i, vec2 q) {
 shared uint s_job_id[MAX_JOBS];
 shared uint s_job_q[MAX_JOBS];   // the sample shaded: x | y << 16
 shared vec3 s_color[MAX_JOBS];
+#if MS_SPLIT
+shared vec3 s_ms[MAX_JOBS];
+#endif
 shared uint s_jobs;
 
 // With 2 x 2 samples a pixel's four words lie together (sample_index): read and reset as one
@@ -140,15 +148,27 @@ void main() {
     for (uint j = gl_LocalInvocationIndex; j < n; j += uint(GROUP_PIXELS)) {
         uint qb = s_job_q[j];
         s_color[j] = shade_segment(s_job_id[j], vec2(float(qb & 0xFFFFu), float(qb >> 16)) + 0.5);
+#if MS_SPLIT
+        s_ms[j] = g_hair_ms;
+#endif
     }
     barrier();
     if (!hair) return;   // the head and background as they are
     vec4 bg = imageLoad(u_hdr, p);
     vec4 sum = vec4(0.0);
+#if MS_SPLIT
+    vec4 ms = vec4(0.0);
+#endif
     for (int s = 0; s < SAMPLES; ++s) {
         if (job[s] < 0) { sum += bg; continue; }
         float a = cover_alpha(units[s]);
         sum += vec4(s_color[job[s]] * a, a) + bg * (1.0 - a);
+#if MS_SPLIT
+        ms += vec4(s_ms[job[s]] * a, a);
+#endif
     }
     imageStore(u_hdr, p, sum / float(SAMPLES));
+#if MS_SPLIT
+    imageStore(u_ms, p, ms / float(SAMPLES));
+#endif
 }
