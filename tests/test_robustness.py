@@ -833,6 +833,27 @@ def test_renderer_and_simulator_release_when_dropped(gl):
     r.release()   # twice is harmless
 
 
+@pytest.mark.gpu
+def test_renderers_released_in_any_order(gl):
+    """A renderer made while another's target was bound gives the context back that framebuffer
+    when released; released after the other, it found it released ('InvalidObject' has no
+    'use'). Any order works, and the context draws again after."""
+    from mane.render import Renderer, RenderSettings
+
+    s = RenderSettings(size=(16, 16), shadows="none")
+    a = Renderer(s, ctx=gl)
+    a.set_strands(tiny_groom())
+    a.render()                       # a's target is bound now
+    b = Renderer(s, ctx=gl)
+    b.set_strands(tiny_groom())
+    b.render()
+    a.release()
+    b.release()
+    with Renderer(s, ctx=gl) as c:
+        c.set_strands(tiny_groom())
+        assert c.render_image().shape == (16, 16, 3)
+
+
 def test_stats_json_is_written_atomically(groom_file, tmp_path, monkeypatch, capsys):
     """--stats goes through the atomic path too: a failed write leaves no half JSON."""
     import mane.io.atomic as atomic

@@ -17,6 +17,7 @@ resolve (hdr -> output).
 from __future__ import annotations
 
 import math
+import weakref
 
 import moderngl
 import numpy as np
@@ -90,6 +91,19 @@ DEFAULT_HEAD_FRAME_FLOOR = -0.30
 """Lowest height (m) the default camera frames on the default bust (mid-chest)."""
 
 
+_HOMES: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()   # context -> its home framebuffer
+
+
+def home_framebuffer(ctx):
+    """The framebuffer a released renderer gives ``ctx`` back: the one bound when the first
+    renderer on ``ctx`` was made (the window's, a caller's, or None). Not simply the one bound
+    when this renderer is made: that can be another renderer's target, released first (two
+    renderers drawing in turn, released in the order they were made)."""
+    if ctx not in _HOMES:
+        _HOMES[ctx] = ctx.fbo
+    return _HOMES[ctx]
+
+
 class Renderer(GpuOwner):
     """Renders guide strands (tessellated, multiplied, expanded) and a head into an image."""
 
@@ -114,7 +128,7 @@ class Renderer(GpuOwner):
         self.head = None
         self.head_closed = False   # set_head: a closed, outward-wound head (its back faces culled)
         self.head_transform = np.eye(4)
-        self._initial_fbo = self.ctx.fbo
+        self._initial_fbo = home_framebuffer(self.ctx)
         self._head_gpu = None
         self._vaos: dict = {}
         self._scene_box = None        # scene_bbox's last box and what it was made from
@@ -991,7 +1005,7 @@ class Renderer(GpuOwner):
             return
         # Give the context back its framebuffer: moderngl's ctx.fbo would otherwise
         # point at one of ours once released, and break the next ctx.scope().
-        if self._initial_fbo is not None:
+        if self._initial_fbo is not None and not isinstance(self._initial_fbo.mglo, moderngl.InvalidObject):
             self._initial_fbo.use()
         else:
             self.ctx.fbo = None
