@@ -31,7 +31,9 @@ uniform float u_root_darkening;   // settings.root_darkening
 #ifndef MS_SPLIT
 #define MS_SPLIT 0
 #endif
+#if MS_SPLIT
 vec3 g_hair_ms;
+#endif
 
 // P: world point, T: unit tangent, s: 0 at the root .. 1 at the tip, rand: the strand's random.
 vec3 hair_radiance(vec3 P, vec3 T, vec3 eye, float s, float rand) {

@@ -19,6 +19,7 @@ The hardware rasteriser and the transparency methods keep the fibre's own term.
 """
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -94,11 +95,17 @@ class MsSmoothPass(Pass):
             self._targets = None
 
 
+@functools.lru_cache(maxsize=16)
+def _uniforms(sigma: float) -> dict:
+    """smooth's uniforms, one dict per sigma (set_uniforms skips them by identity)."""
+    return {"u_radius": taps(sigma), "u_sigma": sigma}
+
+
 def smooth(ctx, ms, rows, hdr, sigma: float, programs: ProgramMemo | None = None) -> None:
     """ms_smooth.comp's two dispatches: ``ms`` (radiance x coverage, coverage) smoothed by a
     Gaussian of ``sigma`` pixels into ``hdr`` (rows through ``rows``)."""
     w, h = ms.size
-    u = {"u_radius": taps(sigma), "u_sigma": float(sigma)}
+    u = _uniforms(float(sigma))
     for direction in (0, 1):
         def build(direction=direction):
             return compute_shader(ctx, shader_path("ms_smooth.comp"), {"DIRECTION": direction})
@@ -119,22 +126,12 @@ def smooth_numpy(ms: np.ndarray, hdr: np.ndarray, sigma: float) -> np.ndarray:
     """The twin: (H, W, 4) ``ms`` (radiance x coverage, coverage) and ``hdr`` -> ``hdr`` with the
     smoothed radiance per unit of coverage times each pixel's coverage added where it has hair
     (the same taps as ms_smooth.comp, none past the image's edge)."""
+    from scipy.ndimage import correlate1d
+
     n = taps(sigma)
     k = np.exp(-0.5 * (np.arange(-n, n + 1) / sigma) ** 2)
     ms = np.asarray(ms, np.float64)
-
-    def along(a, axis):
-        out = np.zeros_like(a)
-        size = a.shape[axis]
-        for i, wgt in zip(range(-n, n + 1), k):
-            src = [slice(None)] * 3
-            dst = [slice(None)] * 3
-            src[axis] = slice(max(i, 0), size + min(i, 0))
-            dst[axis] = slice(max(-i, 0), size - max(i, 0))
-            out[tuple(dst)] += wgt * a[tuple(src)]
-        return out
-
-    s = along(along(ms, 1), 0)
+    s = correlate1d(correlate1d(ms, k, axis=1, mode="constant"), k, axis=0, mode="constant")
     out = np.array(hdr, np.float64)
     hair = ms[..., 3] > 0
     out[..., :3] += np.where(hair[..., None], s[..., :3] / np.maximum(s[..., 3:], 1e-6) * ms[..., 3:], 0.0)
