@@ -65,16 +65,14 @@ STATS_SLOTS = 64    # hair_raster.comp's RASTER_STATS counters
 COVER_SCALE = 4096.0    # hair_vis.glsl
 
 
-def shade_group(grid: int, split: bool = False) -> tuple[int, int]:
+def shade_group(grid: int) -> tuple[int, int]:
     """hair_shade.comp's work group in pixels (SHADE_GROUP_X, _Y) at ``grid`` x ``grid`` samples a
     pixel: 16 x 8 up to 2 x 2 samples (H200 at 2 x 2, the default: the 100k close-up 3.96 -> 3.84
     ms against 8 x 8, the target frame 1.235 -> 1.230; one sample a pixel not timed), else 8 x 8,
-    so that its job list (24 bytes a sample as llvmpipe lays it out; 40 with ``split``, the
-    multiply scattered light's own list: MS_SPLIT) stays within the 32 KiB of shared memory every
-    GL 4.3 context has: 8 x 4 at 4 x 4 samples with ``split``."""
-    if grid <= 2:
-        return 16, 8
-    return (8, 4) if split and grid >= 4 else (8, 8)
+    so that its job list (16 bytes a sample: id, sample and half-float colour; 20 with the
+    multiply scattered light's own colour, MS_SPLIT) stays within the 32 KiB of shared memory
+    every GL 4.3 context has."""
+    return (16, 8) if grid <= 2 else (8, 8)
 
 
 # renderer strings of GPUs with few raster units for their size: "auto" picks compute there
@@ -232,7 +230,7 @@ class HairComputePass(Pass):
         with r.profiler.section("hair_shade"):
             bounce = bounce_defines(r)
             split = int(ms_smooth.active(r))   # the multiply scattered light to a target of its own
-            gx, gy = shade_group(grid, bool(split))
+            gx, gy = shade_group(grid)
             cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID"),
                                               grid, split), lambda: compute_shader(
                 ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
