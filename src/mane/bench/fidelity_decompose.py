@@ -52,7 +52,8 @@ VARIANTS = {
     "opacity layers (0.01, 0.04, 1)": {"dom_layers": (0.01, 0.04, 1.0)},
     "hard shadow map 2048, msaa 16": {"shadows": "shadow_map", "shadow_map_size": 2048, "shadow_bias": 1.0, "msaa": 16},
     "no shadows": {"shadows": "none"},
-    "the multiply scattered light smoothed over 3 mm (ms_smoothing 0.003)": {"ms_smoothing": 0.003},
+    "each fibre's own multiply scattered light (ms_smoothing 0, the default until 2026-12-04)": {"ms_smoothing": 0.0},
+    "the multiply scattered light smoothed over 2 mm (ms_smoothing 0.002)": {"ms_smoothing": 0.002},
 }
 BLUR_SIGMAS = (0.5, 1.0, 2.0)
 SHIFTS = (-0.5, -0.25, 0.0, 0.25, 0.5)

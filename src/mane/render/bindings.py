@@ -78,7 +78,8 @@ IMG_OUTPUT = 1            # the 8-bit output written by resolve.comp
 IMG_BOUNCE_GRID = 0       # the skin bounce's grid written by skin_bounce_grid.comp
 IMG_ACCUM = 0             # a still scene's running mean (accumulate.comp)
 IMG_MS = 1                # the multiply scattered light and the hair's coverage (hair_shade.comp -> ms_smooth.comp)
-IMG_MS_ROWS = 2           # ms_smooth.comp's rows smoothed
+IMG_MS_SRC = 2            # ms_smooth.comp: the reduced grid a stage reads
+IMG_MS_DST = 3            # ms_smooth.comp: the reduced grid a stage writes
 
 # texture units
 TEX_HDR = 0               # resolve.comp's input

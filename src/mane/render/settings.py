@@ -227,13 +227,13 @@ class RenderSettings:
         hair's direct light (the skin's: head_pcf; the multiple scattering's with deep opacity
         maps: ms_shadow_footprint). The default 1 keeps the fibre-fine map's strand shadows. A
         compile-time constant: changing it recompiles.""")
-    ms_smoothing: float = setting(0.0, lo=0.0, hi=0.05, unit="m", slider=(0.0, 0.01),
-        help="""The compute rasteriser's multiply scattered light, smoothed over this width (a
-        Gaussian's sigma, m) across the hair (passes/ms_smooth.py): in the volume a fibre gathers
-        scattered light from every direction, so what it sends on varies little from one fibre to
-        the next, while dual scattering evaluated with each fibre's own tangent does (Sintel blond
-        against the path tracer at 0.003: 0.341 -> 0.277 relative error per pixel; docs/quality.md).
-        0 (off) by default until its cost on a GPU is measured.""")
+    ms_smoothing: float = setting(0.003, lo=0.0, hi=0.05, unit="m", slider=(0.0, 0.01),
+        help="""The multiply scattered light, smoothed over this width (a Gaussian's sigma, m) across
+        the hair (passes/ms_smooth.py; both rasterisers, not the transparency methods): in the
+        volume a fibre gathers scattered light from every direction, so what it sends on varies
+        little from one fibre to the next, while dual scattering evaluated with each fibre's own
+        tangent does (Sintel blond against the path tracer: 0.341 -> 0.276 relative error per
+        pixel; docs/quality.md). 0: each fibre's own term.""")
     ms_shadow_footprint: int = setting(2, lo=0, hi=9, unit="texels",
         help="""Deep opacity maps only: the multiple-scattering term (dual scattering's fibre count and
         forward-scattered light) sees light 0's transmittance averaged over this many texels

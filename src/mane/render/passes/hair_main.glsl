@@ -23,6 +23,9 @@ uniform float u_strand_opacity;
 
 #if PASS == 0
 layout(location = 0) out vec4 frag;
+#if MS_SPLIT   // the multiply scattered light to its own target (passes/ms_smooth.py), as frag's colour
+layout(location = 1) out vec4 frag_ms;
+#endif
 #elif PASS == 1 || PASS == 2
 layout(location = 0) out float frag_depth;
 #else
@@ -35,8 +38,14 @@ void main() {
 #if SAMPLE_MASK   // MSAA: each sample covered with probability g_alpha, covered samples opaque
     gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));
     frag = vec4(color, 1.0);
+#if MS_SPLIT
+    frag_ms = vec4(g_hair_ms, 1.0);
+#endif
 #else
     frag = vec4(color * g_alpha, g_alpha);
+#if MS_SPLIT
+    frag_ms = vec4(g_hair_ms * g_alpha, g_alpha);
+#endif
 #endif
 #elif PASS == 1 || PASS == 2
     // light depth (shadow map, deep opacity z0)

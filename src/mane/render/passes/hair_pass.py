@@ -6,9 +6,12 @@ coverage goes to the sample mask instead (each sample covered with probability a
 strand and pixel: coverage_mask.glsl), which needs no order and adds up like the compute
 rasteriser's coverage; then a
 depth pre-pass (settings.depth_prepass) lets the shading run once per pixel and visible strand.
+With settings.ms_smoothing the multiply scattered light goes to a second colour target
+(passes/ms_smooth.py: MS_SPLIT) with the same coverage.
 """
 from __future__ import annotations
 
+from . import ms_smooth
 from .base import HERE, PASS_SHADE, Frame, Pass, bind_lighting, draw_hair, hair_program
 
 
@@ -25,10 +28,13 @@ class HairPass(Pass):
         r, ctx = self.renderer, self.ctx
         msaa = r.samples > 1
         prepass = msaa and bool(r.settings.depth_prepass)
-        prog = hair_program(r, PASS_SHADE, extra_defines={"SAMPLE_MASK": int(msaa)})
+        split = ms_smooth.active(r)
+        prog = hair_program(r, PASS_SHADE, extra_defines={"SAMPLE_MASK": int(msaa), "MS_SPLIT": int(split)})
         r.shading.bind(prog, ctx, r.settings)
         bind_lighting(r, prog, frame)
-        r.hdr_fbo().use()
+        smoothing = r.get_pass("ms_smooth")
+        target = smoothing.hair_fbo() if split else r.hdr_fbo()   # the HDR colour (and the split's) and depth
+        target.use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.CULL_FACE)
         if msaa:   # the coverage as a per-strand random sample mask (coverage_mask.glsl), opaque
@@ -47,12 +53,15 @@ class HairPass(Pass):
             fbo.use()
             draw_hair(r, depth, frame.view)
             fbo.color_mask = (True, True, True, True)
-            fbo.depth_mask = False
-            fbo.use()
+            target.depth_mask = False
+            target.use()
             ctx.depth_func = "<="
         draw_hair(r, prog, frame.view)
         if prepass:
-            fbo.depth_mask = True
-            fbo.use()
+            target.depth_mask = True
+            target.use()
             ctx.depth_func = "<"
         ctx.disable(ctx.BLEND)
+        if split:
+            smoothing.resolve()
+            r.hdr_fbo().use()

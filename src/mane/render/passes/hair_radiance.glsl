@@ -25,9 +25,9 @@ in vec4 g_vis;
 
 uniform HairMaterial u_material;
 uniform float u_root_darkening;   // settings.root_darkening
-// MS_SPLIT (the compute rasteriser with settings.ms_smoothing > 0: passes/ms_smooth.py): the
-// multiply scattered light is left out of what hair_radiance returns and kept in g_hair_ms, which
-// the shading pass writes to a target of its own for ms_smooth.comp to smooth across the hair.
+// MS_SPLIT (settings.ms_smoothing > 0: passes/ms_smooth.py): the multiply scattered light is
+// left out of what hair_radiance returns and kept in g_hair_ms, which the shading pass writes to a
+// target of its own for ms_smooth.comp to smooth across the hair.
 #ifndef MS_SPLIT
 #define MS_SPLIT 0
 #endif
