@@ -193,3 +193,70 @@ def test_the_still_mean_approaches_many_more_samples(gl, rasterizer):
         finally:
             r.release()
     assert err[64] < err[16] < 0.9 * err[1] and err[64] < 0.5 * err[1], err
+
+
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_a_still_pictures_frames_draw_their_own_finer_maps_once(gl, rasterizer):
+    """The frames in a still picture's mean draw the shadow and opacity maps at
+    still_shadow_map_size with still_dom_layers, through twins of the light-space passes, once
+    for the picture; the first frame, the frames after the mean and moving frames keep the
+    frames' own maps, which are not made again."""
+    n = 3
+    r = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=512)
+    try:
+        base = r.settings
+        cam = r.default_camera()
+        dom = r.get_pass("deep_opacity")
+        own = dom.opacity
+        seen = []
+        for _ in range(n + 3):
+            frame = r.render(cam, refine=True)
+            assert r.settings is base
+            t = frame.targets["dom"]
+            seen.append((frame.still, t.size[0], "deep_opacity" in frame.kept))
+        assert seen == [(0, 256, False), (1, 512, False), (2, 512, True), (3, 512, True), (4, 256, True), (5, 256, True)]
+        assert dom.opacity is own and r.get_pass("deep_opacity") is dom
+        still = r.still_settings()
+        assert still.shadow_map_size == 512 and still.dom_layers == base.still_dom_layers
+        assert r.still_settings() is still
+        # what a still frame shades with is the twin's map and layers: the same frame drawn by a
+        # renderer whose own maps are those
+        twin = RenderSettings(**{**{f: getattr(base, f) for f in ("size", "strands_per_guide", "shadows", "draw_head",
+                                                                   "rasterizer", "accumulate")},
+                                 "shadow_map_size": 512, "dom_layers": base.still_dom_layers, "still_shadow_map_size": 0})
+        other = Renderer(twin, ctx=gl, profile=False)
+        other.set_strands(wavy_groom(guides=6, points=8))
+        try:
+            for _ in range(2):
+                other.render(cam, refine=True)
+            r.render(cam.orbited(5.0), refine=True)   # start again
+            r.render(cam, refine=True)
+            r.render(cam, refine=True)
+            np.testing.assert_allclose(_hdr(r.resolved_hdr(), base.size), _hdr(other.resolved_hdr(), base.size), atol=2e-3)
+        finally:
+            other.release()
+    finally:
+        r.release()
+
+
+def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frames_own(gl, monkeypatch):
+    from mane.gpu import capabilities
+
+    for kw in (dict(still_shadow_map_size=0), dict(still_shadow_map_size=256), dict(still_shadow_map_size=128)):
+        r = _renderer(gl, **kw)
+        try:
+            assert r.still_settings() is r.settings
+            cam = r.default_camera()
+            for _ in range(3):
+                r.render(cam, refine=True)
+            assert not r._still_twins
+        finally:
+            r.release()
+    caps = capabilities.get_capabilities(gl)
+    small = dict(caps.limits, max_shader_storage_block_size=1024 * 1024 * 16)   # a 1024 map's counters
+    monkeypatch.setattr(capabilities, "get_capabilities", lambda ctx: type(caps)(**{**caps.__dict__, "limits": small}))
+    r = _renderer(gl, still_shadow_map_size=8192)
+    try:
+        assert r.still_settings().shadow_map_size == 1024
+    finally:
+        r.release()

@@ -139,6 +139,8 @@ class Renderer(GpuOwner):
         self._frames_dirty = True
         self._geometry_version = 0
         self._still = (None, 0)       # (what the last frame showed: _scene_key, its place in a still scene's mean)
+        self._still_settings = None   # (settings, still_settings() of them)
+        self._still_twins = {}        # id(light-space pass) -> (the pass, its twin for still frames)
         self._strand_writes = 0       # strands_changed calls (a still scene has none between its frames)
         self._sim_rebuilds = 0        # geometry versions that rebuilt a simulator's frames every frame
         self._targets: dict = {}
@@ -784,53 +786,97 @@ class Renderer(GpuOwner):
             self._single_sample()   # settings switched after construction (a viewer)
         self._hdr_resolved = False
         still = self._still_place(camera, lights) if refine else 0
-        view = self.camera_view(camera)
-        frame = Frame(self, camera, lights, self._still_view(view, still), index=self.frames_rendered, still=still)
-        self.lod_eye = view.eye
-        self.lod_view = view   # the LOD's plan is kept while the still frames' views move
-        if self.instances is not None:
-            from .passes.expand import pulls
+        base, passes = self.settings, self.passes
+        if 1 <= still <= int(base.accumulate) and self.still_settings() is not base:
+            # a still picture's frames in its mean: its own, finer shadow and opacity maps
+            self.settings = self.still_settings()
+            passes = self._still_passes()
+        try:
+            view = self.camera_view(camera)
+            frame = Frame(self, camera, lights, self._still_view(view, still), index=self.frames_rendered, still=still)
+            self.lod_eye = view.eye
+            self.lod_view = view   # the LOD's plan is kept while the still frames' views move
+            if self.instances is not None:
+                from .passes.expand import pulls
 
-            if not pulls(self) or self.settings.shadows == "density":
-                raise UsageError("instances (set_instances) are drawn from the expanded strands: they need "
-                                 "pipeline='compute', a compute or no OIT method, and a shadow method other "
-                                 "than 'density'")
-        if lights and self.settings.shadows != "none":
-            frame.light_view = self.light_view(lights[0])
-            frame.hair_depth_range = self._hair_depth_range(frame.light_view)
-            for light in lights[1:int(self.settings.shadow_lights)]:   # more lights that cast
-                lv = self.light_view(light)
-                frame.shadow_views.append((lv, self._hair_depth_range(lv)))
-        fbo = self.hdr_fbo()
-        fbo.use()
-        with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
-            self._clear_hdr(fbo, frame.view)
-        on_pass = self.on_pass
-        key = None
-        for p in self.passes:
-            if not p.enabled(frame):
-                p.kept = None
-            elif p.light_space:   # reused while the lights, the hair and the head are still (light_key.py)
-                if key is None:
-                    key = light_key(self, frame) or False
-                if key and key.matches(p.kept[0] if p.kept is not None else None):
-                    frame.targets.update(p.kept[1])
-                    frame.kept.append(p.name)
+                if not pulls(self) or self.settings.shadows == "density":
+                    raise UsageError("instances (set_instances) are drawn from the expanded strands: they need "
+                                     "pipeline='compute', a compute or no OIT method, and a shadow method other "
+                                     "than 'density'")
+            if lights and self.settings.shadows != "none":
+                frame.light_view = self.light_view(lights[0])
+                frame.hair_depth_range = self._hair_depth_range(frame.light_view)
+                for light in lights[1:int(self.settings.shadow_lights)]:   # more lights that cast
+                    lv = self.light_view(light)
+                    frame.shadow_views.append((lv, self._hair_depth_range(lv)))
+            fbo = self.hdr_fbo()
+            fbo.use()
+            with self.profiler.section("clear"):   # a multisampled target's clear is not free (H200)
+                self._clear_hdr(fbo, frame.view)
+            on_pass = self.on_pass
+            key = None
+            for p in passes:
+                if not p.enabled(frame):
+                    p.kept = None
+                elif p.light_space:   # reused while the lights, the hair and the head are still (light_key.py)
+                    if key is None:
+                        key = light_key(self, frame) or False
+                    if key and key.matches(p.kept[0] if p.kept is not None else None):
+                        frame.targets.update(p.kept[1])
+                        frame.kept.append(p.name)
+                    else:
+                        before = dict(frame.targets)
+                        with self.profiler.section(p.name):
+                            p.run(frame)
+                        p.kept = (key, {k: v for k, v in frame.targets.items() if before.get(k) is not v}) if key else None
                 else:
-                    before = dict(frame.targets)
                     with self.profiler.section(p.name):
                         p.run(frame)
-                    p.kept = (key, {k: v for k, v in frame.targets.items() if before.get(k) is not v}) if key else None
-            else:
-                with self.profiler.section(p.name):
-                    p.run(frame)
-            if on_pass is not None:
-                on_pass(p.name)
+                if on_pass is not None:
+                    on_pass(p.name)
+        finally:
+            self.settings = base
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame
         self._still = (self._scene_key(camera, lights), still) if refine else (None, 0)
         return frame
+
+    def still_settings(self) -> RenderSettings:
+        """The settings a still picture's frames in its mean are drawn with: the shadow and
+        opacity maps at settings.still_shadow_map_size, lowered to what the GPU's storage blocks
+        and textures hold, with still_dom_layers; the settings themselves where that is no finer.
+        The same object while the settings are (light_key.py keeps the maps by it)."""
+        s = self.settings
+        memo = self._still_settings
+        if memo is not None and memo[0] is s:
+            return memo[1]
+        n, base = int(s.still_shadow_map_size), int(s.shadow_map_size)
+        if n > base:
+            from ..gpu.capabilities import get_capabilities
+
+            limits = get_capabilities(self.ctx).limits
+            block = int(limits.get("max_shader_storage_block_size") or 1 << 27)
+            side = int(limits.get("max_texture_size") or 16384)
+            while n > base and (n * n * 16 > block or n > side):   # deep_opacity.py's counters: 16 bytes a texel
+                n //= 2
+        out = s.replace(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers)) if n > base else s
+        self._still_settings = (s, out)
+        return out
+
+    def _still_passes(self) -> list:
+        """The passes of a still picture's frames in its mean: each light-space pass (Pass.light_space)
+        has a twin made under still_settings, with targets of its own at their size, so that
+        neither set of maps is made again when frames go from moving to still and back."""
+        out = []
+        for p in self.passes:
+            if p.light_space:
+                twin = self._still_twins.get(id(p))
+                if twin is None or twin[0] is not p:
+                    twin = self._still_twins[id(p)] = (p, type(p)(self))
+                p = twin[1]
+            out.append(p)
+        return out
 
     def _scene_key(self, camera, lights) -> tuple:
         """What a frame shows besides its targets: equal keys on consecutive frames make a still
@@ -1011,6 +1057,9 @@ class Renderer(GpuOwner):
             self.ctx.fbo = None
         for p in self.passes:
             p.release()
+        for _, twin in self._still_twins.values():
+            twin.release()
+        self._still_twins.clear()
         self.scan_forms.release()
         for v in self._targets.values():
             for o in v:
