@@ -260,3 +260,29 @@ def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frame
         assert r.still_settings().shadow_map_size == 1024
     finally:
         r.release()
+
+
+def test_still_maps_that_do_not_fit_fall_back_to_the_frames_own(gl, monkeypatch):
+    """A GPU out of memory for the finer maps (GPUMemoryError while their twins are made or
+    drawn) gives the still picture the frames' own maps, not an error."""
+    from mane.errors import GPUMemoryError
+    from mane.render.passes.deep_opacity import DeepOpacityPass
+
+    real = DeepOpacityPass.run
+
+    def run(self, frame):
+        if int(self.renderer.settings.shadow_map_size) == 512:
+            raise GPUMemoryError("the deep opacity counters (512x512) do not fit (test)")
+        return real(self, frame)
+
+    monkeypatch.setattr(DeepOpacityPass, "run", run)
+    r = _renderer(gl, accumulate=3, still_shadow_map_size=512)
+    plain = _renderer(gl, accumulate=3, still_shadow_map_size=0)
+    try:
+        cam = r.default_camera()
+        got, want = r.render_still(cam), plain.render_still(cam)
+        assert r.still_frames == 3 and r.still_settings() is r.settings and not r._still_twins
+        assert np.array_equal(got, want)
+    finally:
+        r.release()
+        plain.release()

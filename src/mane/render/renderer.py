@@ -22,7 +22,7 @@ import weakref
 import moderngl
 import numpy as np
 
-from ..errors import UsageError
+from ..errors import GPUMemoryError, UsageError
 from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
 from ..gpu.glsl import ProgramMemo
@@ -790,8 +790,9 @@ class Renderer(GpuOwner):
         if 1 <= still <= int(base.accumulate) and self.still_settings() is not base:
             # a still picture's frames in its mean: its own, finer shadow and opacity maps
             self.settings = self.still_settings()
-            passes = self._still_passes()
         try:
+            if self.settings is not base:
+                passes = self._still_passes()
             view = self.camera_view(camera)
             frame = Frame(self, camera, lights, self._still_view(view, still), index=self.frames_rendered, still=still)
             self.lod_eye = view.eye
@@ -834,6 +835,13 @@ class Renderer(GpuOwner):
                         p.run(frame)
                 if on_pass is not None:
                     on_pass(p.name)
+        except GPUMemoryError:
+            if passes is self.passes and self.settings is base:
+                raise
+            # the finer maps do not fit: the frames' own from now on, and this frame again with them
+            self.settings = base
+            self._drop_still_maps()
+            return self.render(camera, lights, refine=refine)
         finally:
             self.settings = base
         self.profiler.frame()
@@ -863,6 +871,13 @@ class Renderer(GpuOwner):
         out = s.replace(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers)) if n > base else s
         self._still_settings = (s, out)
         return out
+
+    def _drop_still_maps(self) -> None:
+        """Still pictures draw the frames' own maps (their finer ones did not fit the GPU)."""
+        for _, twin in self._still_twins.values():
+            twin.release()
+        self._still_twins.clear()
+        self._still_settings = (self.settings, self.settings)
 
     def _still_passes(self) -> list:
         """The passes of a still picture's frames in its mean: each light-space pass (Pass.light_space)
@@ -1057,9 +1072,7 @@ class Renderer(GpuOwner):
             self.ctx.fbo = None
         for p in self.passes:
             p.release()
-        for _, twin in self._still_twins.values():
-            twin.release()
-        self._still_twins.clear()
+        self._drop_still_maps()
         self.scan_forms.release()
         for v in self._targets.values():
             for o in v:
