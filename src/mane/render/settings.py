@@ -307,7 +307,7 @@ class RenderSettings:
         (Sintel brown against the path tracer 0.330 -> 0.299 relative error per pixel,
         docs/quality.md), which every frame could not afford (the 100k close-up's 4 ms). 0, or
         no more than shadow_map_size: the frames' own maps. Lowered to what the GPU's storage
-        blocks and textures hold.""")
+        blocks and textures hold; the frames' own where they do not fit its memory.""")
     still_dom_layers: tuple[float, float, float] = setting((0.02, 0.06, 1.0), lo=0.0, lo_open=True, hi=100.0,
         help="""The deep opacity layers' ends of those maps (as dom_layers): the first closer to the
         lit surface, where most of a fibre's shadow falls.""")
