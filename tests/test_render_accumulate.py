@@ -202,7 +202,7 @@ def test_a_still_pictures_frames_draw_their_own_finer_maps_once(gl, rasterizer):
     for the picture; the first frame, the frames after the mean and moving frames keep the
     frames' own maps, which are not made again."""
     n = 3
-    r = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=512)
+    r = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=512, still_segments=0)
     try:
         base = r.settings
         cam = r.default_camera()
@@ -223,7 +223,8 @@ def test_a_still_pictures_frames_draw_their_own_finer_maps_once(gl, rasterizer):
         # renderer whose own maps are those
         twin = RenderSettings(**{**{f: getattr(base, f) for f in ("size", "strands_per_guide", "shadows", "draw_head",
                                                                    "rasterizer", "accumulate")},
-                                 "shadow_map_size": 512, "dom_layers": base.still_dom_layers, "still_shadow_map_size": 0})
+                                 "shadow_map_size": 512, "dom_layers": base.still_dom_layers, "still_shadow_map_size": 0,
+                                 "still_segments": 0})
         other = Renderer(twin, ctx=gl, profile=False)
         other.set_strands(wavy_groom(guides=6, points=8))
         try:
@@ -243,7 +244,7 @@ def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frame
     from mane.gpu import capabilities
 
     for kw in (dict(still_shadow_map_size=0), dict(still_shadow_map_size=256), dict(still_shadow_map_size=128)):
-        r = _renderer(gl, **kw)
+        r = _renderer(gl, still_segments=0, **kw)
         try:
             assert r.still_settings() is r.settings
             cam = r.default_camera()
@@ -255,7 +256,7 @@ def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frame
     caps = capabilities.get_capabilities(gl)
     small = dict(caps.limits, max_shader_storage_block_size=1024 * 1024 * 16)   # a 1024 map's counters
     monkeypatch.setattr(capabilities, "get_capabilities", lambda ctx: type(caps)(**{**caps.__dict__, "limits": small}))
-    r = _renderer(gl, still_shadow_map_size=8192)
+    r = _renderer(gl, still_shadow_map_size=8192, still_segments=0)
     try:
         assert r.still_settings().shadow_map_size == 1024
     finally:
@@ -277,7 +278,7 @@ def test_still_maps_that_do_not_fit_fall_back_to_the_frames_own(gl, monkeypatch)
 
     monkeypatch.setattr(DeepOpacityPass, "run", run)
     r = _renderer(gl, accumulate=3, still_shadow_map_size=512)
-    plain = _renderer(gl, accumulate=3, still_shadow_map_size=0)
+    plain = _renderer(gl, accumulate=3, still_shadow_map_size=0, still_segments=0)
     try:
         cam = r.default_camera()
         got, want = r.render_still(cam), plain.render_still(cam)
@@ -286,3 +287,35 @@ def test_still_maps_that_do_not_fit_fall_back_to_the_frames_own(gl, monkeypatch)
     finally:
         r.release()
         plain.release()
+
+
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_a_still_pictures_frames_draw_more_segments(gl, rasterizer):
+    """still_segments: the frames in a still picture's mean expand the strands into more
+    segments; such a frame equals one of a renderer whose own segments they are, and the frames
+    after the mean are the frames' own again."""
+    n = 3
+    r = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=0, still_segments=64)
+    other = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=0, still_segments=0, segments=64)
+    plain = _renderer(gl, rasterizer=rasterizer, accumulate=n, still_shadow_map_size=0, still_segments=0)
+    try:
+        base = r.settings
+        assert r.still_settings().segments == 64 and base.segments == 32
+        cam = r.default_camera()
+        for k in range(3):
+            r.render(cam, refine=True)
+            other.render(cam, refine=True)
+            plain.render(cam, refine=True)
+            assert r.settings is base
+            if k == 2:   # a frame in the mean
+                np.testing.assert_allclose(_hdr(r.resolved_hdr(), base.size), _hdr(other.resolved_hdr(), base.size),
+                                           atol=2e-3)
+                assert not np.allclose(_hdr(r.resolved_hdr(), base.size), _hdr(plain.resolved_hdr(), base.size),
+                                       atol=2e-3)
+        for _ in range(n):
+            r.render(cam, refine=True)
+            plain.render(cam, refine=True)
+        np.testing.assert_allclose(_hdr(r.resolved_hdr(), base.size), _hdr(plain.resolved_hdr(), base.size), atol=2e-3)
+    finally:
+        for x in (r, other, plain):
+            x.release()

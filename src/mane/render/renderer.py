@@ -853,12 +853,14 @@ class Renderer(GpuOwner):
     def still_settings(self) -> RenderSettings:
         """The settings a still picture's frames in its mean are drawn with: the shadow and
         opacity maps at settings.still_shadow_map_size, lowered to what the GPU's storage blocks
-        and textures hold, with still_dom_layers; the settings themselves where that is no finer.
+        and textures hold, with still_dom_layers, and still_segments; the settings themselves
+        where that is no finer.
         The same object while the settings are (light_key.py keeps the maps by it)."""
         s = self.settings
         memo = self._still_settings
         if memo is not None and memo[0] is s:
             return memo[1]
+        changes = {}
         n, base = int(s.still_shadow_map_size), int(s.shadow_map_size)
         if n > base:
             from ..gpu.capabilities import get_capabilities
@@ -868,7 +870,11 @@ class Renderer(GpuOwner):
             side = int(limits.get("max_texture_size") or 16384)
             while n > base and (n * n * 16 > block or n > side):   # deep_opacity.py's counters: 16 bytes a texel
                 n //= 2
-        out = s.replace(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers)) if n > base else s
+            if n > base:
+                changes.update(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers))
+        if int(s.still_segments) > int(s.segments):
+            changes["segments"] = int(s.still_segments)
+        out = s.replace(**changes) if changes else s
         self._still_settings = (s, out)
         return out
 
