@@ -45,6 +45,17 @@ def test_png_and_stats(groom_file, tmp_path, capsys):
     assert all(v >= 0 for v in s["passes"].values())
 
 
+def test_every_light_casts_shadows_unless_told(groom_file, tmp_path):
+    """A picture under several lights shadows each of them by default (--shadow-lights: the first
+    n only)."""
+    for extra, want in (([], True), (["--shadow-lights", "1"], False)):
+        stats = tmp_path / "s.json"
+        assert main(["render", str(groom_file), "--out", str(tmp_path / "a.png"), "--size", "48x36", "--aa", "none",
+                     "--shadows", "shadow_map", "--set", "accumulate=1", "--stats", str(stats),
+                     "--light", "dir:0,1,0.5:2", "--light", "dir:1,0.2,0.3:1", *extra]) == 0
+        assert ("extra_shadows" in json.loads(stats.read_text())["passes"]) == want, extra
+
+
 def _ffmpeg():
     """imageio-ffmpeg is a mane dependency; an environment without it skips the MP4 tests
     (test_mp4_without_ffmpeg_is_a_clear_error covers that case)."""

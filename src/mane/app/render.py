@@ -106,7 +106,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--interpolation-mode", default="single", choices=("single", "multi", "hybrid"),
                         help="strand multiplication: single-strand clumps, 3-guide blend, or the blend "
                              "with a single-strand fallback where guides straddle the head (default single)")
-    parser.add_argument("--shadow-lights", type=int, default=1, help="lights (from the first) that cast shadows, 1..4")
+    parser.add_argument("--shadow-lights", type=int, default=None,
+                        help="lights (from the first) that cast shadows, 1..4 (default: every light, up to 4: "
+                             "the default three lights unshadowed but the first light the hair 1.8x too bright "
+                             "against a path tracer, docs/quality.md)")
     parser.add_argument("--curl", default=None, help="render-time curl RADIUS_M[,TURNS] (e.g. 0.003,6)")
     parser.add_argument("--lod", default=None, help="distance LOD START,END metres (e.g. 1,5): fewer segments "
                                                     "and strands, wider strands with distance")
@@ -215,7 +218,8 @@ def run(args) -> int:
     if args.strands_per_guide is not None:
         kw["strands_per_guide"] = args.strands_per_guide
     kw["interpolation_mode"] = getattr(args, "interpolation_mode", "single")
-    kw["shadow_lights"] = getattr(args, "shadow_lights", 1)
+    chosen = getattr(args, "shadow_lights", None)
+    kw["shadow_lights"] = chosen if chosen is not None else max(1, min(len(lights), 4))   # RenderSettings' bound
     try:
         if getattr(args, "curl", None):
             c = [float(v) for v in args.curl.split(",")]
