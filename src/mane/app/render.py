@@ -107,9 +107,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="strand multiplication: single-strand clumps, 3-guide blend, or the blend "
                              "with a single-strand fallback where guides straddle the head (default single)")
     parser.add_argument("--shadow-lights", type=int, default=None,
-                        help="lights (from the first) that cast shadows, 1..4 (default: every light, up to 4: "
-                             "the default three lights unshadowed but the first light the hair 1.8x too bright "
-                             "against a path tracer, docs/quality.md)")
+                        help="lights (from the first) that cast shadows, 1..4 (default: every light, up to 4; "
+                             "with only the first casting, the default three lights make the hair 1.8x too "
+                             "bright against a path tracer, docs/quality.md)")
     parser.add_argument("--curl", default=None, help="render-time curl RADIUS_M[,TURNS] (e.g. 0.003,6)")
     parser.add_argument("--lod", default=None, help="distance LOD START,END metres (e.g. 1,5): fewer segments "
                                                     "and strands, wider strands with distance")

@@ -840,7 +840,7 @@ class Renderer(GpuOwner):
                 raise
             # the finer maps do not fit: the frames' own from now on, and this frame again with them
             self.settings = base
-            self._drop_still_maps()
+            self._drop_still_settings()
             return self.render(camera, lights, refine=refine)
         finally:
             self.settings = base
@@ -878,8 +878,9 @@ class Renderer(GpuOwner):
         self._still_settings = (s, out)
         return out
 
-    def _drop_still_maps(self) -> None:
-        """Still pictures draw the frames' own maps (their finer ones did not fit the GPU)."""
+    def _drop_still_settings(self) -> None:
+        """Still pictures are drawn as the frames are (their finer maps or segments did not fit the
+        GPU; or the renderer is released): the twins released, still_settings() the settings."""
         for _, twin in self._still_twins.values():
             twin.release()
         self._still_twins.clear()
@@ -1078,7 +1079,7 @@ class Renderer(GpuOwner):
             self.ctx.fbo = None
         for p in self.passes:
             p.release()
-        self._drop_still_maps()
+        self._drop_still_settings()
         self.scan_forms.release()
         for v in self._targets.values():
             for o in v:

@@ -1,4 +1,4 @@
-"""settings.ms_smoothing: the compute rasteriser's multiply scattered light smoothed across the hair.
+"""settings.ms_smoothing: the multiply scattered light smoothed across the hair.
 
 Dual scattering (shading/dual_scattering.py) evaluates the light the volume scatters at each
 visible fibre with that fibre's own tangent, so it varies from one fibre to the next as the
@@ -8,7 +8,7 @@ light smoothed over 2-4 mm of hair takes Sintel blond from 0.34 to 0.27-0.28 rel
 pixel with its luminance and falloff unchanged, while the same smoothing of the direct light makes
 it worse (docs/quality.md, "The lead this points to").
 
-With ``ms_smoothing`` > 0 the shading pass (hair_shade.comp, MS_SPLIT) writes the multiply
+With ``ms_smoothing`` > 0 the shading pass (hair_shade.comp or hair_main.glsl, MS_SPLIT) writes the multiply
 scattered radiance times each pixel's hair coverage, and the coverage, to a target of its own
 (``target``); this pass smooths both with a Gaussian of ``ms_smoothing`` metres (in pixels at
 the hair's centre, at most ``MAX_SIGMA``) and adds the smoothed radiance per unit of coverage,
