@@ -89,6 +89,46 @@ def test_median_ignores_one_outlier():
     assert c.choice == 0 and c.medians[0] == 2.0
 
 
+# a GPU clocking up mid-probe (the H200's fresh close-ups: every form ~5x slower over its first
+# frames, then its own speed from one frame to the next): per-thread 9.7, balanced 2.55, tiled 1.57
+CLOSEUP = {0: 9.7, 1: 2.55, 2: 1.57}
+
+
+def clock_step(step: int, slow: float = 5.0):
+    return lambda f, i: CLOSEUP[f] * (slow if i < step else 1.0)
+
+
+@pytest.mark.parametrize("step", range(3, 3 + 3 * 5 + 2))
+def test_a_clock_step_mid_probe_is_waited_out(step):
+    # the probe times every form again until each one's last five agree; a step in its last round
+    # leaves every median slow alike (the order right), and the first watch probes again
+    c = FormChooser(1, forms=3, samples=5)
+    forms = run(c, clock_step(step), 3 + 3 * 5 * 4 + 60)
+    assert forms[3 + 3 * 5 * 4:].count(2) >= 45
+    assert not c.probing and c.choice == 2
+    assert c.medians == pytest.approx([CLOSEUP[0], CLOSEUP[1], CLOSEUP[2]])
+
+
+def test_without_waiting_a_clock_step_picks_the_slower_form():
+    # the protocol before SETTLE: some steps leave balanced with the faster median (why SETTLE is)
+    wrong = []
+    for step in range(3, 3 + 3 * 5 + 2):
+        c = FormChooser(1, forms=3, samples=5, settle_rounds=0)
+        run(c, clock_step(step), 3 + 3 * 5 + 1)
+        wrong.append(c.choice != 2)
+    assert any(wrong)
+
+
+def test_times_that_never_agree_decide_after_settle_rounds():
+    # one form's times jump 1 <-> 3 ms every other frame: the probe times every form again for
+    # settle_rounds rounds, then decides on the medians it has
+    c = FormChooser(0, forms=2, samples=3, settle_rounds=4)
+    forms = run(c, lambda f, i: (1.0 if i % 4 < 2 else 3.0) if f == 0 else 2.5, 2 + 2 * (3 + 4) + 1)
+    assert not c.probing and c.probes == 1
+    timed = forms[2:-1]
+    assert timed.count(0) == timed.count(1) == 3 + 4
+
+
 @pytest.mark.parametrize("faster, switch", [(0.97, False), (0.951, False), (0.94, True), (0.5, True)])
 def test_hysteresis_keeps_the_form_in_use(faster, switch):
     c = FormChooser(1, samples=3, margin=0.05)

@@ -26,7 +26,13 @@ CPU rasterisers keep the per-thread form everywhere (the tuner is off there).
 The protocol (``FormChooser``, pure Python): a probe first uses each form once untimed (its
 program compiles), then times them in turn until each has ``SAMPLES`` results, and keeps the
 fastest median, switching from the form in use only when that one is ``MARGIN`` faster (the
-first probe starts from the fixed rule's form). Settled, it times the chosen form every
+first probe starts from the fixed rule's form). The medians are compared only once every form's
+last ``SAMPLES`` times agree among themselves within ``SETTLE`` x (the highest and the lowest
+left out from five on): a GPU clocking up in the middle of a probe (H200: a 100k-strand close-up's
+tiled form 8.5 ms, then 1.6 ms from one frame to the next; balanced 13 -> 2.55) had given the
+form timed more often before the step a median from the slow clock, so the fresh runs of a
+close-up kept the slower form in three of five. Until they agree, every form is timed once more
+in turn and its oldest time dropped, for at most ``SETTLE_ROUNDS`` such rounds. Settled, it times the chosen form every
 ``WATCH`` frames and probes again after ``REPROBE`` frames, at once when the site's segment or
 instance count moves by more than ``RESCALE`` x from the probe's, when the settings object
 changes, or when a watched frame's time moves by more than ``RESCALE`` x from the chosen
@@ -60,6 +66,8 @@ from . import raster_segment, scan_form_memory
 
 SAMPLES = 5       # timed frames per form a probe, compared by their medians
 MARGIN = 0.05     # the other form must be this much faster (of the form in use's median) to switch
+SETTLE = 1.25     # a form's times agree when their spread (trimmed from five on) is within this ratio
+SETTLE_ROUNDS = 10  # rounds a probe times every form again, at most, waiting for its times to agree
 REPROBE = 300     # frames a choice is kept before both forms are timed again
 RESCALE = 2.0     # segment / instance count or watched time ratio that probes again at once
 WATCH = 30        # frames between timings of the chosen form while settled (0: none)
@@ -79,9 +87,11 @@ class FormChooser:
     the number of forms (0 .. forms - 1)."""
 
     def __init__(self, default: int, *, forms: int = 2, samples: int = None, margin: float = None, reprobe: int = None,
-                 rescale: float = None, watch: int = None):
+                 rescale: float = None, watch: int = None, settle: float = None, settle_rounds: int = None):
         self.samples = max(1, int(SAMPLES if samples is None else samples))
         self.margin = float(MARGIN if margin is None else margin)
+        self.agree = float(SETTLE if settle is None else settle)
+        self.settle_rounds = max(0, int(SETTLE_ROUNDS if settle_rounds is None else settle_rounds))
         self.reprobe = max(1, int(REPROBE if reprobe is None else reprobe))
         self.rescale = float(RESCALE if rescale is None else rescale)
         self.watch = int(WATCH if watch is None else watch)
@@ -97,6 +107,7 @@ class FormChooser:
         self._warm = [False] * self.forms
         self._got = tuple([] for _ in range(self.forms))
         self._out = [0] * self.forms  # timed frames in flight this probe
+        self._rounds = 0              # rounds this probe timed again for its times to agree
         self._last = self.choice      # the form last timed (the probe alternates)
         self._since = 0               # frames since the last decision
 
@@ -174,6 +185,11 @@ class FormChooser:
             return
         self._got[form].append(float(ms))
         if self.probing and all(len(g) >= self.samples for g in self._got):
+            if self._rounds < self.settle_rounds and not all(self._agree(g) for g in self._got):
+                self._rounds += 1   # a clock changing mid-probe: every form once more, its oldest dropped
+                for g in self._got:
+                    del g[0]
+                return
             self._decide()
 
     # ------------------------------------------------------------------ inside
@@ -186,6 +202,14 @@ class FormChooser:
                 return True
         return len(sizes) != len(self._sizes)
 
+    def _agree(self, times) -> bool:
+        """Whether a form's times lie within ``settle`` x of each other (the highest and the lowest
+        left out from five times on: one hitch is the median's to ignore, not a clock's step)."""
+        t = sorted(times)
+        if len(t) >= 5:
+            t = t[1:-1]
+        return t[-1] <= t[0] * self.agree
+
     def _probe(self, sizes) -> None:
         self.epoch += 1
         self.probing = True
@@ -193,6 +217,7 @@ class FormChooser:
         self._sizes = tuple(sizes)
         self._got = tuple([] for _ in range(self.forms))
         self._out = [0] * self.forms
+        self._rounds = 0
         self._since = 0
 
     def _decide(self) -> None:
