@@ -43,10 +43,11 @@ def _turn(deg):
 
 
 @pytest.mark.parametrize("hair, transform, kw", [
-    (False, None, dict(rasterizer="compute")),
-    (True, None, dict(rasterizer="compute")),
-    (True, _turn(30), dict(rasterizer="compute", supersample=2)),
-    (False, None, dict(rasterizer="hardware", msaa=1)),
+    (False, None, dict(rasterizer="compute", shadow_lights=1)),
+    (True, None, dict(rasterizer="compute", shadow_lights=1)),
+    (True, _turn(30), dict(rasterizer="compute", supersample=2, shadow_lights=1)),
+    (False, None, dict(rasterizer="hardware", msaa=1, shadow_lights=1)),
+    (False, None, dict(rasterizer="compute", shadow_lights=4)),   # the default rig's lights all casting
 ])
 def test_compute_head_matches_the_fragment_shader(gl, monkeypatch, hair, transform, kw):
     frag, used_compute, _ = _image(gl, monkeypatch, False, hair, transform, **kw)

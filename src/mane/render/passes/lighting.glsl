@@ -105,7 +105,8 @@ float light0_visibility(vec3 P) {
 // ---------------------------------------------------------------- more shadow-casting lights
 // Lights 1 .. u_num_shadow_lights-1 cast shadows too (light 0 is above): each has its own
 // shadow map (head and hair depth, PCF; with SHADOWS 2 the head only) and, with SHADOWS 2, its
-// own deep opacity map. With SHADOWS 3..5 those lights use the shadow map. Index 0 unused.
+// own deep opacity map (coarser: settings.extra_shadow_map_size). With SHADOWS 3..5 those
+// lights use the shadow map. Index 0 unused.
 #define MAX_SHADOW_LIGHTS 4
 uniform int u_num_shadow_lights;
 uniform mat4 u_xlight_view_proj[MAX_SHADOW_LIGHTS];
@@ -117,14 +118,17 @@ uniform vec3 u_xdom_layers[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xshadow_map[MAX_SHADOW_LIGHTS];
 uniform sampler2D u_xdom[MAX_SHADOW_LIGHTS];
 
-float xlight_visibility(int i, vec3 P) {
+// The maps come in as arguments, each array indexed by a constant (light_visibility): llvmpipe's
+// compute shaders indexing the sampler arrays by the light's variable index lost other
+// samplers' look-ups (the hair's multiply scattered light went missing, with one light too).
+float xlight_visibility(int i, vec3 P, sampler2D shadow_map, sampler2D dom) {
     vec3 q = light_space(u_xlight_view_proj[i], u_xlight_eye[i], u_xlight_dir[i], P);
-    ivec2 size = textureSize(u_xshadow_map[i], 0);
+    ivec2 size = textureSize(shadow_map, 0);
     vec2 x = q.xy * vec2(size) - 0.5;
     float tr = 1.0;
-    float lit = pcf_compare(u_xshadow_map[i], x, q.z - u_xshadow_bias[i] - g_receiver_bias);
+    float lit = pcf_compare(shadow_map, x, q.z - u_xshadow_bias[i] - g_receiver_bias);
 #if SHADOWS == 2
-    PCF_BILINEAR(tr, x, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(u_xdom[i], t, 0), q.z, u_xdom_layers[i])))
+    PCF_BILINEAR(tr, x, size, t, exp(-u_shadow_density * dom_opacity(texelFetch(dom, t, 0), q.z, u_xdom_layers[i])))
 #endif
     return lit * tr;
 }
@@ -137,7 +141,11 @@ float xlight_visibility(int i, vec3 P) {
 float light_visibility(int i, vec3 P) {
     if (i == 0) return light0_visibility(P);
 #if SHADOWS != 0 && XSHADOWS
-    if (i < u_num_shadow_lights) return xlight_visibility(i, P);
+    if (i < u_num_shadow_lights) {
+        if (i == 1) return xlight_visibility(1, P, u_xshadow_map[1], u_xdom[1]);
+        if (i == 2) return xlight_visibility(2, P, u_xshadow_map[2], u_xdom[2]);
+        if (i == 3) return xlight_visibility(3, P, u_xshadow_map[3], u_xdom[3]);
+    }
 #endif
     return 1.0;
 }
