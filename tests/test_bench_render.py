@@ -157,7 +157,7 @@ def test_targets(quick):
     # the row's frames draw every pass; its still_hair block the same frame with the light-space
     # targets reused (the stand-in has a head: its skin's bounce too)
     still = row["still_hair"]
-    assert still["kept"] == ["shadow_map", "deep_opacity", "skin_bounce"]
+    assert still["kept"] == ["shadow_map", "deep_opacity", "extra_shadows", "skin_bounce"]
     assert _positive(still["pipelined_ms"]) and _positive(still["submit_bare_ms"]["median"])
     assert t["stand_in"]["still_hair"]["kept"] == still["kept"]
 

@@ -256,9 +256,34 @@ def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frame
     caps = capabilities.get_capabilities(gl)
     small = dict(caps.limits, max_shader_storage_block_size=1024 * 1024 * 16)   # a 1024 map's counters
     monkeypatch.setattr(capabilities, "get_capabilities", lambda ctx: type(caps)(**{**caps.__dict__, "limits": small}))
-    r = _renderer(gl, still_shadow_map_size=8192, still_segments=0)
+    r = _renderer(gl, still_shadow_map_size=8192, still_segments=0, still_extra_shadow_map_size=4096)
     try:
         assert r.still_settings().shadow_map_size == 1024
+        assert r.still_settings().extra_shadow_map_size == 1024
+    finally:
+        r.release()
+
+
+def test_the_extra_lights_maps_of_a_still_picture(gl):
+    """A still picture's frames draw the extra lights' maps at still_extra_shadow_map_size (at most
+    its light 0 map), the frames at extra_shadow_map_size (at most shadow_map_size)."""
+    from mane.render.lights import default_lights
+
+    r = _renderer(gl, still_segments=0, still_shadow_map_size=512, extra_shadow_map_size=64,
+                  still_extra_shadow_map_size=1024, shadow_lights=4)
+    try:
+        assert r.still_settings().extra_shadow_map_size == 512
+        cam, lights = r.default_camera(), default_lights()
+        r.render(cam, lights, refine=True)
+        frame_maps = [t.size for t in r.last_frame.targets["extra_doms"]]
+        r.render(cam, lights, refine=True)
+        still_maps = [t.size for t in r.last_frame.targets["extra_doms"]]
+        assert frame_maps == [(64, 64)] * 2 and still_maps == [(512, 512)] * 2
+    finally:
+        r.release()
+    r = _renderer(gl, still_segments=0, still_shadow_map_size=0, extra_shadow_map_size=64, still_extra_shadow_map_size=0)
+    try:
+        assert r.still_settings() is r.settings
     finally:
         r.release()
 

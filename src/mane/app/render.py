@@ -218,8 +218,8 @@ def run(args) -> int:
     if args.strands_per_guide is not None:
         kw["strands_per_guide"] = args.strands_per_guide
     kw["interpolation_mode"] = getattr(args, "interpolation_mode", "single")
-    chosen = getattr(args, "shadow_lights", None)
-    kw["shadow_lights"] = chosen if chosen is not None else max(1, min(len(lights), 4))   # RenderSettings' bound
+    if getattr(args, "shadow_lights", None) is not None:
+        kw["shadow_lights"] = args.shadow_lights
     try:
         if getattr(args, "curl", None):
             c = [float(v) for v in args.curl.split(",")]

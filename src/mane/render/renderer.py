@@ -41,6 +41,7 @@ from .passes.accumulate import AccumulatePass, jittered_view, still_jitter
 from .passes.expand import ExpandPass
 from .passes.ms_smooth import MsSmoothPass
 from .passes.frames import FramesPass
+from .passes.extra_shadows import extra_map_size
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .passes.scan_form import ScanForms
@@ -698,12 +699,13 @@ class Renderer(GpuOwner):
         min_px = float(self.settings.min_pixel_width) * self.settings.supersample
         return View(vp, np.asarray(camera.eye, float), camera.forward, False, pixel, min_px)
 
-    def light_view(self, light: Light) -> View:
-        """Light 0's view fitted around the scene's bounding sphere (kept while the light, the
-        scene's box and the map size are the same; found by identity first: the same light
-        object and kept box, as every frame of a still scene asks)."""
+    def light_view(self, light: Light, size: int | None = None) -> View:
+        """A light's view fitted around the scene's bounding sphere, for a map of ``size`` texels a
+        side (default shadow_map_size, light 0's) (kept while the light, the scene's box and the
+        map size are the same; found by identity first: the same light object and kept box, as
+        every frame of a still scene asks)."""
         box = self._kept_scene_box()
-        n = int(self.settings.shadow_map_size)
+        n = int(self.settings.shadow_map_size if size is None else size)
         last = self._light_views_by_id.get(id(light))
         if last is not None and last[0] is light and last[1] is box and last[2] == n:
             return last[3]
@@ -712,20 +714,19 @@ class Renderer(GpuOwner):
         try:
             view = self._light_views.get(key)
         except TypeError:   # an unhashable light: nothing kept
-            return self._light_view_of(light, lo.copy(), hi.copy())
+            return self._light_view_of(light, lo.copy(), hi.copy(), n)
         if view is None:
             if len(self._light_views) >= 4 * MAX_LIGHTS:
                 self._light_views.clear()
-            view = self._light_views[key] = self._light_view_of(light, lo.copy(), hi.copy())
+            view = self._light_views[key] = self._light_view_of(light, lo.copy(), hi.copy(), n)
         if len(self._light_views_by_id) >= 4 * MAX_LIGHTS:   # new light objects every frame (a viewer)
             self._light_views_by_id.clear()
         self._light_views_by_id[id(light)] = (light, box, n, view)
         return view
 
-    def _light_view_of(self, light: Light, lo, hi) -> View:
+    def _light_view_of(self, light: Light, lo, hi, n: int) -> View:
         center = 0.5 * (lo + hi)
         radius = max(0.5 * float(np.linalg.norm(hi - lo)), 1e-3)
-        n = int(self.settings.shadow_map_size)
         min_px = 1.0   # a strand covers at least a texel in the maps, with its coverage as opacity
         if light.is_point:
             eye = np.asarray(light.vector, float)
@@ -807,8 +808,9 @@ class Renderer(GpuOwner):
             if lights and self.settings.shadows != "none":
                 frame.light_view = self.light_view(lights[0])
                 frame.hair_depth_range = self._hair_depth_range(frame.light_view)
+                extra = extra_map_size(self.settings)
                 for light in lights[1:int(self.settings.shadow_lights)]:   # more lights that cast
-                    lv = self.light_view(light)
+                    lv = self.light_view(light, extra)
                     frame.shadow_views.append((lv, self._hair_depth_range(lv)))
             fbo = self.hdr_fbo()
             fbo.use()
@@ -853,30 +855,45 @@ class Renderer(GpuOwner):
     def still_settings(self) -> RenderSettings:
         """The settings a still picture's frames in its mean are drawn with: the shadow and
         opacity maps at settings.still_shadow_map_size, lowered to what the GPU's storage blocks
-        and textures hold, with still_dom_layers, and still_segments; the settings themselves
-        where that is no finer.
+        and textures hold, with still_dom_layers, the extra lights' at still_extra_shadow_map_size,
+        and still_segments; the settings themselves where that is no finer.
         The same object while the settings are (light_key.py keeps the maps by it)."""
         s = self.settings
         memo = self._still_settings
         if memo is not None and memo[0] is s:
             return memo[1]
         changes = {}
-        n, base = int(s.still_shadow_map_size), int(s.shadow_map_size)
-        if n > base:
-            from ..gpu.capabilities import get_capabilities
-
-            limits = get_capabilities(self.ctx).limits
-            block = int(limits.get("max_shader_storage_block_size") or 1 << 27)
-            side = int(limits.get("max_texture_size") or 16384)
-            while n > base and (n * n * 16 > block or n > side):   # deep_opacity.py's counters: 16 bytes a texel
-                n //= 2
-            if n > base:
-                changes.update(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers))
+        n = self._fitting_map(int(s.still_shadow_map_size), int(s.shadow_map_size))
+        if n > int(s.shadow_map_size):
+            changes.update(shadow_map_size=n, dom_layers=tuple(s.still_dom_layers))
+        x = min(self._fitting_map(int(s.still_extra_shadow_map_size), extra_map_size(s)), max(n, int(s.shadow_map_size)))
+        if x > extra_map_size(s) and int(s.shadow_lights) > 1:
+            changes["extra_shadow_map_size"] = x
         if int(s.still_segments) > int(s.segments):
             changes["segments"] = int(s.still_segments)
         out = s.replace(**changes) if changes else s
         self._still_settings = (s, out)
         return out
+
+    def _fitting_map(self, n: int, base: int) -> int:
+        """``n`` texels a side halved until the GPU's storage blocks and textures hold such a map
+        (deep_opacity.py's counters: 16 bytes a texel), no lower than ``base``."""
+        if n <= base:
+            return n
+        from ..gpu.capabilities import get_capabilities
+
+        limits = get_capabilities(self.ctx).limits
+        block = int(limits.get("max_shader_storage_block_size") or 1 << 27)
+        side = int(limits.get("max_texture_size") or 16384)
+        while n > base and (n * n * 16 > block or n > side):
+            n //= 2
+        return n
+
+    def frame_settings(self) -> RenderSettings:
+        """The settings frames are drawn with: ``settings``, also while a still picture's frame is
+        drawn with still_settings()."""
+        memo = self._still_settings
+        return memo[0] if memo is not None and self.settings is memo[1] else self.settings
 
     def _drop_still_settings(self) -> None:
         """Still pictures are drawn as the frames are (their finer maps or segments did not fit the

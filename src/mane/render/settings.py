@@ -210,10 +210,13 @@ class RenderSettings:
         (TressFX's approximated deep shadow map), "opacity_maps" (Kim and Neumann: osm_slices
         slices in several render targets) or "density" (Woodhouse: a ray march through a 3D
         density texture). The head casts through its own shadow map with every method.""")
-    shadow_lights: int = setting(1, lo=1, hi=4, panel=False, reason="the viewer's lights set it (their casts-shadows boxes)",
-        help="""How many lights, from light 0, cast shadows (1..4; Chen's scene: 3 lights, 2 casting).
-        Each has its own maps: a shadow map, and with "deep_opacity" a deep opacity map; with
-        "adsm", "opacity_maps" or "density" the lights after light 0 use a shadow map (hair and head).""")
+    shadow_lights: int = setting(4, lo=1, hi=4, panel=False, reason="the viewer's lights set it (their casts-shadows boxes)",
+        help="""How many lights, from light 0, cast shadows (1..4; the default 4: every light of up to
+        four; Chen's scene: 3 lights, 2 casting). Each has its own maps: a shadow map, and with
+        "deep_opacity" a deep opacity map; with "adsm", "opacity_maps" or "density" the lights after
+        light 0 use a shadow map (hair and head), at extra_shadow_map_size. A light that casts none
+        lights every fibre through the volume: under the default key, fill and rim with the key
+        alone casting, Sintel brown was 1.82x too bright against the path tracer.""")
     shadow_map_size: int = setting(1024, lo=16, hi=8192, unit="texels", slider=(64, 4096),
         help="""Shadow / opacity map resolution (texels per side); 128..2048 is the intended range. The
         default 1024 resolves clumps and the thicker single fibres of a head of hair (Sintel:
@@ -221,6 +224,11 @@ class RenderSettings:
         the per-pixel error against the path tracer drops 0.451 -> 0.415 (Sintel brown) for 0.5 ms
         of the 50k-strand 1080p frame on an H200 (3.09 -> 3.56 ms; docs/quality.md, "Fibre-resolved
         direct shadows").""")
+    extra_shadow_map_size: int = setting(256, lo=16, hi=8192, unit="texels", slider=(64, 4096),
+        help="""The maps of the lights after light 0 (shadow_lights), texels a side; at most
+        shadow_map_size. A fill or rim light's shadow darkens the volume more than it draws single
+        fibres, so a coarse map serves, and its deep opacity map thins its strands by itself
+        (coverage_lod.light_strand_step) where texels hold many.""")
     pcf: int = setting(1, lo=1, hi=9, unit="texels",
         help="""PCF kernel: a pcf x pcf texel box, bilinearly weighted ((pcf + 1)^2 taps; 1 = bilinear
         interpolation between the 4 nearest texels), for every shadow method's look-up of the
@@ -308,6 +316,11 @@ class RenderSettings:
         docs/quality.md), which every frame could not afford (the 100k close-up's 4 ms). 0, or
         no more than shadow_map_size: the frames' own maps. Lowered to what the GPU's storage
         blocks and textures hold; the frames' own where they do not fit its memory.""")
+    still_extra_shadow_map_size: int = setting(1024, lo=0, hi=8192, unit="texels",
+        help="""The extra lights' maps (extra_shadow_map_size) in a still picture's frames: with 256
+        under the default key, fill and rim, Sintel blond came out 1.07x bright with a crown to lower
+        falloff 0.69x the path tracer's, with 1024 0.97x and 0.82x (docs/quality.md). 0, or no more
+        than extra_shadow_map_size: the frames' own. At most the still picture's light 0 map.""")
     still_segments: int = setting(64, lo=0, hi=4096, slider=(0, 128),
         help="""Rendered segments per strand of a still picture's frames in its mean (as segments): a
         curl's chords between the expanded points lie up to a strand's width inside the curve

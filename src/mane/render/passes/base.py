@@ -90,6 +90,12 @@ class View:
     pixel_size: float          # world size of a pixel: at unit depth (perspective) or anywhere (ortho)
     min_pixel_width: float
 
+    def size_at(self, point) -> float:
+        """The world size of a pixel (a map's texel) at ``point``."""
+        if self.ortho:
+            return float(self.pixel_size)
+        return float(self.pixel_size) * float(np.linalg.norm(np.asarray(point, float) - self.eye))
+
     def uniforms(self) -> dict:
         """set_view's uniforms (made once: a view is not changed after it is made)."""
         u = self.__dict__.get("_uniforms")
@@ -363,7 +369,7 @@ def _make_lighting_uniforms(renderer, frame: Frame) -> dict:
     lv = frame.light_view
     if lv is not None:
         s = renderer.settings
-        texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(renderer.scene_center() - lv.eye))
+        texel = lv.size_at(renderer.scene_center())
         lo, hi = frame.hair_depth_range
         ext = max(hi - lo, 1e-4)
         out.update({"u_light_view_proj": mat_bytes(lv.view_proj), "u_light_eye": tuple(float(x) for x in lv.eye),
@@ -397,11 +403,14 @@ _EXTRA_UNITS = {"u_xshadow_map": [TEX_XSHADOW_FIRST + k for k in range(MAX_SHADO
 
 
 def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
-    """bind_extra_shadows' light views, made once a frame."""
-    key = ("extra_shadows", num_maps)
-    memo = frame.memo.get(key)
-    if memo is not None:
-        return memo
+    """bind_extra_shadows' light views: the same dict while the views, their depth ranges and
+    the settings are (set_uniforms then looks at it no more)."""
+    views = frame.shadow_views[:num_maps]
+    what = (renderer.settings, tuple(v for v, _ in views), tuple(d for _, d in views))
+    memo = renderer.__dict__.get("_extra_shadow_uniforms")
+    if (memo is not None and memo[0][0] is what[0] and len(memo[0][1]) == len(what[1])
+            and all(a is b for a, b in zip(memo[0][1], what[1])) and memo[0][2] == what[2]):
+        return memo[1]
     s = renderer.settings
     center = renderer.scene_center()
     eyes, dirs, biases, layers = [(0.0, 0.0, 0.0)], [(0.0, 0.0, 1.0)], [0.0], [(1.0, 2.0, 3.0)]
@@ -411,7 +420,7 @@ def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
         mats.append(lv.view_proj)
         eyes.append(tuple(float(x) for x in lv.eye))
         dirs.append(tuple(float(x) for x in lv.forward))
-        texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(center - lv.eye))
+        texel = lv.size_at(center)
         biases.append(float(s.shadow_bias) * texel)
         texels.append(float(texel))
         ext = max(hi - lo, 1e-4)
@@ -419,11 +428,12 @@ def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
     while len(mats) < MAX_SHADOW_LIGHTS:
         mats.append(np.eye(4)); eyes.append((0.0, 0.0, 0.0)); dirs.append((0.0, 0.0, 1.0))
         biases.append(0.0); layers.append((1.0, 2.0, 3.0)); texels.append(0.0)
-    out = frame.memo[key] = {
+    out = {
         "u_xlight_view_proj": b"".join(mat_bytes(m) for m in mats[:MAX_SHADOW_LIGHTS]),
         "u_xlight_eye": eyes[:MAX_SHADOW_LIGHTS], "u_xlight_dir": dirs[:MAX_SHADOW_LIGHTS],
         "u_xshadow_bias": biases[:MAX_SHADOW_LIGHTS], "u_xshadow_texel": texels[:MAX_SHADOW_LIGHTS],
         "u_xdom_layers": layers[:MAX_SHADOW_LIGHTS]}
+    renderer.__dict__["_extra_shadow_uniforms"] = (what, out)
     return out
 
 
@@ -435,7 +445,7 @@ def adsm_coverage(renderer, frame: Frame) -> float:
     s, lv = renderer.settings, frame.light_view
     if lv is None:
         return 1.0
-    texel = lv.pixel_size if lv.ortho else lv.pixel_size * float(np.linalg.norm(renderer.scene_center() - lv.eye))
+    texel = lv.size_at(renderer.scene_center())
     mean_width = float(s.width) * 0.5 * (1.0 + float(s.width_tip))
     return min(1.0, mean_width / max(texel, 1e-12))
 

@@ -50,7 +50,7 @@ class DeepOpacityPass(LightDepthPass):
     def __init__(self, renderer):
         super().__init__(renderer)
         ctx = self.ctx
-        n = int(renderer.settings.shadow_map_size)
+        n = self.map_size()
         from ...gpu.buffers import check_texture
 
         check_texture(ctx, (n, n), 4, 4, f"the deep opacity map ({n}x{n} RGBA32F, with its depth maps)",
@@ -61,7 +61,7 @@ class DeepOpacityPass(LightDepthPass):
         self.opacity_fbo = ctx.framebuffer([self.opacity])
         self._counters = None   # compute path: (z0 bits, 3 layer sums) per texel
         self._programs = ProgramMemo()
-        self._layers = None     # (settings, hair depth range, _layer_uniforms)
+        self._layers = None     # (settings, light view, hair depth range, _layer_uniforms)
         self._step = None       # (what strand_step was made of, the stride)
         self.last_step = None   # the last compute frame's stride (None: none drawn by compute yet)
 
@@ -80,7 +80,7 @@ class DeepOpacityPass(LightDepthPass):
         self.texture.use(TEX_DOM_Z0)
         set_uniform(prog, "u_dom_depth", TEX_DOM_Z0)
         set_uniform(prog, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
-        set_uniform(prog, "u_strand_opacity", float(r.settings.strand_opacity))
+        set_uniform(prog, "u_strand_opacity", self.strand_opacity(frame.light_view))
         self.opacity_fbo.color_mask = (True, True, True, True)
         self.opacity_fbo.use()
         self.opacity_fbo.clear(0.0, 0.0, 0.0, 0.0)
@@ -103,7 +103,7 @@ class DeepOpacityPass(LightDepthPass):
 
     def run_compute(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
-        n = int(r.settings.shadow_map_size)
+        n = self.map_size()
         if self._counters is None:
             from ...gpu.buffers import check_allocation
 
@@ -116,7 +116,7 @@ class DeepOpacityPass(LightDepthPass):
         z0, layers = self._counters
         z0.bind_to_storage_buffer(B_DOM_Z0)
         layers.bind_to_storage_buffer(B_DOM_LAYERS)
-        layer_ends, opacity = self._layer_uniforms(frame.hair_depth_range)
+        layer_ends, opacity = self._layer_uniforms(frame)
         # each dispatch's form by measurement (scan_form.py: the sites dom_z0 and dom, each
         # dispatch timed); the extra lights' maps (extra_shadows.py) take the main light's choices untimed
         main = r.get_pass("deep_opacity") is self
@@ -129,7 +129,7 @@ class DeepOpacityPass(LightDepthPass):
             form = site.begin(r.settings, sizes) if main else site.current()
             scan_light_depths(r, frame.light_view, n, dom_pass, layer_ends=layer_ends, strand_opacity=opacity,
                               balance=form, programs=self._programs,
-                              strand_step=1 if dom_pass == 0 and Z0_EVERY_STRAND else step)
+                              strand_step=1 if dom_pass == 0 and self.z0_every_strand() else step)
             if main:
                 site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
@@ -157,22 +157,31 @@ class DeepOpacityPass(LightDepthPass):
             widen = r.rendered_strands * len(r.instance_transforms()) / expand.strands   # the coverage LOD's
             boxes = r.instance_boxes(r.strand_pad())
             box = (np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0))
-            step = light_strand_step(view, int(s.shadow_map_size), box, expand.strands, r.strands.mean_length(),
+            step = light_strand_step(view, self.map_size(), box, expand.strands, r.strands.mean_length(),
                                      mean_width(s) * widen, float(s.lod_depth))
         self._step = (view, s, key, step)
         return step
 
-    def _layer_uniforms(self, depth_range) -> tuple:
+    def z0_every_strand(self) -> bool:
+        """Whether z0 comes from every strand where the layers' dispatch thins them (strand_step)."""
+        return Z0_EVERY_STRAND
+
+    def strand_opacity(self, view) -> float:
+        """What a strand adds to a texel of the map from ``view`` per unit of its coverage:
+        settings.strand_opacity (light 0's map; the extra lights' coarser maps: extra_shadows.py)."""
+        return float(self.renderer.settings.strand_opacity)
+
+    def _layer_uniforms(self, frame: Frame) -> tuple:
         """(the layers' ends (m), strand opacity) for the hair's depth range along the light,
-        kept while the settings object and the range are the same."""
-        s = self.renderer.settings
+        kept while the settings object, the light's view and the range are the same."""
+        s, view, depth_range = self.renderer.settings, frame.light_view, frame.hair_depth_range
         memo = self._layers
-        if memo is None or memo[0] is not s or memo[1] != depth_range:
+        if memo is None or memo[0] is not s or memo[1] is not view or memo[2] != depth_range:
             lo, hi = depth_range
             ext = max(hi - lo, 1e-4)
-            memo = self._layers = (s, depth_range, (tuple(float(f) * ext for f in s.dom_layers),
-                                                    float(s.strand_opacity)))
-        return memo[2]
+            memo = self._layers = (s, view, depth_range, (tuple(float(f) * ext for f in s.dom_layers),
+                                                          self.strand_opacity(view)))
+        return memo[3]
 
     def read(self) -> np.ndarray:
         """(n, n, 4) float32: O1, O2, O3, z0."""

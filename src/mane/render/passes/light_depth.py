@@ -5,8 +5,10 @@ the extra lights' maps, the same passes run on a frame that looks from that ligh
 
 - ``enabled``: ``settings.shadows`` is the pass's ``method``, the frame has a light view and
   there are strands;
+- ``map_size()``: its texels a side (``shadow_map_size``; the extra lights' maps
+  ``extra_map_size``);
 - ``depth_target()``: the pass's R32F linear light-depth map (``texture``, ``depth``, ``fbo``),
-  made on first use at ``shadow_map_size``;
+  made on first use at that size;
 - ``begin_depth()`` binds it cleared to FAR (depth test on, blending and culling off) and
   ``draw_hair_depth(frame)`` draws the hair's nearest light depth into it;
 - ``read()`` returns the map, ``release()`` frees it and what ``owned()`` lists.
@@ -31,10 +33,14 @@ class LightDepthPass(Pass):
         r = self.renderer
         return r.settings.shadows == self.method and frame.light_view is not None and r.strands is not None
 
+    def map_size(self) -> int:
+        """The map's texels a side."""
+        return int(self.renderer.settings.shadow_map_size)
+
     def depth_target(self):
         """The light-depth framebuffer (its texture and depth renderbuffer made on first use)."""
         if self.texture is None:
-            self.texture, self.depth, self.fbo = light_depth_target(self.ctx, int(self.renderer.settings.shadow_map_size))
+            self.texture, self.depth, self.fbo = light_depth_target(self.ctx, self.map_size())
         return self.fbo
 
     def begin_depth(self, cull: bool = False) -> None:

@@ -47,8 +47,7 @@ def active(renderer) -> bool:
 
 def sigma_pixels(view, width_m: float, center) -> float:
     """``width_m`` in pixels of ``view`` at the world point ``center`` (at most MAX_SIGMA)."""
-    px = view.pixel_size if view.ortho else view.pixel_size * float(np.linalg.norm(np.asarray(center) - view.eye))
-    return float(min(width_m / max(px, 1e-12), MAX_SIGMA))
+    return float(min(width_m / max(view.size_at(center), 1e-12), MAX_SIGMA))
 
 
 def taps(sigma: float) -> int:

@@ -68,7 +68,7 @@ class ShadowMapPass(LightDepthPass):
 
     def _hair_by_compute(self, frame: Frame) -> None:
         ctx, r = self.ctx, self.renderer
-        n = int(r.settings.shadow_map_size)
+        n = self.map_size()
         if self._z0 is None:
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
         self._z0.bind_to_storage_buffer(B_DOM_Z0)
