@@ -286,6 +286,11 @@ def test_wind_motion_style_and_settings(viewer):
 
 def test_lights_turn_and_cast(viewer):
     v = viewer
+    # every light of the default rig casts, unless the auto-scaler kept the key's shadows only
+    assert v.casts == [True] * len(v.lights)
+    frames(v, 1)
+    keyed = "the key light's shadows only" in v.quality_steps
+    assert v.renderer.settings.shadow_lights == (1 if keyed else len(v.lights))
     before = v.lights[0].vector
     x, y = 900, 80
     ctrl = v.wnd.keys.LEFT_CTRL if hasattr(v.wnd.keys, "LEFT_CTRL") else v.wnd.keys.A
@@ -418,7 +423,7 @@ def test_demo_and_view_commands_open_the_window(x_display, tmp_path):
 @pytest.mark.slow
 def test_scales_quality_down_below_the_target_frame_rate(viewer):
     v = viewer
-    before = v.renderer.settings
+    before = v.render_settings    # the panel's settings: the scaler's steps change them
     v.auto_quality, v.target_fps = True, 10000.0     # unreachable: every check steps down
     v.frame_ms_history = []
     try:
@@ -426,8 +431,9 @@ def test_scales_quality_down_below_the_target_frame_rate(viewer):
     finally:
         v.auto_quality, v.target_fps = False, 15.0
     assert len(v.quality_steps) >= 1 and "scaled down" in v.status
-    after = v.renderer.settings
-    assert (after.segments, after.strands_per_guide) < (before.segments, before.strands_per_guide)
+    after = v.render_settings
+    assert (after.shadow_lights, after.segments, after.strands_per_guide) < \
+        (before.shadow_lights, before.segments, before.strands_per_guide)
 
 
 # ---------------------------------------------------------------------------- light handles
@@ -581,7 +587,8 @@ def test_auto_quality_steps_down_settles_and_steps_back(viewer):
 
     try:
         assert check(100) == "scaling" and v.quality_steps == [SOFTWARE_LADDER[0][0]]
-        assert v.render_settings.strands_per_guide == 2
+        assert v.render_settings.shadow_lights == 1 and v.effective_render_settings().shadow_lights == 1
+        assert check(100) == "scaling" and v.render_settings.strands_per_guide == 2
         assert check(100) == "scaling" and v.render_settings.pcf == 1
         assert check(1000 / (15.0 * SETTLE_MARGIN) + 1) == "scaling"     # under the margin: one more step
         assert v.render_settings.shadows == "none"
@@ -589,7 +596,7 @@ def test_auto_quality_steps_down_settles_and_steps_back(viewer):
         assert check(1000 / 15.0 - 0.5) == "settled"      # settled: only below the target itself
         assert check(10) == "settled" and check(10) == "settled"
         assert check(10) == "scaling" and v.render_settings.shadows == "shadow_map"   # stepped back
-        assert v.quality_steps == [label for label, _ in SOFTWARE_LADDER[:2]]
+        assert v.quality_steps == [label for label, _ in SOFTWARE_LADDER[:3]]
         assert check(100) == "scaling" and v.render_settings.shadows == "none"    # fell again ...
         for _ in range(4):
             assert check(10) == "settled"     # ... twice: no more tries at that level
@@ -625,7 +632,8 @@ try:
     print(json.dumps(dict(first=first, state=w.auto_quality_state, fps=w.auto_quality_fps, viewer_fps=w.fps,
                           frames=w.frames, steps=w.quality_steps, status=w.status, report=w.quality_report(),
                           error=w.error, target=w.target_fps, size=list(s.size),
-                          settings={k: getattr(s, k) for k in ("strands_per_guide", "pcf", "head_pcf", "shadows", "segments")})))
+                          settings={k: getattr(s, k) for k in ("strands_per_guide", "pcf", "head_pcf", "shadows", "segments",
+                                                               "shadow_lights")})))
 finally:
     w.close()
 """

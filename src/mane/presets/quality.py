@@ -83,6 +83,9 @@ GPU = Quality("gpu", 4000, 16, 32, 32, (1280, 720), 4.0, 30.0, 4)
 # a 1-texel shadow filter ~2% (the look-ups are gathers now, 4 texels a fetch), no shadows ~20%
 # (the shadow map's pass, the skin's look-ups).
 SOFTWARE_LADDER = (
+    # the default rig's fill and rim casting too (RenderSettings.shadow_lights 4): 14 fps before
+    # it on 2 cores (2026-12-04), where the key's shadows alone left 19-28
+    ("the key light's shadows only", dict(shadow_lights=1)),
     ("2 strands per guide", dict(strands_per_guide=2)),
     ("1-texel shadow filter", dict(pcf=1, head_pcf=1)),   # bilinear: 1 gather of 4 texels instead of 4, hair and skin
     ("no shadows", dict(shadows="none")),

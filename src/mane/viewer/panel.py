@@ -520,7 +520,7 @@ def _lights(v, ed, imgui) -> None:
         v.selected_light = min(v.selected_light, len(v.lights) - 1)
     if len(v.lights) < MAX_LIGHTS and imgui.button("add light"):
         v.lights.append(Light("directional", (0.0, 1.0, 0.2), (1.0, 1.0, 1.0), 1.0))
-        v.casts.append(False)
+        v.casts.append(True)
 
 
 def _hair_colour(v, imgui) -> None:

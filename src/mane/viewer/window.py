@@ -299,7 +299,7 @@ class Viewer:
         self.sim.reset()
         if not self.lights:
             self.lights = default_lights()
-            self.casts = [True] + [False] * (len(self.lights) - 1)
+            self.casts = [True] * len(self.lights)   # every light casts (RenderSettings.shadow_lights)
         if self.renderer is None:
             self.render_settings = q.render_settings(size=self.render_size())
         self._rebuild_renderer(force=True)
@@ -329,7 +329,8 @@ class Viewer:
         """The panel's settings with the window's size and the lights' shadow casters applied."""
         s = self.render_settings
         casters = sum(1 for c in self.casts if c)
-        changes = {"size": self.render_size(), "shadow_lights": max(1, min(casters, 4))}
+        # the auto-scaler's "key light's shadows only" lowers the settings' own shadow_lights
+        changes = {"size": self.render_size(), "shadow_lights": max(1, min(casters, 4, int(s.shadow_lights)))}
         if casters == 0:
             changes["shadows"] = "none"
         if self.color_mode == "melanin":
