@@ -16,6 +16,7 @@ from ...gpu.uniforms import write_uniform
 from ..bindings import (B_DENSITY_BOX, B_STRAND_TABLE, TEX_ADSM, TEX_DENSITY, TEX_DOM, TEX_OSM_FIRST, TEX_RSM_DOM,
                         TEX_RSM_FLUX, TEX_RSM_GEOM, TEX_RSM_GRID, TEX_SHADOW_MAP, TEX_XDOM_FIRST, TEX_XSHADOW_FIRST)
 from ..camera import mat_bytes
+from ..coverage_lod import mean_width
 from ..lights import MAX_LIGHTS, MAX_SHADOW_LIGHTS
 
 HERE = Path(__file__).resolve().parent
@@ -407,7 +408,7 @@ def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
     the settings are (set_uniforms then looks at it no more)."""
     views = frame.shadow_views[:num_maps]
     what = (renderer.settings, tuple(v for v, _ in views), tuple(d for _, d in views))
-    memo = renderer.__dict__.get("_extra_shadow_uniforms")
+    memo = renderer.memo.get("extra_shadow_uniforms")
     if (memo is not None and memo[0][0] is what[0] and len(memo[0][1]) == len(what[1])
             and all(a is b for a, b in zip(memo[0][1], what[1])) and memo[0][2] == what[2]):
         return memo[1]
@@ -433,7 +434,7 @@ def _extra_shadow_uniforms(renderer, frame: Frame, num_maps: int) -> dict:
         "u_xlight_eye": eyes[:MAX_SHADOW_LIGHTS], "u_xlight_dir": dirs[:MAX_SHADOW_LIGHTS],
         "u_xshadow_bias": biases[:MAX_SHADOW_LIGHTS], "u_xshadow_texel": texels[:MAX_SHADOW_LIGHTS],
         "u_xdom_layers": layers[:MAX_SHADOW_LIGHTS]}
-    renderer.__dict__["_extra_shadow_uniforms"] = (what, out)
+    renderer.memo["extra_shadow_uniforms"] = (what, out)
     return out
 
 
@@ -446,8 +447,7 @@ def adsm_coverage(renderer, frame: Frame) -> float:
     if lv is None:
         return 1.0
     texel = lv.size_at(renderer.scene_center())
-    mean_width = float(s.width) * 0.5 * (1.0 + float(s.width_tip))
-    return min(1.0, mean_width / max(texel, 1e-12))
+    return min(1.0, mean_width(s) / max(texel, 1e-12))
 
 
 def bind_shadow_methods(renderer, prog, frame: Frame) -> None:
