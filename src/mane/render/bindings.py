@@ -93,6 +93,7 @@ TEX_OSM_FIRST = 8         # opacity shadow maps: 8, 9, ...
 TEX_XSHADOW_FIRST = 16    # extra lights' shadow maps: 17, 18, ... (16 + light)
 TEX_XDOM_FIRST = 20       # and their deep opacity maps
 TEX_OIT_RESOLVE = 0       # a resolve pass's first input (k_buffer, shortcut): 0, 1
+TEX_MS_RESOLVE = 0        # sample_resolve.frag's multisampled input
 TEX_LUT_DUAL = 7          # the shading model's tables (shading/__init__.py)
 TEX_LUT_M = 24
 TEX_LUT_N = 25

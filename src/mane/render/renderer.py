@@ -37,6 +37,7 @@ from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
                      ResolvePass, ShadowMapPass, SkinBouncePass)
 from .passes.base import MAX_ISOLINES, Frame, Pass, Target, View, same_box, subdivisions
+from .passes import sample_resolve
 from .passes.accumulate import AccumulatePass, jittered_view, still_jitter
 from .passes.expand import ExpandPass
 from .passes.ms_smooth import MsSmoothPass
@@ -155,6 +156,7 @@ class Renderer(GpuOwner):
             self.samples = 1
         self._renderer_string = renderer_name(self.ctx)
         self._hdr_resolved = False   # the multisampled HDR target already resolved this frame
+        self.sample_offsets = None   # a still frame's samples' pixels on the raster units (passes/sample_resolve.py)
         self._programs = ProgramMemo()   # the renderer's own kernels (the HDR target's clear)
         self._depth_written = None      # (HDR depth texture, the head's screen box last drawn into it)
         self._head_box = None            # (view, transform bytes, the head's screen box, its bounding points)
@@ -586,8 +588,8 @@ class Renderer(GpuOwner):
             check_texture(ctx, size, 1, 12, f"the {size[0]}x{size[1]} render targets ({self.samples} samples)",
                           samples=self.samples, extra_bytes=px * 12 * (self.samples > 1) + 4 * px,
                           reduce="Use a smaller --size, fewer MSAA samples (--aa) or no supersampling")
-            if self.samples > 1:
-                color = ctx.renderbuffer(size, 4, samples=self.samples, dtype="f2")
+            if self.samples > 1:   # the colour a texture: a still frame's resolve reads its samples (sample_resolve.py)
+                color = ctx.texture(size, 4, samples=self.samples, dtype="f2")
                 depth = ctx.depth_renderbuffer(size, samples=self.samples)
                 tex = ctx.texture(size, 4, dtype="f2")
                 dtex = ctx.depth_texture(size)   # the compute rasteriser tests the hair against it
@@ -637,8 +639,8 @@ class Renderer(GpuOwner):
         return box
 
     def hdr_target(self) -> Target:
-        """The HDR target as drawn into: its framebuffer, colour and depth (multisampled
-        renderbuffers with MSAA, else textures); made on first use."""
+        """The HDR target as drawn into: its framebuffer, colour and depth (with MSAA a
+        multisampled texture and depth renderbuffer, else textures); made on first use."""
         self.hdr_fbo()
         return self._targets["hdr"]
 
@@ -662,6 +664,8 @@ class Renderer(GpuOwner):
             dst, tex, _ = self._targets["hdr_resolved"]
             if not self._hdr_resolved:
                 self.ctx.copy_framebuffer(dst, fbo)
+                if self.sample_offsets is not None:   # a still frame: the samples that fell in each pixel
+                    sample_resolve.resolve(self, color, dst, self.sample_offsets)
                 self._hdr_resolved = True
             return tex
         return color
@@ -786,6 +790,7 @@ class Renderer(GpuOwner):
         if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
         self._hdr_resolved = False
+        self.sample_offsets = None
         still = self._still_place(camera, lights) if refine else 0
         base, passes = self.settings, self.passes
         if 1 <= still <= int(base.accumulate) and self.still_settings() is not base:
@@ -943,8 +948,14 @@ class Renderer(GpuOwner):
         """The camera's ``view``, moved by the still frame's sub-pixel offset while the mean grows."""
         if not 1 <= still <= int(self.settings.accumulate):
             return view
-        grid = self.raster_grid if self.compute_raster and self.settings.oit == "none" else sample_grid(self.samples)
-        dx, dy = still_jitter(still, grid)
+        if self.compute_raster and self.settings.oit == "none":
+            dx, dy = still_jitter(still, self.raster_grid)
+        elif self.samples > 1:   # the raster units' samples: anywhere in the pixel, each resolved from where it fell
+            positions = sample_resolve.sample_positions(self)
+            dx, dy = sample_resolve.jitter(positions, still)
+            self.sample_offsets = sample_resolve.offsets(positions, (dx, dy))
+        else:
+            dx, dy = still_jitter(still, 1)
         return jittered_view(view, dx, dy, self.settings.render_size)
 
     @property

@@ -3,10 +3,13 @@ picture that does not move.
 
 While the camera, the lights, the hair, the head and the settings stay as they were, the k-th
 frame after the first (k = 1, 2, ...) is drawn with the camera's image moved by a sub-pixel
-offset (``still_jitter``: the k-th Halton (2, 3) point within one sample's cell of the pixel),
-its strands at their true width (``jittered_view``), and folded into a running mean, which the
-resolve shows in place of the frame. k frames give k times a frame's samples a pixel, spread
-evenly over the pixel (a box filter, the path tracer's): at msaa 4, 16 frames are 64 samples. After ``accumulate`` frames the mean is kept, and shown,
+offset, its strands at their true width (``jittered_view``), and folded into a running mean,
+which the resolve shows in place of the frame. The offset: on the compute rasteriser, whose
+samples lie on a regular grid, the k-th Halton (2, 3) point within one sample's cell
+(``still_jitter``); on the raster units, whose 4x pattern is a rotated grid, an offset anywhere
+in the pixel with each sample resolved from the pixel it fell in (sample_resolve.py). k frames
+give k times a frame's samples a pixel, spread evenly over the pixel (a box filter, the path
+tracer's): at msaa 4, 16 frames are 64 samples. After ``accumulate`` frames the mean is kept, and shown,
 until something changes. The first frame of a still scene, and every frame of a moving one (a
 simulation writes the hair every frame), is drawn at the pixel centres as it would be without
 accumulation, and this pass does not run.

@@ -33,6 +33,7 @@ import numpy as np
 from ...gpu.clear import clear_texture
 from ...gpu.glsl import ProgramMemo, compute_shader
 from ..bindings import IMG_HDR, IMG_MS, IMG_MS_DST, IMG_MS_SRC
+from . import sample_resolve
 from .base import Frame, Pass, set_uniforms, shader_path
 
 MAX_SIGMA = 8.0    # pixels: a close-up's 3 mm can be tens of pixels
@@ -134,7 +135,7 @@ class MsSmoothPass(Pass):
             self._release_hair()
             ctx = self.ctx
             if multi:
-                rb = ctx.renderbuffer(ms.size, 4, samples=r.samples, dtype="f2")
+                rb = ctx.texture(ms.size, 4, samples=r.samples, dtype="f2")   # a texture: sample_resolve reads it
                 h = _HairTargets(hdr, ms, ctx.framebuffer([hdr.color, rb], hdr.depth), rb, ctx.framebuffer([rb]),
                                  ctx.framebuffer([ms]))
             else:
@@ -147,7 +148,11 @@ class MsSmoothPass(Pass):
     def resolve(self) -> None:
         """The hardware rasteriser's multisampled target averaged into ``target``'s texture."""
         if self._hair is not None and self._hair.samples is not None:
-            self.ctx.copy_framebuffer(self._hair.ms_fbo, self._hair.samples_fbo)
+            offsets = self.renderer.sample_offsets
+            if offsets is None:
+                self.ctx.copy_framebuffer(self._hair.ms_fbo, self._hair.samples_fbo)
+            else:   # a still frame (sample_resolve.py)
+                sample_resolve.resolve(self.renderer, self._hair.samples, self._hair.ms_fbo, offsets)
 
     def run(self, frame: Frame) -> None:
         r = self.renderer
