@@ -457,3 +457,41 @@ def test_passes_are_cached_one_by_one_and_reused_by_a_larger_render(mi, tmp_path
     np.testing.assert_array_equal(first, ref.render(spp=4, isolate=False, **{**kw, "cache": False}))
     np.testing.assert_allclose(b, (2 * a + ref.render(spp=4, seed=ref.passes.pass_seed(0, 2), isolate=False, **kw)) / 3,
                                rtol=1e-5, atol=1e-7)
+
+
+def test_the_reference_draws_the_still_pictures_points(gl):
+    # the path tracer's B-spline goes through the points the still picture draws (still_segments),
+    # which follow the renderer's curve far closer than a moving frame's 32 segments do: the
+    # spline through each set against the curve expanded at 512 segments, on curls
+    from mane.grooming import grow
+    from mane.grooming.scene import default_head
+    from mane.reference.scene import bspline_control_points, bspline_eval
+    from mane.render import Renderer
+
+    head = default_head()
+    groom = grow(head, num_strands=20, style="curly", points_per_strand=16, seed=1)
+
+    def expanded(**kw):
+        s = RenderSettings(size=(64, 64), strands_per_guide=2, pipeline="compute", draw_head=False, **kw)
+        r = Renderer(s, ctx=gl, profile=False)
+        try:
+            r.set_strands(groom)
+            out = ref.renderer_strands(r)
+            assert r.settings is s                      # the renderer's own settings back
+            return out.points
+        finally:
+            r.release()
+
+    still = expanded(segments=32, still_segments=128)
+    frames = expanded(segments=32, still_segments=0)
+    dense = expanded(segments=512, still_segments=0)
+    assert frames.shape[1] - 1 < 128 <= still.shape[1] - 1
+
+    def off(points):
+        ctrl, _ = bspline_control_points(points)
+        t = np.linspace(0.0, points.shape[1] - 1, dense.shape[1])
+        return np.linalg.norm(bspline_eval(ctrl, t) - dense, axis=-1)
+
+    a, b = off(still), off(frames)
+    assert np.percentile(b, 90) > 1e-4                                  # the frames' spline is off the curve
+    assert np.percentile(a, 90) < 0.2 * np.percentile(b, 90), (np.percentile(a, 90), np.percentile(b, 90))

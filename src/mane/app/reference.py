@@ -1,5 +1,6 @@
 """``mane reference [GROOM] [--head MESH] --out ref.png --spp N --size WxH``: path trace the scene
-``mane render`` would draw (its expanded strands, camera, lights, hair material and head) with
+``mane render`` would draw (its expanded strands at the still picture's ``still_segments``, camera,
+lights, hair material and head) with
 Mitsuba 3's hair BSDF: an offline ground truth of any groom. Needs ``pip install mane[reference]``.
 
 The groom, head, camera, light and hair options are ``mane render``'s. The picture is linear

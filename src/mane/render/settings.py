@@ -321,13 +321,15 @@ class RenderSettings:
         under the default key, fill and rim, Sintel blond came out 1.07x bright with a crown to lower
         falloff 0.69x the path tracer's, with 1024 0.97x and 0.82x (docs/quality.md). 0, or no more
         than extra_shadow_map_size: the frames' own. At most the still picture's light 0 map.""")
-    still_segments: int = setting(64, lo=0, hi=4096, slider=(0, 128),
+    still_segments: int = setting(128, lo=0, hi=4096, slider=(0, 256),
         help="""Rendered segments per strand of a still picture's frames in its mean (as segments): a
         curl's chords between the expanded points lie up to a strand's width inside the curve
         (the curly head at 32 segments: 0.28 px median, 0.6 px at the 90th percentile, against
-        strands 0.27 px wide), and a still picture can afford twice the segments (the curly head
-        against the path tracer 0.48 -> 0.42 relative error per pixel; docs/quality.md). 0, or no
-        more than segments: the frames' own.""")
+        strands 0.27 px wide), and a still picture can afford more segments (the curly head
+        against the path tracer 0.48 -> 0.42 relative error per pixel at 64, against a reference
+        drawn through the still picture's own points 0.366 -> 0.341 from 64 to 128, 0.337 at 256;
+        docs/quality.md). 0, or no more than segments: the frames' own. The path tracer's
+        reference draws these points too (mane.reference.renderer_strands).""")
     still_dom_layers: tuple[float, float, float] = setting((0.02, 0.06, 1.0), lo=0.0, lo_open=True, hi=100.0,
         help="""The deep opacity layers' ends of those maps (as dom_layers): the first closer to the
         lit surface, where most of a fibre's shadow falls.""")
