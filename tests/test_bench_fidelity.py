@@ -206,10 +206,13 @@ def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
     from mane.bench import fidelity, fidelity_decompose
 
     monkeypatch.setattr(fidelity, "load_scene", lambda scene, guides=0: _tiny_scene())
-    variants = {"default": {}, "msaa 16 (4 x 4 grid)": {"msaa": 16}}
+    monkeypatch.setenv("MANE_GPU_MEMORY", "256M")    # a variant's maps that this budget cannot hold
+    variants = {"default": {}, "too big": {"shadow_map_size": 8192}, "msaa 16 (4 x 4 grid)": {"msaa": 16}}
     res = fidelity_decompose.run(gl, "quick", size=(32, 32), spp=4, variants=variants, cache_dir=tmp_path / "cache")
     assert [r["variant"] for r in res["results"]] == list(variants)
-    for row in res["results"]:
+    big = res["results"][1]
+    assert "skipped" in big and "\n" not in big["skipped"] and "relative_mae" not in big   # the rest still ran
+    for row in res["results"][::2]:
         for key in ("relative_mae", "relative_mae_box4", "luminance_ratio", "falloff_ratio", "coverage_ratio"):
             assert np.isfinite(row[key]), key
     p = res["probes"]["curly_head"]

@@ -118,7 +118,7 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
         cache_dir=None, seed: int = 0) -> dict:
     """The decomposition table (module doc); ``variants`` a dict like ``VARIANTS`` (default it)."""
     from .. import reference
-    from ..errors import UsageError
+    from ..errors import GPUMemoryError, UsageError
     from ..reference import cache as _cache
     from ..render import Renderer
     from ..render.lights import Light
@@ -154,13 +154,18 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
         mask = cov >= 0.5
         frames = {}
         for label, overrides in variants.items():
-            r = Renderer(base.replace(**overrides), ctx=ctx, profile=False)
             try:
-                r.set_strands(groom)
-                r.set_head(head)
-                rgba = fidelity.realtime_linear(r, camera, [light])
-            finally:
-                r.release()
+                r = Renderer(base.replace(**overrides), ctx=ctx, profile=False)
+                try:
+                    r.set_strands(groom)
+                    r.set_head(head)
+                    rgba = fidelity.realtime_linear(r, camera, [light])
+                finally:
+                    r.release()
+            except GPUMemoryError as exc:   # a variant this GPU cannot hold: the others still run
+                rows.append({"scene": name, "variant": label, "overrides": overrides, "skipped": str(exc)})
+                say(f"{name} {label}: skipped ({exc})")
+                continue
             frames[label] = rgba
             row = {"scene": name, "variant": label, "overrides": overrides,
                    **numbers(rgba[..., :3], rgba[..., 3], ref, cov, mask)}
