@@ -34,6 +34,7 @@ import math
 import moderngl
 import numpy as np
 
+from ...errors import GLFeatureError
 from ...gpu.glsl import program
 from ..bindings import TEX_MS_RESOLVE
 from .accumulate import halton
@@ -128,7 +129,8 @@ def sample_positions(renderer) -> np.ndarray:
         for obj in (*fbos, ms, out):
             obj.release()
     if not (np.array_equal(got[:, 2], np.arange(n)) and np.all((got[:, :2] >= 0.0) & (got[:, :2] < 1.0))):
-        raise RuntimeError(f"the GPU's {n}-sample positions came back as {got[:, :3].tolist()}")
+        raise GLFeatureError(f"the GPU's {n}-sample positions came back as {got[:, :3].tolist()}, not one "
+                             f"place in the pixel per sample: a still picture at msaa {n} cannot be resolved")
     renderer.memo[key] = got[:, :2].astype(np.float64)
     return renderer.memo[key]
 
