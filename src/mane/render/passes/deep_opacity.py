@@ -74,13 +74,12 @@ class DeepOpacityPass(LightDepthPass):
         self.begin_depth(cull=True)
         draw_hair(r, hair_program(r, PASS_DOM_DEPTH), frame.light_view)
         # 2. opacity layers
-        lo, hi = frame.hair_depth_range
-        ext = max(hi - lo, 1e-4)
+        layer_ends, opacity = self._layer_uniforms(frame)
         prog = hair_program(r, PASS_DOM_OPACITY)
         self.texture.use(TEX_DOM_Z0)
         set_uniform(prog, "u_dom_depth", TEX_DOM_Z0)
-        set_uniform(prog, "u_dom_layers_abs", tuple(float(f) * ext for f in r.settings.dom_layers))
-        set_uniform(prog, "u_strand_opacity", self.strand_opacity(frame.light_view))
+        set_uniform(prog, "u_dom_layers_abs", layer_ends)
+        set_uniform(prog, "u_strand_opacity", opacity)
         self.opacity_fbo.color_mask = (True, True, True, True)
         self.opacity_fbo.use()
         self.opacity_fbo.clear(0.0, 0.0, 0.0, 0.0)
