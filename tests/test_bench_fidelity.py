@@ -201,6 +201,40 @@ def test_decompose_blur_keeps_the_mean_and_numbers_sum_the_coverage():
     assert n["coverage_ratio"] == pytest.approx(0.75)
 
 
+def test_decompose_scattering_split_by_hand():
+    """scattering_split: mane's picture and its single-scattering part against the path tracer's
+    full picture and its single scattering (max_depth 2), built so that every figure is known:
+    mane's single scattering is the reference's exactly, its multiple scattering half the
+    reference's in the lit half and twice it in the dark half."""
+    from mane.bench import fidelity_decompose as fd
+
+    ref_single = np.zeros((4, 4, 3))
+    ref_single[:2] = 1.0          # lit rows
+    ref_single[2:] = 0.1          # dark rows
+    ref_multi = np.full((4, 4, 3), 0.2)
+    ref = ref_single + ref_multi
+    multi = np.where(np.arange(4)[:, None, None] < 2, 0.1, 0.4) * np.ones((4, 4, 3))
+    single = ref_single.copy()
+    full = single + multi
+    mask = np.ones((4, 4), bool)
+    s = fd.scattering_split(full, single, ref, ref_single, mask)
+    assert s["single"]["luminance_ratio"] == pytest.approx(1.0)
+    assert s["single"]["relative_mae"] == pytest.approx(0.0)
+    assert s["reference_multiple_share"] == pytest.approx(16 * 0.2 / (8 * 1.2 + 8 * 0.3))
+    assert s["multiple"]["luminance_ratio"] == pytest.approx((0.1 * 8 + 0.4 * 8) / (0.2 * 16))
+    lo, hi = s["multiple_by_reference_quartile"][0], s["multiple_by_reference_quartile"][-1]
+    assert lo == pytest.approx(2.0) and hi == pytest.approx(0.5)    # dark pixels twice, lit half
+    # the reference's single scattering with mane's multiple scattering is mane's picture
+    assert s["reference_single_with_mane_multiple"] == pytest.approx(fd.fm.relative_mae(full, ref, mask))
+    assert s["mane_single_with_reference_multiple"] == pytest.approx(0.0)
+    # mane's single scattering 1.5x everywhere, its multiple scattering the reference's
+    s = fd.scattering_split(1.5 * ref_single + ref_multi, 1.5 * ref_single, ref, ref_single, mask)
+    assert s["single"]["luminance_ratio"] == pytest.approx(1.5)
+    assert s["multiple"]["luminance_ratio"] == pytest.approx(1.0)
+    assert s["single_by_reference_quartile"] == pytest.approx([1.5] * len(s["single_by_reference_quartile"]))
+    assert s["reference_single_with_mane_multiple"] == pytest.approx(0.0)
+
+
 def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
     pytest.importorskip("mitsuba")
     from mane.bench import fidelity, fidelity_decompose
@@ -208,7 +242,8 @@ def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
     monkeypatch.setattr(fidelity, "load_scene", lambda scene, guides=0: _tiny_scene())
     monkeypatch.setenv("MANE_GPU_MEMORY", "256M")    # a variant's maps that this budget cannot hold
     variants = {"default": {}, "too big": {"shadow_map_size": 8192}, "msaa 16 (4 x 4 grid)": {"msaa": 16}}
-    res = fidelity_decompose.run(gl, "quick", size=(32, 32), spp=4, variants=variants, cache_dir=tmp_path / "cache")
+    res = fidelity_decompose.run(gl, "quick", size=(32, 32), spp=4, variants=variants, cache_dir=tmp_path / "cache",
+                                 split=True)
     assert [r["variant"] for r in res["results"]] == list(variants)
     big = res["results"][1]
     assert "skipped" in big and "\n" not in big["skipped"] and "relative_mae" not in big   # the rest still ran
@@ -218,7 +253,12 @@ def test_bench_fidelity_decompose_tiny_run(gl, tmp_path, monkeypatch):
     p = res["probes"]["curly_head"]
     assert set(p["blur"]) == {"0.5", "1.0", "2.0"} and len(p["shift"]["best"]) == 2
     assert "reference_noise" not in p                          # no seed-1 reference in an empty cache
-    assert "default" in fidelity_decompose.format_text(res)
+    q = p["scattering_split"]                                  # split: a max_depth 2 reference and mane without MS
+    assert 0.0 < q["reference_multiple_share"] < 1.0 and q["single"]["luminance_ratio"] > 0.0
+    assert np.isfinite(q["reference_single_with_mane_multiple"]) and len(q["multiple_by_reference_quartile"]) == 4
+    assert res["meta"]["settings"]["split"] is True
+    text = fidelity_decompose.format_text(res)
+    assert "default" in text and "single scattering against max_depth 2" in text
 
 
 def test_cli_bench_fidelity_decompose_rejects_an_unknown_scene(gl, capsys):
@@ -227,6 +267,8 @@ def test_cli_bench_fidelity_decompose_rejects_an_unknown_scene(gl, capsys):
 
     assert main(["bench", "fidelity", "--quick", "--decompose", "--scenes", "nowhere"]) == 2
     assert "unknown fidelity scene" in capsys.readouterr().err
+    assert main(["bench", "fidelity", "--quick", "--split"]) == 2          # --split belongs to --decompose
+    assert "--split is for mane bench fidelity --decompose" in capsys.readouterr().err
 
 
 def test_decompose_reference_noise_from_its_passes_by_hand():

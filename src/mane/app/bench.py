@@ -55,11 +55,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--rasterizer", default=None, help="fidelity: auto, hardware or compute (default auto)")
     parser.add_argument("--decompose", action="store_true",
                         help="fidelity: what the default's per-pixel error is made of (mane.bench.fidelity_decompose)")
+    parser.add_argument("--split", action="store_true",
+                        help="fidelity --decompose: the default frame's single and multiple scattering against the "
+                             "path tracer's (a second reference at max_depth 2)")
     parser.add_argument("--cache", default=None, help="fidelity: reference image cache folder "
                                                       "(default $MANE_REFERENCE_CACHE or ~/.cache/mane/reference)")
 
 
-FIDELITY_FLAGS = ("size", "spp", "scenes", "models", "shadows", "grid", "rasterizer", "decompose", "cache")
+FIDELITY_FLAGS = ("size", "spp", "scenes", "models", "shadows", "grid", "rasterizer", "decompose", "split", "cache")
 ALL_FLAGS = ("only", "baseline")
 
 
@@ -83,6 +86,8 @@ def run(args) -> int:
     if getattr(args, "section", None) and (hasattr(module, "run_cli")
                                            or "sections" not in inspect.signature(module.run).parameters):
         raise UsageError(f"mane bench {args.target} has no sections (--section is for sim, render and limits)")
+    if getattr(args, "split", False) and not getattr(args, "decompose", False):
+        raise UsageError("--split is for mane bench fidelity --decompose")
     if args.target == "fidelity" and getattr(args, "decompose", False):
         module = importlib.import_module("mane.bench.fidelity_decompose")
     if hasattr(module, "run_cli"):   # all, quality: they write a folder of files

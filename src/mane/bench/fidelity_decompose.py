@@ -14,7 +14,9 @@ reference's coverage, summed over the hair pixels). Probes on the default frame
 (``probes``): both images blurred by a Gaussian of sigma 0.5, 1 and 2 pixels (the spatial scale
 the error lives at); mane's image shifted by up to half a pixel (cubic, both sides blurred by
 0.7 px first so that the shift's own smoothing does not count; a camera or pixel-centre
-mismatch shows as a best offset away from 0); and, when a second reference of seed 1 is in the
+mismatch shows as a best offset away from 0); with ``split`` (``--split``), the default frame's single
+and multiple scattering against the path tracer's (``scattering_split``: a second reference at
+max_depth 2, and mane's frame without multiple scattering); and, when a second reference of seed 1 is in the
 cache, the two references against each other (the reference's own noise; one reference is
 about 1/sqrt(2) of that from the converged image); else, when the reference's 64-spp passes
 are in the cache (``mane.reference.passes``), their two halves against each other (128 spp
@@ -58,6 +60,8 @@ VARIANTS = {
 BLUR_SIGMAS = (0.5, 1.0, 2.0)
 SHIFTS = (-0.5, -0.25, 0.0, 0.25, 0.5)
 SHIFT_BLUR = 0.7
+SINGLE_DEPTH = 2
+"""The path tracer's max_depth for single scattering: the camera ray's hit and one light sample."""
 
 
 def blur(img, sigma: float) -> np.ndarray:
@@ -108,6 +112,42 @@ def pass_halves(reference, cache, folder, common: dict, seed: int, mask) -> dict
     return {"passes": len(images), "halves_relative_mae": r, "reference_noise_estimate": 0.5 * r}
 
 
+def scattering_split(full, single, ref, ref_single, mask, bins: int = 4) -> dict:
+    """Single against multiple scattering: mane's picture ``full`` and the same frame without
+    multiple scattering (``single``: ShadingSettings multiple_scattering "none"; the deep opacity
+    map's light through the fibres stays in it) against the path tracer's ``ref`` and its single
+    scattering ``ref_single`` (max_depth 2: the light's first scattering, shadowed exactly).
+    Multiple scattering is each picture minus its single scattering. Reports, over ``mask``:
+    the single-scattering parts against each other (relative MAE, luminance ratio), the
+    multiple-scattering parts' luminance ratio and the reference's share of it, both ratios per
+    ``bins`` quantiles of the reference's luminance (darkest first: where mane's shadows leak or its
+    multiple scattering is spread), and the full reference against the two swaps (the reference's
+    single scattering with mane's multiple scattering, and the other way): the error each part
+    leaves when the other is the path tracer's."""
+    lum = fm.luminance
+    full, single, ref, ref_single = (np.asarray(a, np.float64)[..., :3] for a in (full, single, ref, ref_single))
+    multi, ref_multi = full - single, ref - ref_single
+    l_ref = lum(ref)[mask]
+    edges = np.quantile(l_ref, np.linspace(0.0, 1.0, bins + 1))
+
+    def by_bin(a, b):
+        la, lb = lum(a)[mask], lum(b)[mask]
+        out = []
+        for lo, hi in zip(edges[:-1], edges[1:]):
+            sel = (l_ref >= lo) & (l_ref <= hi)
+            out.append(float(la[sel].sum() / lb[sel].sum()) if lb[sel].sum() > 0 else float("nan"))
+        return out
+
+    return {"single": {"relative_mae": fm.relative_mae(single, ref_single, mask),
+                       "luminance_ratio": fm.luminance_ratio(single, ref_single, mask)},
+            "multiple": {"luminance_ratio": fm.luminance_ratio(multi, ref_multi, mask)},
+            "reference_multiple_share": float(lum(ref_multi)[mask].sum() / max(lum(ref)[mask].sum(), 1e-30)),
+            "single_by_reference_quartile": by_bin(single, ref_single),
+            "multiple_by_reference_quartile": by_bin(multi, ref_multi),
+            "reference_single_with_mane_multiple": fm.relative_mae(ref_single + multi, ref, mask),
+            "mane_single_with_reference_multiple": fm.relative_mae(single + ref_multi, ref, mask)}
+
+
 def numbers(img, alpha, ref, cov, mask) -> dict:
     return {"relative_mae": fm.relative_mae(img, ref, mask), "relative_mae_box4": fm.relative_mae_box(img, ref, mask, 4),
             "luminance_ratio": fm.luminance_ratio(img, ref, mask), "falloff_ratio": fm.falloff_ratio(img, ref, mask),
@@ -115,8 +155,10 @@ def numbers(img, alpha, ref, cov, mask) -> dict:
 
 
 def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scenes=None, variants=None,
-        cache_dir=None, seed: int = 0) -> dict:
-    """The decomposition table (module doc); ``variants`` a dict like ``VARIANTS`` (default it)."""
+        cache_dir=None, seed: int = 0, split: bool = False) -> dict:
+    """The decomposition table (module doc); ``variants`` a dict like ``VARIANTS`` (default it);
+    ``split``: also the single / multiple scattering split of the default frame
+    (``scattering_split``; a second reference at max_depth 2, the same samples)."""
     from .. import reference
     from ..errors import GPUMemoryError, UsageError
     from ..reference import cache as _cache
@@ -182,12 +224,26 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
                                     "relative_mae_box4": fm.relative_mae_box(other, first, mask, 4),
                                     "blur": {str(s): fm.relative_mae(blur(other, s), blur(first, s), mask)
                                              for s in BLUR_SIGMAS}}
+        if split and "default" in frames:
+            say(f"{name}: single-scattering reference (max_depth 2) at {spp} spp")
+            ref_single = reference.render(**common, seed=seed, max_depth=SINGLE_DEPTH, cache_dir=cache_dir,
+                                          progress=lambda m: say(f"{name}: {m}"))[..., :3]
+            one = base.replace(**variants["default"])
+            one = one.replace(shading_options={**one.shading_options, "multiple_scattering": "none"})
+            r = Renderer(one, ctx=ctx, profile=False)
+            try:
+                r.set_strands(groom)
+                r.set_head(head)
+                single = fidelity.realtime_linear(r, camera, [light])
+            finally:
+                r.release()
+            p["scattering_split"] = scattering_split(frames["default"], single, first, ref_single, mask)
         halves = pass_halves(reference, _cache, folder, common, seed, mask)
         if halves is not None:
             p["reference_pass_halves"] = halves
         probes[name] = p
     meta = envelope(ctx, target="fidelity-decompose", mode=mode,
-                    settings={"size": list(size), "spp": spp, "seed": seed, "variants": variants})
+                    settings={"size": list(size), "spp": spp, "seed": seed, "variants": variants, "split": bool(split)})
     return {"meta": meta, "results": rows, "probes": probes}
 
 
@@ -210,6 +266,16 @@ def format_text(result: dict) -> str:
             n = p["reference_noise"]
             lines.append(f"{name}: reference seed 1 vs seed 0: {n['relative_mae']:.3f} / {n['relative_mae_box4']:.3f} "
                          f"(the reference is their mean)")
+        if "scattering_split" in p:
+            q = p["scattering_split"]
+            quart = lambda xs: " / ".join(f"{x:.2f}" for x in xs)
+            lines.append(f"{name}: single scattering against max_depth 2: {q['single']['relative_mae']:.3f}, "
+                         f"luminance {q['single']['luminance_ratio']:.3f} (by the reference's quartile, darkest "
+                         f"first: {quart(q['single_by_reference_quartile'])}); multiple scattering "
+                         f"{q['multiple']['luminance_ratio']:.3f}x the reference's ({quart(q['multiple_by_reference_quartile'])}; "
+                         f"its share {q['reference_multiple_share']:.2f}); the reference's single + mane's multiple "
+                         f"{q['reference_single_with_mane_multiple']:.3f}, mane's single + the reference's multiple "
+                         f"{q['mane_single_with_reference_multiple']:.3f}")
         if "reference_pass_halves" in p:
             h = p["reference_pass_halves"]
             lines.append(f"{name}: reference seed {p['reference_seeds'][0]}'s passes, half against half: "
@@ -229,7 +295,7 @@ def run_cli(args) -> int:
     progress = None if args.quiet else (lambda msg: print(f"mane bench fidelity: {msg}", file=sys.stderr, flush=True))
     scenes = [t.strip() for t in args.scenes.split(",") if t.strip()] if getattr(args, "scenes", None) else None
     result = sanitise(run(get_context(), mode, progress, spp=getattr(args, "spp", None), size=getattr(args, "size", None),
-                          scenes=scenes, cache_dir=getattr(args, "cache", None)))
+                          scenes=scenes, cache_dir=getattr(args, "cache", None), split=bool(getattr(args, "split", False))))
     text = to_json(result)
     if args.out:
         write_result(Path(args.out), "fidelity_decompose.json", text)
@@ -237,4 +303,5 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers", "pass_halves"]
+__all__ = ["run", "run_cli", "format_text", "VARIANTS", "blur", "shifted", "best_shift", "numbers", "pass_halves",
+           "scattering_split"]
