@@ -152,6 +152,20 @@ def realtime_linear(renderer, camera=None, lights=None) -> np.ndarray:
     return np.ascontiguousarray(img)
 
 
+def still_picture(ctx, settings, groom, head, camera, lights) -> tuple[np.ndarray, str]:
+    """(``realtime_linear``'s picture of the scene under ``settings`` by a Renderer made for it and
+    released after, "compute" or "hardware": the rasteriser that drew it)."""
+    from ..render import Renderer
+
+    r = Renderer(settings, ctx=ctx, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        return realtime_linear(r, camera, lights), ("compute" if r.compute_raster else "hardware")
+    finally:
+        r.release()
+
+
 def models() -> list[str]:
     from ..render.shading import MODELS
 
@@ -193,7 +207,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
     default method plus the default model at every method)."""
     from .. import reference
     from ..errors import UsageError
-    from ..render import Renderer, RenderSettings
+    from ..render import RenderSettings
     from ..render.lights import Light
 
     cfg = dict(MODE_CONFIG[mode])
@@ -247,14 +261,7 @@ def run(ctx, mode: str = "default", progress=None, *, image_dir=None, size=None,
             scene_meta[name]["reference_image"] = _save_png(_display(ref, exposure), image_dir / f"{name}_reference.png")
         for model, shadow in combos:
             settings = base.replace(shading=model, shadows=shadow)
-            r = Renderer(settings, ctx=ctx, profile=False)
-            try:
-                r.set_strands(groom)
-                r.set_head(head)
-                rgba = realtime_linear(r, camera, [light])
-                raster = "compute" if r.compute_raster else "hardware"
-            finally:
-                r.release()
+            rgba, raster = still_picture(ctx, settings, groom, head, camera, [light])
             img = rgba[..., :3]
             flip_whole, flip_map = fm.flip(img, ref, None)      # one FLIP map for both means
             hair = fm.all_metrics(img, ref, mask, with_flip=False)
@@ -351,5 +358,5 @@ def run_cli(args) -> int:
     return 0
 
 
-__all__ = ["run", "run_cli", "format_text", "format_markdown", "realtime_linear", "base_settings", "load_scene", "side_by_side",
+__all__ = ["run", "run_cli", "format_text", "format_markdown", "realtime_linear", "still_picture", "base_settings", "load_scene", "side_by_side",
            "SCENES", "MODE_CONFIG", "Scene", "fmt"]

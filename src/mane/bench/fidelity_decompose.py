@@ -162,7 +162,6 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
     from .. import reference
     from ..errors import GPUMemoryError, UsageError
     from ..reference import cache as _cache
-    from ..render import Renderer
     from ..render.lights import Light
     from . import fidelity
     from .common import envelope
@@ -197,13 +196,7 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
         frames = {}
         for label, overrides in variants.items():
             try:
-                r = Renderer(base.replace(**overrides), ctx=ctx, profile=False)
-                try:
-                    r.set_strands(groom)
-                    r.set_head(head)
-                    rgba = fidelity.realtime_linear(r, camera, [light])
-                finally:
-                    r.release()
+                rgba, _ = fidelity.still_picture(ctx, base.replace(**overrides), groom, head, camera, [light])
             except GPUMemoryError as exc:   # a variant this GPU cannot hold: the others still run
                 rows.append({"scene": name, "variant": label, "overrides": overrides, "skipped": str(exc)})
                 say(f"{name} {label}: skipped ({exc})")
@@ -230,13 +223,7 @@ def run(ctx, mode: str = "default", progress=None, *, spp=None, size=None, scene
                                           progress=lambda m: say(f"{name}: {m}"))[..., :3]
             one = base.replace(**variants["default"])
             one = one.replace(shading_options={**one.shading_options, "multiple_scattering": "none"})
-            r = Renderer(one, ctx=ctx, profile=False)
-            try:
-                r.set_strands(groom)
-                r.set_head(head)
-                single = fidelity.realtime_linear(r, camera, [light])
-            finally:
-                r.release()
+            single, _ = fidelity.still_picture(ctx, one, groom, head, camera, [light])
             p["scattering_split"] = scattering_split(frames["default"], single, first, ref_single, mask)
         halves = pass_halves(reference, _cache, folder, common, seed, mask)
         if halves is not None:

@@ -663,8 +663,8 @@ class Renderer(GpuOwner):
         if self.samples > 1:
             dst, tex, _ = self._targets["hdr_resolved"]
             if not self._hdr_resolved:
-                self.ctx.copy_framebuffer(dst, fbo)
-                if self.sample_offsets is not None:   # a still frame: the samples that fell in each pixel
+                self.ctx.copy_framebuffer(dst, fbo)   # colour and depth (the compute passes test against it)
+                if self.sample_offsets is not None:   # a still frame: the colour again, from the samples that fell in each pixel
                     sample_resolve.resolve(self, color, dst, self.sample_offsets)
                 self._hdr_resolved = True
             return tex
