@@ -250,3 +250,36 @@ def test_set_uniforms_sets_a_dict_again_after_another_dict_wrote_a_shared_unifor
     forget_uniforms(prog)
     set_uniforms(prog, first)
     assert len(a.written) == 2 and len(b.written) == 6
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_steady_frames_with_every_light_casting_write_no_uniform(gl, monkeypatch, rasterizer):
+    """Each light's maps are drawn by programs of their own (gpu.glsl's instance), so frames
+    after the first few write no uniform though every pass runs and the extra lights' maps are
+    drawn in turn: shared with light 0's passes, each frame wrote the light views' uniforms
+    over the other light's (26 writes a frame with three lights). And the frame is a fresh
+    renderer's."""
+    from mane.gpu import uniforms
+    from mane.render import light_key
+
+    monkeypatch.setattr(light_key, "KEEP", False)   # every pass every frame, as a moving groom's
+    s = base_settings(rasterizer=rasterizer, shadow_lights=4, extra_shadow_map_size=32)
+    r = Renderer(s, ctx=gl, profile=False)
+    try:
+        r.set_strands(fan())
+        r.set_head(ball())
+        for _ in range(4):
+            r.render(CAM, LIGHTS)
+        assert len(r.get_pass("extra_shadows")._doms) == 2   # lights 1 and 2 cast
+        written = []
+        real = uniforms.uniform_bytes
+        monkeypatch.setattr(uniforms, "uniform_bytes", lambda u, v: written.append(u.name) or real(u, v))
+        for _ in range(4):
+            r.render(CAM, LIGHTS)
+        assert written == []
+        monkeypatch.setattr(uniforms, "uniform_bytes", real)
+        image = r.render_image(CAM, LIGHTS)
+    finally:
+        r.release()
+    assert np.array_equal(image, fresh(s, CAM, LIGHTS))

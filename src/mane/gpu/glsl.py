@@ -279,9 +279,12 @@ def _compile(ctx, kind: str, sources: dict[str, Source], build):
         raise ShaderCompileError(f"{kind} failed to build ({names}):\n{log}") from None
 
 
-def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
-    """A moderngl ComputeShader from a file, cached per context, file versions (includes too) and defines."""
-    key = _key("compute", [path], defines, include_dirs)
+def compute_shader(ctx, path, defines: dict | None = None, include_dirs=(), instance=None):
+    """A moderngl ComputeShader from a file, cached per context, file versions (includes too) and
+    defines. ``instance`` (hashable): a program object of its own for the same source, whose
+    uniforms no other caller writes (one light's maps among several keep their views' uniforms
+    from frame to frame instead of writing them over another light's)."""
+    key = _key("compute", [path], defines, include_dirs, () if instance is None else (instance,))
     shader = _cached(ctx, key)
     if shader is None:
         with phase("shader_source"):
@@ -293,8 +296,9 @@ def compute_shader(ctx, path, defines: dict | None = None, include_dirs=()):
 
 def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
             tess_evaluation=None, defines: dict | None = None, include_dirs=(),
-            varyings=(), cache: bool = True):
-    """A moderngl Program from stage files (paths); each stage gets the same defines."""
+            varyings=(), cache: bool = True, instance=None):
+    """A moderngl Program from stage files (paths); each stage gets the same defines;
+    ``instance``: as compute_shader's."""
     stages = {
         "vertex_shader": vertex,
         "fragment_shader": fragment,
@@ -303,7 +307,8 @@ def program(ctx, *, vertex, fragment=None, geometry=None, tess_control=None,
         "tess_evaluation_shader": tess_evaluation,
     }
     stages = {k: v for k, v in stages.items() if v is not None}
-    key = _key("program", list(stages.values()), defines, include_dirs, (tuple(stages), tuple(varyings)))
+    key = _key("program", list(stages.values()), defines, include_dirs,
+               (tuple(stages), tuple(varyings)) + (() if instance is None else (instance,)))
     if cache:
         prog = _cached(ctx, key)
         if prog is not None:

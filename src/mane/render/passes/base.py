@@ -180,9 +180,10 @@ def set_view(prog, view: View) -> None:
 
 
 def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str | None = None,
-                 fragment_file=None, geometry_file=None, extra_defines: dict | None = None):
+                 fragment_file=None, geometry_file=None, extra_defines: dict | None = None, instance=None):
     """The hair program for ``pass_id``; a pass may bring its own fragment or geometry stage
-    (same varyings as hair.geom / hair.tese) and defines."""
+    (same varyings as hair.geom / hair.tese) and defines; ``instance``: a program object of the
+    caller's own (gpu.glsl.program)."""
     s = renderer.settings
     shading = renderer.shading
     geometry = geometry or s.geometry
@@ -207,13 +208,13 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
     if pulls(renderer, capture=capture, geometry_file=geometry_file):
         # pipeline="compute": vertex pulling from the expanded strands (passes/expand.py)
         prog = program(renderer.ctx, vertex=shader_path("hair_pull.vert"), fragment=frag, defines=defines,
-                       include_dirs=[RENDER_DIR])
+                       include_dirs=[RENDER_DIR], instance=instance)
         prog.mane_pulls = True
         return prog
     geom = geometry_file if geometry_file is not None else shader_path("hair.geom")
     return program(renderer.ctx, vertex=shader_path("hair.vert"), tess_control=shader_path("hair.tesc"),
                    tess_evaluation=shader_path("hair.tese"), geometry=geom, fragment=frag,
-                   defines=defines, include_dirs=[RENDER_DIR])
+                   defines=defines, include_dirs=[RENDER_DIR], instance=instance)
 
 
 def pulls(renderer, *, capture: bool = False, geometry_file=None) -> bool:

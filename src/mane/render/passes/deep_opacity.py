@@ -72,10 +72,10 @@ class DeepOpacityPass(LightDepthPass):
         ctx, r = self.ctx, self.renderer
         # 1. z0
         self.begin_depth(cull=True)
-        draw_hair(r, hair_program(r, PASS_DOM_DEPTH), frame.light_view)
+        draw_hair(r, hair_program(r, PASS_DOM_DEPTH, instance=self.instance), frame.light_view)
         # 2. opacity layers
         layer_ends, opacity = self._layer_uniforms(frame)
-        prog = hair_program(r, PASS_DOM_OPACITY)
+        prog = hair_program(r, PASS_DOM_OPACITY, instance=self.instance)
         self.texture.use(TEX_DOM_Z0)
         set_uniform(prog, "u_dom_depth", TEX_DOM_Z0)
         set_uniform(prog, "u_dom_layers_abs", layer_ends)
@@ -90,7 +90,8 @@ class DeepOpacityPass(LightDepthPass):
         draw_hair(r, prog, frame.light_view)
         ctx.disable(ctx.BLEND)
         # 3. z0 into alpha
-        pack = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("dom_pack.frag"))
+        pack = program(ctx, vertex=shader_path("fullscreen.vert"), fragment=shader_path("dom_pack.frag"),
+                       instance=self.instance)
         set_uniform(pack, "u_dom_depth", TEX_DOM_Z0)
         self.opacity_fbo.color_mask = (False, False, False, True)
         self.opacity_fbo.use()   # moderngl applies a framebuffer's colour mask when it is bound
@@ -127,12 +128,12 @@ class DeepOpacityPass(LightDepthPass):
         for dom_pass, site in ((0, r.scan_forms.dom_z0), (1, r.scan_forms.dom)):
             form = site.begin(r.settings, sizes) if main else site.current()
             scan_light_depths(r, frame.light_view, n, dom_pass, layer_ends=layer_ends, strand_opacity=opacity,
-                              balance=form, programs=self._programs,
+                              balance=form, programs=self._programs, instance=self.instance,
                               strand_step=1 if dom_pass == 0 and self.z0_every_strand() else step)
             if main:
                 site.end()
         pack = self._programs.get("pack", (), lambda: compute_shader(ctx, shader_path("dom_pack.comp"),
-                                                                    include_dirs=[RENDER_DIR]))
+                                                                    include_dirs=[RENDER_DIR], instance=self.instance))
         set_uniforms(pack, _pack_uniforms(n))
         self.opacity.bind_to_image(IMG_DOM, read=False, write=True)
         pack.run(math.ceil(n / 8), math.ceil(n / 8))
@@ -196,20 +197,21 @@ class DeepOpacityPass(LightDepthPass):
 
 def scan_light_depths(renderer, view, n: int, dom_pass: int, layer_ends=(1.0, 2.0, 3.0),
                       strand_opacity: float = 0.0, balance: int | None = None, programs: ProgramMemo = None,
-                      strand_step: int = 1) -> None:
+                      strand_step: int = 1, instance=None) -> None:
     """One dom_raster.comp dispatch over the expanded strands into an n x n light map (the
     buffers at B_DOM_Z0 and, for pass 1, B_DOM_LAYERS bound by the caller): pass 0 the
     nearest light depth bits per texel (atomic min), pass 1 the opacity layers. ``balance``: the
     scan-conversion form (None: raster_segment.balance_for's); ``programs``: the calling pass's
     ProgramMemo, which keeps the kernel (else it is looked up in the shader cache);
-    ``strand_step`` m: every m-th strand, its opacity x m."""
+    ``strand_step`` m: every m-th strand, its opacity x m; ``instance``: the caller's own program
+    object (gpu.glsl.compute_shader)."""
     ctx = renderer.ctx
     defines = raster_defines(ctx, balance)
     defines.update(subgroup_defines(ctx, defines["RASTER_BALANCE"]))
 
     def build():
         return compute_shader(ctx, shader_path("dom_raster.comp"), {"DOM_PASS": dom_pass, **defines},
-                              include_dirs=[RENDER_DIR])
+                              include_dirs=[RENDER_DIR], instance=instance)
 
     cs = build() if programs is None else programs.get(("dom_raster", dom_pass, *defines.values()), (), build)
     set_view(cs, view)

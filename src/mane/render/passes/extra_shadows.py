@@ -113,13 +113,13 @@ class ExtraShadowsPass(Pass):
                     doms.append(kept[2])
                 continue
             while len(self._maps) <= k:
-                self._maps.append(_LightShadowMap(r))
+                self._maps.append(_own_programs(_LightShadowMap(r), len(self._maps)))
             sub = replace(frame, light_view=view, hair_depth_range=depth_range, targets={}, shadow_views=[])
             self._maps[k].run(sub)
             maps.append(sub.targets["shadow_map"])
             if dom:
                 while len(self._doms) <= k:
-                    self._doms.append(_LightDeepOpacity(r))
+                    self._doms.append(_own_programs(_LightDeepOpacity(r), len(self._doms)))
                 self._doms[k].run(sub)
                 doms.append(sub.targets["dom"])
             self._drawn[k] = (what, maps[-1], doms[-1] if dom else None)
@@ -131,6 +131,15 @@ class ExtraShadowsPass(Pass):
         for p in self._maps + self._doms:
             p.release()
         self._maps, self._doms, self._drawn = [], [], {}
+
+
+def _own_programs(p, k: int):
+    """``p`` with programs of its own: light 0's passes and each other light's set their views'
+    uniforms (and the map sizes) on programs nobody else writes, so a frame writes none of them
+    again while the views stay (shared, each frame wrote 26 uniforms over another light's:
+    the CPU's issue with every light casting)."""
+    p.instance = ("extra light", k)
+    return p
 
 
 def _same(a: tuple, b: tuple) -> bool:

@@ -24,6 +24,7 @@ from .base import (PASS_SHADOW_DEPTH, Frame, Pass, begin_light_depth, draw_hair,
 class LightDepthPass(Pass):
     method = ""   # the settings.shadows value that turns the pass on
     light_space = True
+    instance = None   # programs of its own (gpu.glsl.compute_shader's instance): an extra light's passes
 
     def __init__(self, renderer):
         super().__init__(renderer)
@@ -52,7 +53,7 @@ class LightDepthPass(Pass):
     def draw_hair_depth(self, frame: Frame) -> None:
         """The hair's nearest linear light depth into the bound map."""
         r = self.renderer
-        draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH), frame.light_view)
+        draw_hair(r, hair_program(r, PASS_SHADOW_DEPTH, instance=self.instance), frame.light_view)
 
     def read(self) -> np.ndarray:
         """(n, n) float32 nearest light depth (m); FAR where nothing was drawn."""

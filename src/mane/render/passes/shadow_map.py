@@ -43,7 +43,8 @@ class ShadowMapPass(LightDepthPass):
         self.begin_depth()
         if r.head is not None and r.settings.draw_head:
             prog = self._programs.get("head", (), lambda: program(
-                ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"), defines={"PASS": 1, "SHADOWS": 0}))
+                ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"), defines={"PASS": 1, "SHADOWS": 0},
+                instance=self.instance))
             set_view(prog, frame.light_view)
             r.draw_head(prog, cull_back=True)   # the same map from half the fragments
         if r.strands is not None and self.hair_casts():
@@ -72,9 +73,9 @@ class ShadowMapPass(LightDepthPass):
         if self._z0 is None:
             self._z0 = ctx.buffer(np.full(n * n, 0xFFFFFFFF, np.uint32).tobytes())
         self._z0.bind_to_storage_buffer(B_DOM_Z0)
-        scan_light_depths(r, frame.light_view, n, 0, programs=self._programs)
+        scan_light_depths(r, frame.light_view, n, 0, programs=self._programs, instance=self.instance)
         merge = self._programs.get("merge", (), lambda: compute_shader(ctx, shader_path("shadow_merge.comp"),
-                                                                       include_dirs=[RENDER_DIR]))
+                                                                       include_dirs=[RENDER_DIR], instance=self.instance))
         set_uniform(merge, "u_size", n)
         self.texture.bind_to_image(IMG_SHADOW, read=True, write=True)
         merge.run(math.ceil(n / 8), math.ceil(n / 8))
