@@ -75,7 +75,7 @@ def test_render_scale_rows(render_scale):
         return [x for k in ks for x in ([k, f"{k}_no_lod"] if k in cfg["no_lod"] else [k])]
 
     assert keys == (with_no_lod([k for k, _, _ in cfg["closeup"]]) + with_no_lod([k for k, _ in cfg["strands"]])
-                    + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start"])
+                    + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start", "cold_start"])
     for r in rows:
         if r["status"] == "ok" and r["bench"] in ("scale_strands", "scale_closeup"):
             assert r["settings"]["lod_depth"] == (0.0 if r["issue_key"].endswith("_no_lod") else
@@ -114,7 +114,13 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert set(loop["cpu_submit_ms"]) == set(loop["cpu_submit_profiled_ms"]) == {"sim", "render", "total"}
     assert all(loop["cpu_submit_ms"][k]["n"] == loop["frames_timed"] for k in ("sim", "render", "total"))
     assert loop["rendered_strands"] == loop["rendered_strands_requested"]
-    cold = rows["scale_cold_start"]
+    cold, warm = [r for r in render_scale[0]["results"] if r["bench"] == "scale_cold_start"]
+    assert warm["status"] == "ok", warm["reason"]
+    # the launch with mane.warm_up first: its programs compiled before the scene was made, none after
+    assert (cold["warm_up"], warm["warm_up"]) == (False, True) and scale_rows.WARM_NAME in warm["name"]
+    assert cold["warmed"] is None and len(cold["compiled_after"]) >= 10
+    assert warm["warmed"]["programs"] >= len(cold["compiled_after"]) and warm["compiled_after"] == []
+    assert warm["phases"]["warm_up"]["s"] == pytest.approx(warm["warmed"]["seconds"], rel=0.05, abs=5e-3)
     assert cold["status"] == "ok", cold["reason"]
     assert cold["process"] == "a fresh child process" and cold["launch"] == "as_is"
     assert len(cold["frames_ms"]) == cold["steps"]

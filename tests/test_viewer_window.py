@@ -697,3 +697,41 @@ def test_a_paused_view_sharpens_and_a_gizmo_change_starts_again(viewer, monkeypa
     v.playing = True
     frames(v, 3)
     assert v.renderer.still_frames == 0
+
+
+def test_the_first_scene_is_warmed_up_on_a_gpu(viewer, monkeypatch):
+    """On a GPU (the capabilities say so here) the first scene's programs are compiled by
+    mane.warm_up before its Simulator and Renderer are made, for the settings the renderer then
+    gets, with the simulator's colliders and the scene's groom and head; a scene loaded into a
+    running viewer is not warmed again, nor is any on a CPU rasteriser (its first frame compiles
+    the same)."""
+    import dataclasses
+
+    from mane.gpu import capabilities
+    from mane import warmup
+
+    calls = []
+    monkeypatch.setattr(warmup, "warm_up", lambda ctx, **kw: calls.append((ctx, kw)))
+    v = viewer
+    v.load_scene()
+    assert calls == []                      # a running viewer
+    real = capabilities.get_capabilities
+    monkeypatch.setattr(capabilities, "get_capabilities",
+                        lambda ctx: dataclasses.replace(real(ctx), is_software=False))
+    old, v.renderer = v.renderer, None      # as at the viewer's start
+    try:
+        v.load_scene()
+    finally:
+        old.release()
+    (ctx, kw), = calls
+    assert ctx is v.ctx and kw["groom"] is v.groom and kw["head"] is v.head
+    assert kw["render_settings"] == v.renderer.settings
+    assert [id(c) for c in kw["colliders"]] == [id(c) for c in v.sim.colliders]
+    assert kw["sim_settings"] is v.sim.settings
+    monkeypatch.setattr(capabilities, "get_capabilities", real)
+    old, v.renderer = v.renderer, None
+    try:
+        v.load_scene()
+    finally:
+        old.release()
+    assert len(calls) == 1                  # a CPU rasteriser: none

@@ -64,9 +64,9 @@ import time
 import numpy as np
 
 from ..phases import add as add_phase
-from ..phases import phase, recording
+from ..phases import phase, recording, watching
 from .common import Skip, stats
-from .scale_rows import LAUNCH_NAMES, SCALE_CONFIG, cold_launches, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
+from .scale_rows import LAUNCH_NAMES, SCALE_CONFIG, WARM_NAME, cold_launches, cold_start, expanded_bytes, guard_bytes, issue_fields, render_measured, steady
 from .scale_rows import short_count as _k
 
 # --------------------------------------------------------------------------- coverage
@@ -418,24 +418,25 @@ class RenderScale:
         cfg, b = self.cfg, self.bench
         S, N, spg = int(cfg["loop_guides"]), int(cfg["loop_points"]), int(cfg["loop_spg"])
 
-        def run(launch, folder):
-            name = (f"cold start ({LAUNCH_NAMES[launch]}): simulate {_k(S)} x {N} + render {_k(S * spg)} strands, "
-                    f"{cfg['cold_steps']} frames")
+        def run(launch, folder, warm):
+            name = (f"cold start ({LAUNCH_NAMES[launch]}{WARM_NAME if warm else ''}): simulate {_k(S)} x {N} + "
+                    f"render {_k(S * spg)} strands, {cfg['cold_steps']} frames")
             fields = dict(sim_guides=S, sim_points=N, rendered_strands_requested=S * spg,
-                          steps=int(cfg["cold_steps"]), launch=launch)
+                          steps=int(cfg["cold_steps"]), launch=launch, warm_up=warm)
             n_before = len(b.rows)
             with b._guard("scale_cold_start", name, **fields):
                 b._before_config()
                 res = cold_start(dict(S=S, N=N, spg=spg, size=list(cfg["size"]), steps=int(cfg["cold_steps"]),
                                       grid=int(cfg["loop_grid"]), sdf=int(cfg["loop_sdf"]), render=True,
-                                      render_settings=dict(cfg["render"])),
+                                      render_settings=dict(cfg["render"]), warm_up=warm),
                                  timeout=max(60.0, float(cfg["total_budget_s"]) / 2), launch=launch, folder=folder)
                 row = b._row("scale_cold_start", name, **fields, **res)
                 row.update(issue_fields("cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
             if len(b.rows) > n_before and "issue_key" not in b.rows[-1]:
                 b.rows[-1].update(issue_fields("cold_start", None, unit="s"))
 
-        cold_launches(run, cfg["cold_launches"])
+        for warm in cfg["cold_warm_up"]:
+            cold_launches(lambda launch, folder: run(launch, folder, warm), cfg["cold_launches"])
 
     def run(self) -> None:
         self.closeups()
@@ -544,34 +545,57 @@ def _cold_frames(spec: dict) -> dict:
     S, N, steps = int(spec["S"]), int(spec["N"]), int(spec["steps"])
     from ..render.settings import RenderSettings
 
-    t0 = time.perf_counter()
     render = bool(spec.get("render", True))
     rs = RenderSettings(**{"size": tuple(spec["size"]), **spec.get("render_settings", {}),
                            "strands_per_guide": int(spec["spg"])}) if render else None
-    loop = Loop(ctx, S, N, int(spec["spg"]), rs, int(spec["grid"]), int(spec["sdf"]))
-    built_s = time.perf_counter() - t0
-    try:
-        ends, walls = [], []
-        for i in range(steps):
-            t = time.perf_counter()
-            if i == 0:
-                _first_frame(loop, ctx, render, bool(spec.get("sync_first_frame", False)))
-            else:
-                loop.step()
-                if render:
-                    loop.render()
-                ctx.finish()
-            now = time.perf_counter()
-            walls.append((now - t) * 1e3)
-            ends.append(now - t0)
-        # each scan-form site's tuner at the end (recalled from disk, probes run, medians): a
-        # second launch's late probe shows here
-        forms = loop.renderer.scan_forms.details() if render else {}
-    finally:
-        loop.release()
-    return dict(context_s=context_s, build_s=built_s, sim_build_s=loop.sim_build_s,
-                render_build_s=loop.render_build_s, frame_ends_s=[round(e, 6) for e in ends],
+    warmed = _warm_up(ctx, spec, rs) if spec.get("warm_up") else None
+    compiled = []   # the programs compiled from here on (after a warm-up: none, or what it missed)
+
+    def count(name, seconds, item):
+        if name == "compile":
+            compiled.append([item, round(seconds, 6)])
+
+    with watching(count):
+        t0 = time.perf_counter()
+        loop = Loop(ctx, S, N, int(spec["spg"]), rs, int(spec["grid"]), int(spec["sdf"]))
+        built_s = time.perf_counter() - t0
+        try:
+            ends, walls = [], []
+            for i in range(steps):
+                t = time.perf_counter()
+                if i == 0:
+                    _first_frame(loop, ctx, render, bool(spec.get("sync_first_frame", False)))
+                else:
+                    loop.step()
+                    if render:
+                        loop.render()
+                    ctx.finish()
+                now = time.perf_counter()
+                walls.append((now - t) * 1e3)
+                ends.append(now - t0)
+            # each scan-form site's tuner at the end (recalled from disk, probes run, medians): a
+            # second launch's late probe shows here
+            forms = loop.renderer.scan_forms.details() if render else {}
+        finally:
+            loop.release()
+    return dict(context_s=context_s, warmed=warmed, compiled_after=compiled, build_s=built_s,
+                sim_build_s=loop.sim_build_s, render_build_s=loop.render_build_s, frame_ends_s=[round(e, 6) for e in ends],
                 scan_forms=forms, **steady(ends, walls))
+
+
+def _warm_up(ctx, spec: dict, render_settings) -> dict:
+    """``mane.warm_up`` for the loop's scene (its settings, colliders and head, a few guides of its
+    strand length) before the loop's Simulator and Renderer are made, as an application that hides
+    the compiles behind a progress line would (the CLI's commands)."""
+    from ..warmup import WARM_GUIDES, warm_up
+    from . import sim_bench
+
+    head = sim_bench.head_mesh()
+    N = int(spec["N"])
+    return warm_up(ctx, groom=sim_bench.scalp_groom(WARM_GUIDES, N), head=head, render_settings=render_settings,
+                   sim_settings=sim_bench.full_solver_settings(int(spec["grid"])),
+                   colliders=sim_bench.full_solver_colliders(int(spec["sdf"]), head), points_per_strand=N,
+                   render=render_settings is not None, still=False)
 
 
 def _first_frame(loop, ctx, render: bool, sync: bool) -> None:

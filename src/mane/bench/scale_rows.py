@@ -77,7 +77,7 @@ SCALE_CONFIG = {
                   crowd_heads=4, crowd_strands=256, crowd_spacing=0.6, crowd_lod_depth=32.0,
                   loop_guides=64, loop_points=8, loop_spg=4, loop_frames=3, loop_grid=16, loop_sdf=16,
                   cold_steps=4, sim_guides=[("sim_1m", 256)], sim_points=8,
-                  cold_launches=("as_is",), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
+                  cold_launches=("as_is",), cold_warm_up=(False, True), warmup=3, frames=2, config_budget_s=8.0, total_budget_s=120.0,
                   sim_steps=3, sim_budget_s=15.0, sim_total_budget_s=120.0),
     "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
                     # rows measured a second time with the coverage LOD off (key + "_no_lod")
@@ -97,6 +97,8 @@ SCALE_CONFIG = {
                     loop_guides=20_000, loop_points=32, loop_spg=50, loop_frames=60, loop_grid=64, loop_sdf=64,
                     # the cold start's launches (LAUNCHES): the first after an install, the next
                     cold_steps=100, cold_launches=("first", "second"),
+                    # and each with mane.warm_up first (the CLI's), its seconds beside to_steady_s
+                    cold_warm_up=(False, True),
                     sim_guides=[("sim_1m", 1_000_000), ("sim_2m", 2_000_000)], sim_points=32,
                     warmup=3, frames=30, config_budget_s=8.0, total_budget_s=240.0, sim_steps=60,
                     sim_budget_s=30.0, sim_total_budget_s=420.0),
@@ -171,6 +173,7 @@ def steady(ends: list, walls_ms: list) -> dict:
 LAUNCHES = ("first", "second", "as_is")
 LAUNCH_NAMES = {"first": "first launch, empty caches", "second": "second launch, the first one's caches",
                 "as_is": "the caches as they are"}
+WARM_NAME = ", mane.warm_up first"   # a launch whose programs mane.warm_up compiled before the scene was made
 
 
 def launch_env(launch: str, folder: str | None) -> dict:
@@ -254,18 +257,21 @@ def sim_rows(bench, colliders) -> None:
     S, G = int(cfg["loop_guides"]), int(cfg["cold_steps"])
     Np = int(cfg["loop_points"])
 
-    def run(launch, folder):
-        name = f"cold start ({LAUNCH_NAMES[launch]}): simulate {short_count(S)} x {Np} (full solver), {G} steps"
+    def run(launch, folder, warm):
+        name = (f"cold start ({LAUNCH_NAMES[launch]}{WARM_NAME if warm else ''}): simulate {short_count(S)} x {Np} "
+                f"(full solver), {G} steps")
         n_before = len(bench.rows)
-        with bench._guard("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, launch=launch):
+        fields = dict(strands=S, vertices=Np, steps=G, launch=launch, warm_up=warm)
+        with bench._guard("scale_sim_cold_start", name, **fields):
             res = cold_start(dict(S=S, N=Np, spg=1, size=[64, 64], steps=G, grid=int(cfg["loop_grid"]),
-                                  sdf=int(cfg["loop_sdf"]), render=False), launch=launch, folder=folder)
-            row = bench._row("scale_sim_cold_start", name, strands=S, vertices=Np, steps=G, launch=launch, **res)
+                                  sdf=int(cfg["loop_sdf"]), render=False, warm_up=warm), launch=launch, folder=folder)
+            row = bench._row("scale_sim_cold_start", name, **fields, **res)
             row.update(issue_fields("sim_cold_start", res.get("to_steady_s"), unit="s"), measured_as="to_steady_s")
         if len(bench.rows) > n_before and "issue_key" not in bench.rows[-1]:
             bench.rows[-1].update(issue_fields("sim_cold_start", None, unit="s"))
 
-    cold_launches(run, cfg["cold_launches"])
+    for warm in cfg["cold_warm_up"]:
+        cold_launches(lambda launch, folder: run(launch, folder, warm), cfg["cold_launches"])
 
 
 # --------------------------------------------------------------------------- summary and text

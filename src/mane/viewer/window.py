@@ -290,6 +290,12 @@ class Viewer:
             colliders.insert(0, head_collider)
         settings = self.sim.settings if self.sim is not None else demo_sim_settings(q, wind=self.wind_on,
                                                                                      dt=q.viewer_sim_dt)
+        if not self.lights:
+            self.lights = default_lights()
+            self.casts = [True] * len(self.lights)   # every light casts (RenderSettings.shadow_lights)
+        if self.renderer is None:
+            self.render_settings = q.render_settings(size=self.render_size())
+            self._warm_up(groom, head, colliders, settings)
         sim = Simulator(groom, colliders=colliders, settings=settings, ctx=self.ctx, profile=True)
         if self.sim is not None:
             self.sim.release()
@@ -297,11 +303,6 @@ class Viewer:
         self.sim_time = 0.0
         self._apply_motion(0.0)
         self.sim.reset()
-        if not self.lights:
-            self.lights = default_lights()
-            self.casts = [True] * len(self.lights)   # every light casts (RenderSettings.shadow_lights)
-        if self.renderer is None:
-            self.render_settings = q.render_settings(size=self.render_size())
         self._rebuild_renderer(force=True)
         # the box's framing, not the points': it leaves room around the hair for the panel and
         # the lights' handles
@@ -312,6 +313,18 @@ class Viewer:
             self.orbit.home = (self.orbit.target.copy(), *self.orbit.home[1:])
         if self.wind_on:
             self.set_wind(True)
+
+    def _warm_up(self, groom, head, colliders, sim_settings) -> None:
+        """The first scene's programs compiled before its first frame (mane.warmup; the terminal's
+        progress line counts them) on a GPU, where the scan-form tuner would otherwise compile a
+        form in the frames it first tries it; a CPU rasteriser's first frame compiles the same."""
+        from ..gpu.capabilities import get_capabilities
+        from ..warmup import warm_up
+
+        if get_capabilities(self.ctx).is_software:
+            return
+        warm_up(self.ctx, groom=groom, head=head, render_settings=self.effective_render_settings(),
+                sim_settings=sim_settings, colliders=colliders)
 
     def _fit_groom(self, groom):
         n = groom.num_strands
