@@ -123,3 +123,40 @@ def test_a_warm_up_of_nothing_is_refused():
 
     with pytest.raises(UsageError, match="nothing to warm"):
         warm_up(object(), simulate=False, render=False)
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("every_factor", [False, True])
+def test_a_warm_up_compiles_the_smoothing_grid_of_any_frame_size(monkeypatch, every_factor):
+    """The multiply scattered light's smoothing grid (ms_smooth.py) has cells of 1, 2 or 4 pixels
+    by the frame's size and the hair's distance; the warm-up's small frames pick one, so it
+    compiles the others' programs too: a frame ten times larger then compiles nothing (without
+    that, it compiles its factor's, the control)."""
+    from mane.gpu.context import headless_context
+    from mane.render import Renderer, RenderSettings
+    from mane.render.passes import ms_smooth
+    from mane.warmup import warm_up
+
+    if not every_factor:
+        monkeypatch.setattr(ms_smooth, "compile_every_factor", lambda ctx: None)
+    groom, head, _, _, _ = _scene(S=24)
+    small = RenderSettings(size=(64, 48), strands_per_guide=2, shadow_map_size=64)
+    assert ms_smooth.active_for(small)
+    ctx = headless_context()
+    try:
+        warm_up(ctx, groom=groom, head=head, render_settings=small, simulate=False, still=False)
+
+        def big():
+            r = Renderer(RenderSettings(size=(640, 480), strands_per_guide=2, shadow_map_size=64), ctx=ctx,
+                         profile=False)
+            try:
+                r.set_strands(groom)
+                r.set_head(head)
+                r.render(r.default_camera(points=None))
+            finally:
+                r.release()
+
+        compiled = _compiled(big)
+        assert compiled == [] if every_factor else compiled and set(compiled) == {"ms_smooth.comp"}
+    finally:
+        ctx.release()

@@ -60,7 +60,7 @@ def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settin
     frames. ``render`` / ``simulate`` False: the other alone; ``still``: also a still picture's
     frames (a viewer's). Returns {"seconds", "programs" (compiled), "forms"}."""
     from .gpu import get_context
-    from .render.passes import raster_segment
+    from .render.passes import ms_smooth, raster_segment
     from .render.settings import RenderSettings
 
     if not (simulate or render):
@@ -93,6 +93,8 @@ def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settin
             for form in forms:
                 raster_segment.FORCED = kept if form is None else form
                 _frames(ctx, sim, few, head, rs, render, still)
+            if render and ms_smooth.active_for(rs):
+                ms_smooth.compile_every_factor(ctx)   # its grid's factor follows the frame's size
         finally:
             raster_segment.FORCED = kept
             if sim is not None:

@@ -42,8 +42,12 @@ RADIUS = 3.0       # taps each side, in sigmas
 
 def active(renderer) -> bool:
     """Whether the frame splits and smooths the multiply scattered light."""
-    s = renderer.settings
-    return float(s.ms_smoothing) > 0.0 and s.oit == "none"
+    return active_for(renderer.settings)
+
+
+def active_for(settings) -> bool:
+    """Whether frames with these settings smooth the multiply scattered light."""
+    return float(settings.ms_smoothing) > 0.0 and settings.oit == "none"
 
 
 def sigma_pixels(view, width_m: float, center) -> float:
@@ -55,10 +59,13 @@ def taps(sigma: float) -> int:
     return max(1, int(math.ceil(RADIUS * sigma)))
 
 
+FACTORS = (1, 2, 4)   # the reduced grid's cells, pixels a side (factor)
+
+
 def factor(sigma: float) -> int:
     """The reduced grid's cell, in pixels a side, for a Gaussian of ``sigma`` pixels: one where
     the cells' own spread would be most of it."""
-    return 1 if sigma < 1.5 else 2 if sigma < 5.0 else 4
+    return FACTORS[0] if sigma < 1.5 else FACTORS[1] if sigma < 5.0 else FACTORS[2]
 
 
 def low_sigma(sigma: float, f: int) -> float:
@@ -228,10 +235,22 @@ def plan(ctx, ms, grid, hdr, sigma: float, programs: ProgramMemo | None = None) 
     out = []
     for stage, uniforms, images, (w, h) in steps:
         def build(stage=stage):
-            return compute_shader(ctx, shader_path("ms_smooth.comp"), {"STAGE": stage, "FACTOR": f})
+            return _program(ctx, stage, f)
         cs = build() if programs is None else programs.get(("ms_smooth", stage, f), (), build)
         out.append((cs, uniforms, images, (math.ceil(w / 8), math.ceil(h / 8))))
     return tuple(out)
+
+
+def _program(ctx, stage: int, f: int):
+    return compute_shader(ctx, shader_path("ms_smooth.comp"), {"STAGE": stage, "FACTOR": f})
+
+
+def compile_every_factor(ctx) -> None:
+    """The four stages' programs for every grid factor: the frame's size and the hair's distance
+    pick one (mane.warmup compiles them all ahead)."""
+    for f in FACTORS:
+        for stage in range(4):
+            _program(ctx, stage, f)
 
 
 def dispatch(ctx, steps) -> None:
