@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, ...], ...] = (
     ("io", "grooming"),
     ("gpu",),
     ("sim", "render"),
-    ("presets", "twins", "reference", "dataset"),
+    ("presets", "twins", "reference", "dataset", "warmup"),
     ("bench", "viewer"),
     ("app",),
     ("", "__main__"),

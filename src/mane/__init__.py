@@ -32,11 +32,15 @@ def __getattr__(name):
         from .render.image import render_image
 
         return render_image
+    if name == "warm_up":   # a scene's GPU programs compiled ahead (mane.warmup)
+        from .warmup import warm_up
+
+        return warm_up
     raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 __all__ = [
-    "__version__", "Groom", "load", "save", "load_mesh", "render_image",
+    "__version__", "Groom", "load", "save", "load_mesh", "render_image", "warm_up",
     "ManeError", "FormatError", "UnsupportedFormatError", "GroomError", "UsageError",
     "GPUError", "GLFeatureError", "ShaderCompileError", "GPUMemoryError",
 ]
