@@ -23,6 +23,19 @@ def _compiled(fn) -> list:
     return out
 
 
+def _one_frame(ctx, settings, groom, head) -> None:
+    """A frame of ``groom`` on ``head`` by a Renderer of its own."""
+    from mane.render import Renderer
+
+    r = Renderer(settings, ctx=ctx, profile=False)
+    try:
+        r.set_strands(groom)
+        r.set_head(head)
+        r.render(r.default_camera(points=None))
+    finally:
+        r.release()
+
+
 def _run_scene(ctx, settings, groom, head, sim_settings, colliders, N, still=True):
     from mane.render import Renderer
     from mane.sim import Simulator
@@ -94,19 +107,11 @@ def test_a_warm_up_compiles_every_scan_form_the_tuner_may_pick(monkeypatch):
     try:
         info = warm_up(ctx, groom=groom, head=head, render_settings=settings, simulate=False, still=False)
         assert info["forms"] == 3 and raster_segment.FORCED is None
-        from mane.render import Renderer
-
         def forced(form):
             def run():
                 raster_segment.FORCED = form
                 try:
-                    r = Renderer(settings, ctx=ctx, profile=False)
-                    try:
-                        r.set_strands(groom)
-                        r.set_head(head)
-                        r.render(r.default_camera(points=None))
-                    finally:
-                        r.release()
+                    _one_frame(ctx, settings, groom, head)
                 finally:
                     raster_segment.FORCED = None
             return run
@@ -133,7 +138,7 @@ def test_a_warm_up_compiles_the_smoothing_grid_of_any_frame_size(monkeypatch, ev
     compiles the others' programs too: a frame ten times larger then compiles nothing (without
     that, it compiles its factor's, the control)."""
     from mane.gpu.context import headless_context
-    from mane.render import Renderer, RenderSettings
+    from mane.render import RenderSettings
     from mane.render.passes import ms_smooth
     from mane.warmup import warm_up
 
@@ -146,17 +151,8 @@ def test_a_warm_up_compiles_the_smoothing_grid_of_any_frame_size(monkeypatch, ev
     try:
         warm_up(ctx, groom=groom, head=head, render_settings=small, simulate=False, still=False)
 
-        def big():
-            r = Renderer(RenderSettings(size=(640, 480), strands_per_guide=2, shadow_map_size=64), ctx=ctx,
-                         profile=False)
-            try:
-                r.set_strands(groom)
-                r.set_head(head)
-                r.render(r.default_camera(points=None))
-            finally:
-                r.release()
-
-        compiled = _compiled(big)
+        big = RenderSettings(size=(640, 480), strands_per_guide=2, shadow_map_size=64)
+        compiled = _compiled(lambda: _one_frame(ctx, big, groom, head))
         assert compiled == [] if every_factor else compiled and set(compiled) == {"ms_smooth.comp"}
     finally:
         ctx.release()
