@@ -153,3 +153,40 @@ def test_extra_lights_compiled_in_leave_one_lights_picture_alone(gl):
             finally:
                 r.release()
         assert np.abs(imgs[0] - imgs[1]).max() <= 2, ras
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("rasterizer", ["compute", "hardware"])
+def test_the_extra_lights_look_up_builds_in_both_forms(gl, monkeypatch, rasterizer):
+    """lighting.glsl's XLIGHT_CONST: the extra lights' sampler arrays indexed by constants on a CPU
+    rasteriser (llvmpipe loses other look-ups otherwise), by the light on a GPU (one copy of the
+    look-up). CI has no GPU, so the GPU's form is built here with the capabilities saying GPU (only
+    shadow_defines reads them): it compiles and draws a frame with both extra lights casting, lit
+    and finite (its picture is checked on the H200, docs/performance.md)."""
+    import dataclasses
+
+    from mane.gpu import glsl
+    from mane.gpu.capabilities import get_capabilities
+    from mane.render.passes import base
+    from test_render_tessellation import wavy_groom
+
+    assert base.shadow_defines(gl, RenderSettings())["XLIGHT_CONST"] == int(get_capabilities(gl).is_software)
+    monkeypatch.setattr(base, "get_capabilities", lambda ctx: dataclasses.replace(get_capabilities(ctx), is_software=False))
+    assert base.shadow_defines(gl, RenderSettings())["XLIGHT_CONST"] == 0
+    built = []
+    real = glsl.load_source
+    monkeypatch.setattr(glsl, "load_source", lambda path, defines=None, *a, **k: (
+        built.append((str(path), dict(defines or {}))), real(path, defines, *a, **k))[1])
+    glsl.clear_cache(gl)
+    r = Renderer(RenderSettings(size=(48, 36), strands_per_guide=2, shadow_map_size=64, extra_shadow_map_size=32,
+                                rasterizer=rasterizer, accumulate=1), ctx=gl, profile=False)
+    try:
+        r.set_strands(wavy_groom(guides=6, points=8))
+        img = r.render_image(r.default_camera(), default_lights())
+        assert len(r.last_frame.shadow_views) == 2
+    finally:
+        r.release()
+        glsl.clear_cache(gl)
+    shading = [d for p, d in built if p.endswith(("hair_shade.comp", "hair.frag")) and d.get("XSHADOWS")]
+    assert shading and all(d["XLIGHT_CONST"] == 0 for d in shading)
+    assert np.isfinite(img).all() and img.max() > 0

@@ -36,7 +36,7 @@ def probe_visibility(renderer, points, frame=None, term: str = "visibility") -> 
     if m == 0:
         return np.zeros(0, np.float32)
     ctx = renderer.ctx
-    cs = compute_shader(ctx, HERE / "shadow_probe.comp", shadow_defines(renderer.settings),
+    cs = compute_shader(ctx, HERE / "shadow_probe.comp", shadow_defines(ctx, renderer.settings),
                         include_dirs=[RENDER_DIR])
     bind_lighting(renderer, cs, frame)
     data = np.zeros((m, 4), np.float32)

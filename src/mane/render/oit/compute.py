@@ -149,7 +149,7 @@ class ComputeOit(OitMethod):
              "OIT_SHADING": int(shading), "OIT_TAIL_SHADED": int(getattr(self, "tail_shaded", True))}
         if shading:
             d.update(self.r.shading.defines())
-            d.update(shadow_defines(self.settings))
+            d.update(shadow_defines(self.r.ctx, self.settings))
             d.update(bounce_defines(self.r))
         d.update(extra)
         return d

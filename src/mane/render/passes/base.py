@@ -10,6 +10,7 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
+from ...gpu.capabilities import get_capabilities
 from ...gpu.glsl import program
 from ...gpu import uniforms
 from ...gpu.uniforms import write_uniform
@@ -39,13 +40,15 @@ TONE_IDS = {"aces": 0, "reinhard": 1, "none": 2}
 PASS_SHADE, PASS_SHADOW_DEPTH, PASS_DOM_DEPTH, PASS_DOM_OPACITY = 0, 1, 2, 3
 
 
-def shadow_defines(settings, pcf: int | None = None) -> dict:
+def shadow_defines(ctx, settings, pcf: int | None = None) -> dict:
     """lighting.glsl's defines: SHADOWS (light 0's method), XSHADOWS (whether lights 1.. cast:
     0 compiles their look-ups out), PCF, the look-ups' PCF kernel (default the settings'
-    ``pcf``, the hair's; the head passes ``head_pcf``) and MS_FOOTPRINT (the multiple
-    scattering's deep-opacity box, ``ms_shadow_footprint``)."""
+    ``pcf``, the hair's; the head passes ``head_pcf``), MS_FOOTPRINT (the multiple
+    scattering's deep-opacity box, ``ms_shadow_footprint``) and XLIGHT_CONST (``ctx``'s: the
+    extra lights' sampler arrays indexed by constants on a CPU rasteriser, lighting.glsl)."""
     return {"SHADOWS": SHADOW_IDS[settings.shadows], "XSHADOWS": int(int(settings.shadow_lights) > 1),
-            "PCF": int(settings.pcf if pcf is None else pcf), "MS_FOOTPRINT": int(settings.ms_shadow_footprint)}
+            "PCF": int(settings.pcf if pcf is None else pcf), "MS_FOOTPRINT": int(settings.ms_shadow_footprint),
+            "XLIGHT_CONST": int(get_capabilities(ctx).is_software)}
 
 
 SKIN_BOUNCE_SAMPLES = 16   # the skin bounce's gather samples per grid cell or shaded point (skin_bounce.py)
@@ -191,7 +194,7 @@ def hair_program(renderer, pass_id: int, *, capture: bool = False, geometry: str
         "INTERPOLATION": INTERPOLATION_IDS[s.interpolation],
         "GEOMETRY_LINES": int(geometry == "lines"),
         "PASS": pass_id,
-        **shadow_defines(s),
+        **shadow_defines(renderer.ctx, s),
         "CAPTURE": int(capture),
         "MULTI": MULTI_IDS[s.interpolation_mode],
         "LOD": int(bool(s.lod)),

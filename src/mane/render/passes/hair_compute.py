@@ -233,7 +233,7 @@ class HairComputePass(Pass):
             gx, gy = shade_group(grid)
             cs = self._programs.get("shade", (r.shading, r.settings, bounce["SKIN_BOUNCE"], bounce.get("SKIN_BOUNCE_GRID"),
                                               grid, split), lambda: compute_shader(
-                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(r.settings),
+                ctx, shader_path("hair_shade.comp"), {**defines, **r.shading.defines(), **shadow_defines(ctx, r.settings),
                                                        **bounce, "SHADE_GRID": int(grid), "SHADE_GROUP_X": gx,
                                                        "SHADE_GROUP_Y": gy, "MS_SPLIT": split},
                 include_dirs=[RENDER_DIR]))

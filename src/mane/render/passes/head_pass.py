@@ -69,7 +69,7 @@ class HeadPass(Pass):
             return
         prog = self._programs.get("head", (s,), lambda: program(
             ctx, vertex=shader_path("head.vert"), fragment=shader_path("head.frag"),
-            defines={"PASS": 0, **shadow_defines(s, pcf=s.head_pcf)}))   # the skin's own filter
+            defines={"PASS": 0, **shadow_defines(ctx, s, pcf=s.head_pcf)}))   # the skin's own filter
         r.hdr_fbo().use()
         ctx.enable(ctx.DEPTH_TEST)
         ctx.disable(ctx.BLEND)
@@ -100,7 +100,7 @@ class HeadPass(Pass):
         set_view(prog, frame.view)
         r.draw_head(prog, cull_back=True)
         cs = self._programs.get("head_shade", (s,), lambda: compute_shader(
-            ctx, shader_path("head_shade.comp"), shadow_defines(s, pcf=s.head_pcf), include_dirs=[RENDER_DIR]))
+            ctx, shader_path("head_shade.comp"), shadow_defines(ctx, s, pcf=s.head_pcf), include_dirs=[RENDER_DIR]))
         set_view(cs, frame.view)
         bind_lighting(r, cs, frame)
         set_uniforms(cs, self._colors.uniforms(r))

@@ -136,7 +136,7 @@ class SkinBouncePass(Pass):
         if lv is not None:
             prog = self._programs.get("rsm", (s,), lambda: program(
                 ctx, vertex=shader_path("head.vert"), fragment=shader_path("skin_rsm.frag"),
-                defines={**shadow_defines(s, pcf=s.head_pcf)}))
+                defines={**shadow_defines(ctx, s, pcf=s.head_pcf)}))
             ctx.enable(ctx.DEPTH_TEST)
             ctx.disable(ctx.BLEND)
             set_view(prog, lv)
@@ -191,7 +191,7 @@ class SkinBouncePass(Pass):
         s = r.settings
         cs = self._programs.get("grid", (s,), lambda: compute_shader(
             ctx, shader_path("skin_bounce_grid.comp"),
-            {**shadow_defines(s), "SKIN_BOUNCE_SAMPLES": SAMPLES}, include_dirs=[RENDER_DIR]))
+            {**shadow_defines(ctx, s), "SKIN_BOUNCE_SAMPLES": SAMPLES}, include_dirs=[RENDER_DIR]))
         bind_lighting(r, cs, frame)
         self.flux.use(TEX_RSM_FLUX)
         self.geom.use(TEX_RSM_GEOM)
