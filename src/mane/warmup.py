@@ -10,7 +10,7 @@ tuner may choose, moving and still frames, and releases them. The programs stay 
 program cache (``mane.gpu.glsl``), so the real Renderer and Simulator made afterwards compile
 nothing; the CLI shows the compiles on a progress line (``mane.progress.compiles_shown``).
 
-It saves no time in all: it moves the compiles to where a progress line can stand for them,
+It saves no time overall: it moves the compiles to where a progress line can stand for them,
 and the first frames of the scene come at their steady pace. A second launch finds the programs
 in the driver's shader cache and its warm-up takes a fraction of a second.
 """
@@ -22,10 +22,10 @@ from dataclasses import replace
 import numpy as np
 
 from .errors import UsageError
-from .phases import phase
+from .phases import phase, watching
 
 WARM_GUIDES = 16          # guides of the groom the warm-up simulates and draws
-WARM_SIZE = (64, 48)      # the warm-up frames' size (the programs do not depend on it)
+WARM_SIZE = (64, 48)      # the warm-up frames' size (the programs do not depend on it but for ms_smooth's factor)
 MOVING_FRAMES = 2         # frames a form, the hair moving (every pass drawn)
 STILL_FRAMES = 3          # then frames of a still picture (refine: its finer maps, the sample resolve)
 
@@ -75,7 +75,6 @@ def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settin
     rs = replace(render_settings if render_settings is not None else RenderSettings(), size=WARM_SIZE)
     forms = _forms(ctx) if render else [None]
     compiled = []
-    from . import phases
 
     def count(name, seconds, item):
         if name == "compile":
@@ -83,7 +82,7 @@ def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settin
 
     t = time.perf_counter()
     kept = raster_segment.FORCED
-    with phase("warm_up"), phases.watching(count):
+    with phase("warm_up"), watching(count):
         sim = None
         try:
             if simulate:
