@@ -121,6 +121,8 @@ def test_render_scale_loop_and_cold_start(render_scale):
     assert cold["warmed"] is None and len(cold["compiled_after"]) >= 10
     assert warm["warmed"]["programs"] >= len(cold["compiled_after"]) and warm["compiled_after"] == []
     assert warm["phases"]["warm_up"]["s"] == pytest.approx(warm["warmed"]["seconds"], rel=0.05, abs=5e-3)
+    lines = {s["name"]: s for s in render_scale[0]["scale"]}
+    assert lines[warm["name"]]["warm_up_s"] == warm["warmed"]["seconds"] and "warm_up_s" not in lines[cold["name"]]
     assert cold["status"] == "ok", cold["reason"]
     assert cold["process"] == "a fresh child process" and cold["launch"] == "as_is"
     assert len(cold["frames_ms"]) == cold["steps"]

@@ -291,6 +291,8 @@ def summary(rows: list[dict]) -> list[dict]:
         # measured so), and the loop's two GPU parts
         sub = r.get("cpu_submit_ms") or r.get("submit_bare_ms") or r.get("submit_ms") or {}
         line["cpu_submit_ms"] = (sub.get("total") or {}).get("mean") if "total" in sub else sub.get("mean")
+        if r.get("warmed"):   # a launch after mane.warm_up: its own seconds beside the scene's
+            line["warm_up_s"] = r["warmed"].get("seconds")
         if r["bench"] == "scale_sim_render":
             line["sim_gpu_ms"] = (r.get("sim_gpu_ms") or {}).get("mean")
             line["render_gpu_ms"] = (r.get("render_gpu_ms") or {}).get("mean")
@@ -334,6 +336,7 @@ def format_text(rows: list[dict]) -> str:
                          ("target", "target", "{:.1f}"),
                          ("met", lambda r: "-" if r["met"] is None else ("yes" if r["met"] else "no"), "{}"),
                          ("coverage", "coverage", "{:.1%}"), ("CPU issue ms", "cpu_submit_ms", "{:.3f}"),
-                         ("sim GPU ms", "sim_gpu_ms", "{:.3f}"), ("render GPU ms", "render_gpu_ms", "{:.3f}")],
+                         ("sim GPU ms", "sim_gpu_ms", "{:.3f}"), ("render GPU ms", "render_gpu_ms", "{:.3f}"),
+                         ("warm-up s", "warm_up_s", "{:.3f}")],
                  title="Issue 14 scale rows: measured beside the issue's figure and the target") + (
                      "\n" + phases if phases else "")
