@@ -127,7 +127,7 @@ def test_a_warm_up_of_nothing_is_refused():
     from mane.warmup import warm_up
 
     with pytest.raises(UsageError, match="nothing to warm"):
-        warm_up(object(), simulate=False, render=False)
+        warm_up(object(), groom=None, simulate=False, render=False)
 
 
 @pytest.mark.gpu

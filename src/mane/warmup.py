@@ -51,7 +51,7 @@ def _forms(ctx) -> list:
     return list(range(max(scan_form.SITE_FORMS.values())))
 
 
-def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settings=None, colliders=(),
+def warm_up(ctx=None, *, groom, head=None, render_settings=None, sim_settings=None, colliders=(),
             points_per_strand: int | None = None, simulate: bool = True, render: bool = True,
             still: bool = True) -> dict:
     """Compile, on ``ctx``, what a Simulator of ``groom`` (``sim_settings``, ``colliders``,
@@ -65,11 +65,6 @@ def warm_up(ctx=None, *, groom=None, head=None, render_settings=None, sim_settin
 
     if not (simulate or render):
         raise UsageError("warm_up: nothing to warm (simulate and render both False)")
-    if groom is None:
-        from .grooming.scene import default_groom, default_head
-
-        head = head if head is not None else default_head()
-        groom = default_groom(head, WARM_GUIDES, points_per_strand or 32)
     ctx = ctx if ctx is not None else get_context()
     few = _few(groom, WARM_GUIDES)
     rs = replace(render_settings if render_settings is not None else RenderSettings(), size=WARM_SIZE)
