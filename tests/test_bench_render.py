@@ -160,6 +160,10 @@ def test_targets(quick):
     assert still["kept"] == ["shadow_map", "deep_opacity", "extra_shadows", "skin_bounce"]
     assert _positive(still["pipelined_ms"]) and _positive(still["submit_bare_ms"]["median"])
     assert t["stand_in"]["still_hair"]["kept"] == still["kept"]
+    orbit = row["orbit"]   # and the frame while the camera turns
+    assert orbit["degrees_a_frame"] == render_bench.ORBIT_DEGREES
+    assert _positive(orbit["pipelined_ms"]) and _positive(orbit["submit_bare_ms"]["median"])
+    assert t["stand_in"]["orbit"]["pipelined_ms"] == orbit["pipelined_ms"]
 
 
 @pytest.mark.slow
@@ -167,6 +171,44 @@ def test_text_output(quick):
     text = render_bench.format_text(quick[0])
     for title in ("Hunz Fig. 33", "Hunz Fig. 36", "Vulkan: guide strands", "Chen Table 5", "Woodhouse", "target:"):
         assert title in text
+
+
+def test_orbit_turns_the_camera_every_frame():
+    """Bench._orbit on a recording renderer: each frame (warm-up, issue, back to back) a camera
+    of its own, turned ORBIT_DEGREES from the last about the target at the same distance."""
+    import numpy as np
+
+    from mane.render.camera import Camera
+
+    class Ctx:
+        def finish(self):
+            pass
+
+    class Prof:
+        enabled = True
+
+    class R:
+        profiler = Prof()
+        seen = []
+
+        def render(self, cam, lights):
+            assert self.profiler.enabled is False
+            self.seen.append(cam)
+
+    bench = render_bench.Bench.__new__(render_bench.Bench)
+    bench.ctx = Ctx()
+    cam = Camera(eye=(0.3, 0.1, 0.9), target=(0.0, 0.05, 0.0))
+    r = R()
+    out = render_bench.Bench._orbit(bench, r, cam, None, 8)
+    assert r.profiler.enabled is True and out["submit_bare_ms"]["median"] >= 0.0
+    assert len(r.seen) == 2 + 8 + 8   # a quarter of the frames turning before the clock
+    t = np.asarray(cam.target)
+    e = [np.asarray(c.eye) - t for c in [cam] + r.seen]
+    assert len({tuple(x) for x in e}) == len(e)   # a new camera every frame
+    for a, b in zip(e, e[1:]):
+        assert np.linalg.norm(b) == pytest.approx(np.linalg.norm(a))
+        ang = math.degrees(math.atan2(a[2] * b[0] - a[0] * b[2], a[0] * b[0] + a[2] * b[2]))
+        assert ang == pytest.approx(render_bench.ORBIT_DEGREES)
 
 
 def test_targets_met_logic():

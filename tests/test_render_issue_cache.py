@@ -59,6 +59,30 @@ def test_set_uniforms_writes_again_after_another_writer():
     assert struct.unpack("f", a.written[-1])[0] == 0.75
 
 
+def test_a_new_dict_each_frame_looks_its_names_up_once_and_writes_what_changed():
+    """A moving camera's View makes a new dict of the same names every frame: the program's
+    uniforms are looked up once for those names, and only the values that changed are written
+    (a name the program lacks stays skipped); more dicts than MAX_PLANS change nothing."""
+    from mane.gpu import uniforms
+
+    class Counting(FakeProgram):
+        looked = 0
+
+        def get(self, name, default):
+            Counting.looked += 1
+            return super().get(name, default)
+
+    a, v = FakeUniform("f"), FakeUniform("3f", dimension=3)
+    prog = Counting(u_a=a, u_v=v)
+    for i in range(uniforms.MAX_PLANS + 10):
+        set_uniforms(prog, {"u_a": 0.5, "u_v": (float(i), 0.0, 0.0), "u_gone": i})
+    assert Counting.looked == 3
+    assert a.written == [struct.pack("f", 0.5)]
+    assert v.written == [struct.pack("3f", float(i), 0.0, 0.0) for i in range(uniforms.MAX_PLANS + 10)]
+    set_uniforms(prog, {"u_v": (1.0, 2.0, 3.0), "u_a": 0.25})   # other names (their order): looked up
+    assert Counting.looked == 5 and struct.unpack("f", a.written[-1])[0] == 0.25
+
+
 def test_set_uniforms_on_a_rebuilt_program_writes_everything():
     """A program built again (an edited shader) has new uniforms: nothing of the old one's kept."""
     values = {"u_a": 0.5}

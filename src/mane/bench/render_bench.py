@@ -62,7 +62,9 @@ Every frame of these phases draws every pass, as when the hair or a light moves 
 figures as they were before the light-space targets were reused). The target row adds
 ``still_hair``: phases 2 and 3 and the issue time again while the hair, head and lights are
 still, as a still groom is drawn, the shadow and opacity maps and the skin's bounce reused
-(mane.render.light_key).
+(mane.render.light_key), and ``orbit``: the CPU's issue and the pipelined ms while the camera
+turns about the hair by ORBIT_DEGREES a frame (a user dragging the view: a new view every
+frame, its uniforms and the screen-space plans made again).
 
 On software renderers (llvmpipe) GPU timer queries are unreliable, so both profilers fall
 back to CPU wall time around ``ctx.finish()`` (``meta.timing`` says which source was used).
@@ -264,6 +266,7 @@ def lod_switch() -> tuple[dict | None, dict | None, str]:
 # --------------------------------------------------------------------------- workloads
 # the target frame shades with mane's default hair model (RenderSettings.shading, "chiang")
 TARGET_SHADING = "chiang"
+ORBIT_DEGREES = 0.25   # the target row's turning camera (Bench._orbit): a slow drag of the view
 
 
 class Workloads:
@@ -461,6 +464,7 @@ class Bench(BenchRows):
             # 3. gapless GPU time: the GPU kept busy while the frame is issued (GPU timer queries only)
             gapless = self._gapless(r, cam, lights, N_eff, stats(submit)["mean"])
             still = self._still_hair(r, cam, lights, N_eff, stats(submit)["mean"]) if still_hair else None
+            orbit = self._orbit(r, cam, lights, N_eff) if still_hair else None
 
             info = {k: v for k, v in r.stats().items() if k != "passes"}
             # sample_visits, sample_writes, raster_atomics (HairComputePass.count_samples): one more frame
@@ -492,6 +496,7 @@ class Bench(BenchRows):
                 **gapless,
                 "fps": (1e3 / pipelined) if pipelined > 0 else None,
                 **({"still_hair": still} if still is not None else {}),
+                **({"orbit": orbit} if orbit is not None else {}),
                 "gpu_fps": (1e3 / gpu_mean) if gpu_mean else None,
                 "camera_distance_m": float(np.linalg.norm(eye - target)),
                 "lights": len(lights) if lights is not None else 3,
@@ -516,6 +521,23 @@ class Bench(BenchRows):
             return pipelined, time_each(ctx, lambda: r.render(cam, lights), n)[1]
         finally:
             rp.enabled = True
+
+    def _orbit(self, r, cam, lights, n: int) -> dict:
+        """The frame while the camera turns by ORBIT_DEGREES a frame about the target (the
+        cameras made before the clock): the CPU's issue of ``n`` frames each between two finishes
+        and ms a frame over ``n`` back to back, the profiler off."""
+        warm = max(1, n // 4)   # frames turning before the clock (the turning view's plans made once)
+        turn = iter([cam.orbited(ORBIT_DEGREES * (i + 1)) for i in range(warm + 2 * n)])
+        rp = r.profiler
+        rp.enabled = False
+        try:
+            for _ in range(warm):
+                r.render(next(turn), lights)
+            submit = time_each(self.ctx, lambda: r.render(next(turn), lights), n)[1]
+            pipelined = time_pipelined(self.ctx, lambda: r.render(next(turn), lights), n)
+        finally:
+            rp.enabled = True
+        return {"degrees_a_frame": ORBIT_DEGREES, "submit_bare_ms": stats(submit), "pipelined_ms": pipelined}
 
     def _still_hair(self, r, cam, lights, n: int, submit_ms) -> dict:
         """The same frame while the hair, the head and the lights are still, as a user's still
@@ -865,6 +887,11 @@ def _targets(rows: list[dict], mode: str) -> dict:
         summary["still_hair"] = dict(gpu_ms=(still.get("gpu_ms") or {}).get("mean"), pipelined_ms=still["pipelined_ms"],
                                      cpu_submit_bare_ms=still["submit_bare_ms"]["mean"],
                                      cpu_submit_bare_median_ms=still["submit_bare_ms"]["median"], kept=still["kept"])
+    orbit = row.get("orbit")
+    if orbit:   # the same frame, the camera turning (Bench._orbit)
+        summary["orbit"] = dict(cpu_submit_bare_ms=orbit["submit_bare_ms"]["mean"],
+                                cpu_submit_bare_median_ms=orbit["submit_bare_ms"]["median"],
+                                pipelined_ms=orbit["pipelined_ms"])
     if not full:
         out["note"] = (f"not measured in {mode} mode (run without --quick); stand-in {row['name']}: "
                        f"{fmt(v)} ms")
@@ -1032,6 +1059,11 @@ def format_text(result: dict) -> str:
                   f"CPU issue {fmt(t.get('cpu_submit_ms'))} ms ({fmt(t.get('cpu_submit_bare_ms'))} ms without the "
                   f"profiler), pipelined {fmt(t.get('pipelined_ms'))} ms; "
                   f"bound: {t.get('likely_bound', '?')})" if val is not None else f"not measured ({t.get('note', '')})"))
+    ob = t.get("orbit")
+    if ob:
+        out.append(f"the target frame, camera turning {ORBIT_DEGREES} degrees a frame: CPU issue median "
+                   f"{fmt(ob['cpu_submit_bare_median_ms'])} ms (mean {fmt(ob['cpu_submit_bare_ms'])}), "
+                   f"pipelined {fmt(ob['pipelined_ms'])} ms")
     lp = t.get("sim_render_loop") or {}
     if lp.get("cpu_submit_ms"):
         out.append(f"simulate + render ({lp['guides']} guides): CPU issue {fmt(lp['cpu_submit_ms']['mean'])} ms "

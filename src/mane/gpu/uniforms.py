@@ -56,7 +56,8 @@ def forget_uniforms(program) -> None:
 
 
 _PLANS = "_mane_plans"   # on a program: id(values dict) -> [the dict, ((uniform, its __dict__, packed value), ...),
-                         # the program's write count when the dict was last set whole]
+                         # the program's write count when the dict was last set whole]; and the dict's
+                         # names (a tuple) -> their uniforms (None where the program has none)
 _WRITES = "_mane_writes"   # on a program, and on each uniform of its plans: the program's write count, [n]
 MAX_PLANS = 64
 
@@ -76,15 +77,26 @@ def set_uniforms(prog, values: dict, pack=None) -> None:
     writes = d[_WRITES]
     entry = plans.get(id(values))
     if entry is None or entry[0] is not values:
-        pairs = []
-        for name, value in values.items():
-            u = prog.get(name, None)
-            if u is not None:
-                u.__dict__[_WRITES] = writes
-                pairs.append((u, u.__dict__, pack(u, value) if pack is not None else value))
+        # a new dict (a moving camera's View makes one a frame): its names' uniforms are found
+        # once per (program, names) and only its values packed again
+        names = tuple(values)
+        found = plans.get(names)
+        if found is None:
+            found = []
+            for name in names:
+                u = prog.get(name, None)
+                if u is not None:
+                    u.__dict__[_WRITES] = writes
+                found.append(u)
+            found = plans[names] = tuple(found)
+        if pack is None:
+            pairs = tuple((u, u.__dict__, v) for u, v in zip(found, values.values()) if u is not None)
+        else:
+            pairs = tuple((u, u.__dict__, pack(u, v)) for u, v in zip(found, values.values()) if u is not None)
         if len(plans) >= MAX_PLANS:
             plans.clear()
-        entry = plans[id(values)] = [values, tuple(pairs), None]
+            plans[names] = found
+        entry = plans[id(values)] = [values, pairs, None]
     elif entry[2] == writes[0]:
         return
     for u, sent, v in entry[1]:

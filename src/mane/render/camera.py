@@ -21,19 +21,31 @@ def normalize(v) -> np.ndarray:
     return v / n
 
 
+def _unit3(x: float, y: float, z: float, what) -> tuple[float, float, float]:
+    n = math.sqrt(x * x + y * y + z * z)
+    if not n > 0:
+        raise UsageError(f"cannot normalise the zero vector {[float(v) for v in what]}")
+    return x / n, y / n, z / n
+
+
 def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
-    """World -> view (camera looks down -Z, Y up)."""
-    eye, target = np.asarray(eye, float), np.asarray(target, float)
-    f = normalize(target - eye)
-    up = np.asarray(up, float)
-    if abs(np.dot(f, normalize(up))) > 0.999:
-        up = np.array([0.0, 0.0, 1.0]) if abs(f[2]) < 0.9 else np.array([1.0, 0.0, 0.0])
-    s = normalize(np.cross(f, up))
-    u = np.cross(s, f)
-    m = np.eye(4)
-    m[0, :3], m[1, :3], m[2, :3] = s, u, -f
-    m[:3, 3] = -m[:3, :3] @ eye
-    return m
+    """World -> view (camera looks down -Z, Y up). Three-vectors in plain floats: a moving
+    camera makes a view every frame, and NumPy's small-array calls (cross, norm) cost it more
+    than the maths (docs/performance.md, "A moving camera's issue")."""
+    ex, ey, ez = (float(v) for v in eye)
+    tx, ty, tz = (float(v) for v in target)
+    fx, fy, fz = _unit3(tx - ex, ty - ey, tz - ez, (tx - ex, ty - ey, tz - ez))
+    ux, uy, uz = (float(v) for v in up)
+    nx, ny, nz = _unit3(ux, uy, uz, (ux, uy, uz))
+    if abs(fx * nx + fy * ny + fz * nz) > 0.999:
+        ux, uy, uz = (0.0, 0.0, 1.0) if abs(fz) < 0.9 else (1.0, 0.0, 0.0)
+    sx, sy, sz = _unit3(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux,
+                        (fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux))
+    vx, vy, vz = sy * fz - sz * fy, sz * fx - sx * fz, sx * fy - sy * fx
+    return np.array([[sx, sy, sz, -(sx * ex + sy * ey + sz * ez)],
+                     [vx, vy, vz, -(vx * ex + vy * ey + vz * ez)],
+                     [-fx, -fy, -fz, fx * ex + fy * ey + fz * ez],
+                     [0.0, 0.0, 0.0, 1.0]])
 
 
 def perspective(fov_y_deg: float, aspect: float, near: float, far: float) -> np.ndarray:
@@ -93,7 +105,8 @@ class Camera:
 
     @property
     def forward(self) -> np.ndarray:
-        return normalize(np.asarray(self.target, float) - np.asarray(self.eye, float))
+        d = [float(t) - float(e) for t, e in zip(self.target, self.eye)]
+        return np.array(_unit3(*d, d))
 
     def replace(self, **kw) -> "Camera":
         return replace(self, **kw)

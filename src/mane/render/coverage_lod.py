@@ -104,16 +104,21 @@ def depth_complexity(view, size, corners, strands: int, mean_length: float, mean
 
 def _estimate(view, size, corners, strands, mean_length, mean_width, min_width_px):
     w, h = float(size[0]), float(size[1])
-    c = np.c_[np.asarray(corners, float), np.ones(len(corners))] @ np.asarray(view.view_proj, float).T
-    center = np.asarray(corners, float).mean(axis=0)
-    depth = float(np.dot(center - np.asarray(view.eye, float), np.asarray(view.forward, float)))
-    if np.any(c[:, 3] <= 1e-6) or depth <= 1e-6:
+    corners = np.asarray(corners, float)
+    vp = np.asarray(view.view_proj, float)
+    c = corners @ vp[:, :3].T
+    c += vp[:, 3]
+    center = corners.mean(axis=0)
+    eye, fwd = view.eye, view.forward
+    depth = sum((float(center[i]) - float(eye[i])) * float(fwd[i]) for i in range(3))
+    cw = c[:, 3]
+    if not cw.min() > 1e-6 or depth <= 1e-6:
         return float("inf"), True, float("inf")
-    ndc = c[:, :2] / c[:, 3:4]
-    if np.all(ndc[:, 0] < -1) or np.all(ndc[:, 0] > 1) or np.all(ndc[:, 1] < -1) or np.all(ndc[:, 1] > 1):
+    x, y = c[:, 0] / cw, c[:, 1] / cw
+    x0, x1, y0, y1 = float(x.min()), float(x.max()), float(y.min()), float(y.max())
+    if x1 < -1 or x0 > 1 or y1 < -1 or y0 > 1:
         return 0.0, False, 0.0
-    px = (ndc * 0.5 + 0.5) * np.array([w, h])
-    area = float(np.prod(px.max(axis=0) - px.min(axis=0)))
+    area = (x1 - x0) * 0.5 * w * (y1 - y0) * 0.5 * h
     pixel = float(view.pixel_size) * (1.0 if view.ortho else depth)   # world size of a pixel there
     l_px = float(mean_length) / pixel
     w_px = max(float(mean_width) / pixel, float(min_width_px))
