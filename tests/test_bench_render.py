@@ -169,7 +169,7 @@ def test_targets(quick):
 @pytest.mark.slow
 def test_text_output(quick):
     text = render_bench.format_text(quick[0])
-    for title in ("Hunz Fig. 33", "Hunz Fig. 36", "Vulkan: guide strands", "Chen Table 5", "Woodhouse", "target:"):
+    for title in ("Hunz Fig. 33", "Hunz Fig. 36", "Vulkan: guide strands", "Chen Table 5", "Woodhouse", "target:", "camera turning"):
         assert title in text
 
 

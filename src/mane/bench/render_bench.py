@@ -1059,9 +1059,10 @@ def format_text(result: dict) -> str:
                   f"CPU issue {fmt(t.get('cpu_submit_ms'))} ms ({fmt(t.get('cpu_submit_bare_ms'))} ms without the "
                   f"profiler), pipelined {fmt(t.get('pipelined_ms'))} ms; "
                   f"bound: {t.get('likely_bound', '?')})" if val is not None else f"not measured ({t.get('note', '')})"))
-    ob = t.get("orbit")
+    ob = t.get("orbit") or (t.get("stand_in") or {}).get("orbit")
     if ob:
-        out.append(f"the target frame, camera turning {ORBIT_DEGREES} degrees a frame: CPU issue median "
+        which = "the target frame" if t.get("orbit") else "its stand-in"
+        out.append(f"{which}, camera turning {ORBIT_DEGREES} degrees a frame: CPU issue median "
                    f"{fmt(ob['cpu_submit_bare_median_ms'])} ms (mean {fmt(ob['cpu_submit_bare_ms'])}), "
                    f"pipelined {fmt(ob['pipelined_ms'])} ms")
     lp = t.get("sim_render_loop") or {}
