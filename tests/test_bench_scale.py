@@ -337,8 +337,15 @@ def test_cold_launch_environments(tmp_path, monkeypatch):
 
 def test_cold_launches_share_one_new_folder():
     seen = []
-    scale_rows.cold_launches(lambda launch, folder: seen.append((launch, folder, os.listdir(folder))),
+    scale_rows.cold_launches(lambda launch, folder, warm: seen.append((launch, folder, os.listdir(folder), warm)),
                              ("first", "second"))
     assert [s[0] for s in seen] == ["first", "second"] and seen[0][1] == seen[1][1]
     assert seen[0][2] == []              # new and empty
     assert not os.path.exists(seen[0][1])  # removed after
+    assert [s[3] for s in seen] == [False, False]   # no warm-up unless asked
+    seen.clear()   # once per warm-up choice, each round's launches in a folder of their own
+    scale_rows.cold_launches(lambda launch, folder, warm: seen.append((launch, folder, os.listdir(folder), warm)),
+                             ("first", "second"), (False, True))
+    assert [(s[0], s[3]) for s in seen] == [("first", False), ("second", False), ("first", True), ("second", True)]
+    assert seen[0][1] == seen[1][1] and seen[2][1] == seen[3][1] and seen[1][1] != seen[2][1]
+    assert seen[2][2] == []

@@ -435,8 +435,7 @@ class RenderScale:
             if len(b.rows) > n_before and "issue_key" not in b.rows[-1]:
                 b.rows[-1].update(issue_fields("cold_start", None, unit="s"))
 
-        for warm in cfg["cold_warm_up"]:
-            cold_launches(lambda launch, folder: run(launch, folder, warm), cfg["cold_launches"])
+        cold_launches(run, cfg["cold_launches"], cfg["cold_warm_up"])
 
     def run(self) -> None:
         self.closeups()

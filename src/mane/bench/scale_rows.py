@@ -217,12 +217,13 @@ def cold_start(spec: dict, *, timeout: float = 120.0, launch: str = "as_is", fol
     return dict(out, process="a fresh child process", child_wall_s=time.perf_counter() - t)
 
 
-def cold_launches(run, launches) -> None:
-    """``run(launch, folder)`` for each launch in order, the first and second launches sharing one
-    new cache folder (removed after)."""
-    with tempfile.TemporaryDirectory(prefix="mane-cold-") as folder:
-        for launch in launches:
-            run(launch, folder)
+def cold_launches(run, launches, warm_ups=(False,)) -> None:
+    """``run(launch, folder, warm)`` for each launch in order, once per ``warm_ups`` value (each
+    round's first and second launches sharing one new cache folder, removed after)."""
+    for warm in warm_ups:
+        with tempfile.TemporaryDirectory(prefix="mane-cold-") as folder:
+            for launch in launches:
+                run(launch, folder, warm)
 
 
 # --------------------------------------------------------------------------- sim rows
@@ -270,8 +271,7 @@ def sim_rows(bench, colliders) -> None:
         if len(bench.rows) > n_before and "issue_key" not in bench.rows[-1]:
             bench.rows[-1].update(issue_fields("sim_cold_start", None, unit="s"))
 
-    for warm in cfg["cold_warm_up"]:
-        cold_launches(lambda launch, folder: run(launch, folder, warm), cfg["cold_launches"])
+    cold_launches(run, cfg["cold_launches"], cfg["cold_warm_up"])
 
 
 # --------------------------------------------------------------------------- summary and text

@@ -21,10 +21,10 @@ def normalize(v) -> np.ndarray:
     return v / n
 
 
-def _unit3(x: float, y: float, z: float, what) -> tuple[float, float, float]:
+def _unit3(x: float, y: float, z: float) -> tuple[float, float, float]:
     n = math.sqrt(x * x + y * y + z * z)
     if not n > 0:
-        raise UsageError(f"cannot normalise the zero vector {[float(v) for v in what]}")
+        raise UsageError(f"cannot normalise the zero vector {[x, y, z]}")
     return x / n, y / n, z / n
 
 
@@ -34,13 +34,12 @@ def look_at(eye, target, up=(0.0, 1.0, 0.0)) -> np.ndarray:
     than the maths (docs/performance.md, "A moving camera's issue")."""
     ex, ey, ez = (float(v) for v in eye)
     tx, ty, tz = (float(v) for v in target)
-    fx, fy, fz = _unit3(tx - ex, ty - ey, tz - ez, (tx - ex, ty - ey, tz - ez))
+    fx, fy, fz = _unit3(tx - ex, ty - ey, tz - ez)
     ux, uy, uz = (float(v) for v in up)
-    nx, ny, nz = _unit3(ux, uy, uz, (ux, uy, uz))
+    nx, ny, nz = _unit3(ux, uy, uz)
     if abs(fx * nx + fy * ny + fz * nz) > 0.999:
         ux, uy, uz = (0.0, 0.0, 1.0) if abs(fz) < 0.9 else (1.0, 0.0, 0.0)
-    sx, sy, sz = _unit3(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux,
-                        (fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux))
+    sx, sy, sz = _unit3(fy * uz - fz * uy, fz * ux - fx * uz, fx * uy - fy * ux)
     vx, vy, vz = sy * fz - sz * fy, sz * fx - sx * fz, sx * fy - sy * fx
     return np.array([[sx, sy, sz, -(sx * ex + sy * ey + sz * ez)],
                      [vx, vy, vz, -(vx * ex + vy * ey + vz * ez)],
@@ -105,8 +104,7 @@ class Camera:
 
     @property
     def forward(self) -> np.ndarray:
-        d = [float(t) - float(e) for t, e in zip(self.target, self.eye)]
-        return np.array(_unit3(*d, d))
+        return np.array(_unit3(*(float(t) - float(e) for t, e in zip(self.target, self.eye))))
 
     def replace(self, **kw) -> "Camera":
         return replace(self, **kw)
