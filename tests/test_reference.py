@@ -198,6 +198,36 @@ def test_one_black_fibre_matches_chiangs_r_lobe_integrated_over_its_width(mi, tm
     np.testing.assert_allclose(img[..., 0].sum(), img[..., 2].sum(), rtol=1e-3)   # grey: Fresnel only
 
 
+@pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0)],
+                         ids=["behind", "beside", "above_front"])
+def test_a_blond_fibre_lit_from_any_side_has_the_far_field_radiance(mi, toward_light):
+    # The scene's own path (curves, light convention, tilt, melanin) for the lobes that pass
+    # through the fibre: a shadow ray from the visible side of a round tube toward a light
+    # behind it must not be stopped by the tube itself (pbrt draws curves as ribbons for this),
+    # or TT and TRT would be lost. The radiance integrated over the fibre's width is its width x
+    # Chiang's far field f |cos theta_i| E, the NumPy twin (itself checked against Mitsuba's
+    # eval, tests/test_chiang.py); the fibre runs root -> tip along +x, the eye looks down -z.
+    from mane.render.shading.chiang import roughness_from_beta_m
+    from mane.render.shading.melanin import melanin_to_sigma_a
+    from mane.twins import chiang as C
+
+    d, fov, W, H, r, E, tilt = 1.0, 2.0, 64, 64, 1e-3, 1.5, -2.0
+    cam = Camera(eye=(0, 0, d), target=(0, 0, 0), fov_y=fov)
+    sigma = melanin_to_sigma_a(0.3, 0.1)
+    mat = HairMaterial(sigma_a=tuple(sigma), longitudinal_roughness=0.3, azimuthal_roughness=0.3, tilt=tilt, eta=1.55)
+    st = _strand(_line((-0.1, 0, 0), (0.1, 0, 0), 16), 2 * r)
+    img = ref.render(strands=st, camera=cam, lights=[Light("directional", toward_light, (1, 1, 1), E)],
+                     settings=RenderSettings(size=(W, H)), material=mat, spp=128, cache=False)
+    view = 2 * d * math.tan(math.radians(fov) / 2)
+    measured = img.reshape(-1, 3).sum(axis=0) * (view / W) * (view / H) / (view * 2 * r)   # mean radiance on the fibre
+    L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
+    theta_i = math.asin(L[0])                                   # T = +x; V = +z: theta_o = 0
+    phi = math.atan2(L[1], L[2])                                # azimuth of L about the fibre from V
+    expected = E * C.fibre([theta_i], [0.0], [abs(phi)], sigma, roughness=roughness_from_beta_m(0.3),
+                           shift=math.radians(tilt), beta_n=0.3)[0]
+    np.testing.assert_allclose(measured, expected, rtol=0.03)
+
+
 def test_tilt_moves_the_highlight_as_manes_marschner_convention(mi, tmp_path):
     # a vertical fibre, root at the top, seen and lit from the front: theta_i = 0 and
     # sin theta_o = V.T, T root -> tip (down). Mane's R peaks at theta_h = alpha, i.e.
