@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from mane.render.shading import PRESETS, ShadingSettings, evaluate_glsl, hair_preset
-from mane.render.shading.chiang import (azimuthal_table, beta_m_from_roughness, logistic_scale,
+from mane.render.shading.chiang import (azimuthal_table, beta_m_from_roughness, logistic_scale, near_table,
                                         roughness_from_beta_m)
 from mane.render.shading.melanin import fibre_color, melanin_to_sigma_a, sigma_a_to_color
 from mane.twins import chiang as C
@@ -130,6 +130,99 @@ def test_twin_matches_mitsuba_hair_bsdf():
             acc += np.array(bsdf.eval(ctx, si, wo))
         acc /= nh
         np.testing.assert_allclose(acc, ref[k], rtol=0.01, atol=1e-3 * ref.max())
+
+
+def test_near_field_twin_matches_mitsuba_hair_bsdf_at_each_offset():
+    """Chiang's near field, the fibre met at one offset h (pbrt's and Mitsuba's evaluation at a
+    ray's hit), against Mitsuba's ``hair`` eval at that h (taken from the azimuth of its wi, the
+    eye: gamma = asin h past the frame's normal) with the light's azimuth phi past the eye's:
+    the twin's fibre_near(theta_i, theta_o, phi, h) within 0.5 %; with h or phi mirrored it is
+    off by up to 100x (the sign convention the renderer's offset across the fibre follows)."""
+    mi = pytest.importorskip("mitsuba")
+    mi.set_variant("scalar_rgb")
+    beta_m, beta_n, tilt = 0.3, 0.3, 2.0
+    sigma = melanin_to_sigma_a(0.3, 0.1)
+    bsdf = mi.load_dict({"type": "hair", "sigma_a": {"type": "rgb", "value": sigma.tolist()},
+                         "longitudinal_roughness": beta_m, "azimuthal_roughness": beta_n, "scale_tilt": tilt,
+                         "int_ior": 1.55, "ext_ior": 1.0})
+    ctx = mi.BSDFContext()
+    rng = np.random.default_rng(5)
+    n = 24
+    ti, to = rng.uniform(-1.2, 1.2, n), rng.uniform(-1.2, 1.2, n)
+    ph, h = rng.uniform(-math.pi, math.pi, n), rng.uniform(-0.97, 0.97, n)
+    kw = dict(roughness=roughness_from_beta_m(beta_m), shift=math.radians(tilt), beta_n=beta_n)
+    ref = np.zeros((n, 3))
+    for k in range(n):
+        pv = math.pi / 2 + math.asin(h[k])
+        si = mi.SurfaceInteraction3f()
+        si.sh_frame = mi.Frame3f([0, 0, 1])
+        si.wi = mi.Vector3f(math.cos(to[k]) * math.cos(pv), math.sin(to[k]), math.cos(to[k]) * math.sin(pv))
+        pl = pv + ph[k]
+        wo = mi.Vector3f(math.cos(ti[k]) * math.cos(pl), math.sin(ti[k]), math.cos(ti[k]) * math.sin(pl))
+        ref[k] = np.array(bsdf.eval(ctx, si, wo))
+    np.testing.assert_allclose(C.fibre_near(ti, to, ph, h, sigma, **kw), ref, rtol=0.005, atol=1e-4 * ref.max())
+    mirrored = C.fibre_near(ti, to, ph, -h, sigma, **kw)
+    assert np.abs(mirrored - ref).max() > 0.3 * ref.max()
+
+
+def test_near_table_is_the_running_integral_of_the_far_fields_table():
+    """chiang.near_table: layer 0 zero, non-decreasing in h (the integrand is >= 0), the last
+    layer the far field's table on the same grid, and a middle layer the twin's integral from
+    -1 to h (steps of gamma) within 0.5 % of the far field."""
+    sigma = melanin_to_sigma_a(1.3, 0.2)
+    c = near_table(sigma, n_phi=16, n_theta=8, bins=8, n_h=256)
+    far = azimuthal_table(sigma, n_phi=16, n_theta=8, n_h=256)
+    assert c.shape == (9, 8, 48, 4)
+    assert not c[0].any()
+    assert (np.diff(c, axis=0) >= -1e-7).all()
+    np.testing.assert_allclose(c[-1], far, rtol=1e-5, atol=1e-7)
+    # layer 2 of 8: gamma = -pi/2 + 2 pi / 8, h = sin(gamma); tile 1 (TRT) at phi_j, theta_k
+    g_end = -math.pi / 2 + 2 * math.pi / 8
+    j, k = 5, 3
+    phi, theta = math.pi * j / 15, (math.pi / 2) * k / 7
+    gs = -math.pi / 2 + (np.arange(4000) + 0.5) * (g_end + math.pi / 2) / 4000
+    A, gamma_t = C.attenuation(np.full(gs.shape, math.cos(theta)), np.full(gs.shape, math.sin(theta)), np.sin(gs),
+                               sigma, 1.55)
+    n_trt = C.n_p(np.full(gs.shape, phi), 2, C.logistic_scale(0.3), gs, gamma_t)
+    integral = 0.5 * ((A[2] * (n_trt * np.cos(gs))[:, None]).sum(axis=0) * (g_end + math.pi / 2) / 4000)
+    np.testing.assert_allclose(c[2, k, 16 + j, :3], integral, rtol=0.005, atol=0.005 * far[k, 16 + j, :3].max())
+
+
+@pytest.mark.gpu
+@pytest.mark.parametrize("case", ["brown", "blond", "rough_untilted"])
+def test_chiang_near_field_glsl_matches_twin(gl, case):
+    """hair_bsdf's near field (harness.comp: hair_near_h, hair_near_dh) against the twin:
+    the fibre at h (a footprint under HAIR_NEAR_MIN_DH) within 0.1 % of the peak; its mean over
+    h +- footprint / 2 from the running integral's table against the twin's steps of gamma
+    within 2 % on average (the table's 64 x 32 x 65 grid); a footprint of 2 or more is the
+    far field, bit for bit."""
+    rng = np.random.default_rng(11)
+    T, V, L = _unit(rng, N), _unit(rng, N), _unit(rng, N)
+    h = rng.uniform(-1.0, 1.0, N)
+    s = ShadingSettings(model="chiang", multiple_scattering="none", near_field=True, **CASES[case])
+    Td, Vd, Ld = T.astype(float), V.astype(float), L.astype(float)
+    sin_i, sin_o = np.sum(Td * Ld, 1), np.sum(Td * Vd, 1)
+    lp, vp = Ld - sin_i[:, None] * Td, Vd - sin_o[:, None] * Td
+    phi = np.arctan2(-np.sum(lp * np.cross(Td, Vd), 1), np.sum(lp * vp, 1))   # L's azimuth past V about -T
+    args = (np.arcsin(sin_i), np.arcsin(sin_o), phi)
+    kw = dict(roughness=s.roughness, shift=s.shift, beta_n=s.beta_n)
+    sigma = s.resolved_sigma_a()
+    point = evaluate_glsl(gl, s, T, V, L, h=h, footprint=0.0)
+    r = C.fibre_near(*args, h, sigma, **kw)
+    assert np.abs(point - r).max() <= 1e-3 * r.max()
+    for footprint in (0.2, 0.6, 1.2):
+        g = evaluate_glsl(gl, s, T, V, L, h=h, footprint=footprint)
+        h0, h1 = np.maximum(h - footprint / 2, -1.0), np.minimum(h + footprint / 2, 1.0)
+        g0, g1 = np.arcsin(h0), np.arcsin(h1)
+        mean = 0.0
+        for k in range(200):
+            gk = g0 + (g1 - g0) * (k + 0.5) / 200
+            mean = mean + C.fibre_near(*args, np.sin(gk), sigma, **kw) * (np.cos(gk) * (g1 - g0) / 200)[:, None]
+        mean /= (h1 - h0)[:, None]
+        assert np.isfinite(g).all() and (g >= 0).all()
+        assert np.abs(g - mean).mean() <= 0.02 * mean.mean(), footprint
+    far = evaluate_glsl(gl, s, T, V, L)
+    np.testing.assert_array_equal(evaluate_glsl(gl, s, T, V, L, h=h, footprint=2.0), far)
 
 
 def test_roughness_beta_m_mapping():

@@ -1,12 +1,15 @@
-"""One fibre drawn by the real-time renderer has Chiang's far-field radiance, lit from any side.
+"""One fibre drawn by the real-time renderer has Chiang's radiance, lit from any side.
 
 The golden value is the NumPy twin of Chiang 2016 (mane.twins.chiang, itself checked against
 Mitsuba's hair BSDF in tests/test_chiang.py), not the renderer's tables: the picture's radiance
 over the pixels the fibre covers (RGB premultiplied, divided by the coverage) is f |cos theta_i| E
-at the fibre's angles, and the coverage integrated across the fibre is its width. The path
-tracer's fibre meets the same golden value (tests/test_reference.py). This checks the whole frame (the renderer's tangent, view and light vectors, the tilt's
-sign along root -> tip, the tables' look-up, the fibre's coverage) on both rasterisers, with
-the light behind the fibre (TT), beside it and in front, each off the fibre's normal plane.
+at the fibre's angles, and the coverage integrated across the fibre is its width; with the near
+field on, each pixel of a wide fibre is the twin's near field averaged over the part of the width
+the pixel covers. The path tracer's fibre meets the same golden values (tests/test_reference.py).
+This checks the whole frame (the renderer's tangent, view and light vectors, the tilt's sign
+along root -> tip, the tables' look-up, the offset across the fibre, the coverage) on both
+rasterisers, with the light behind the fibre (TT), beside it and in front, each off the fibre's
+normal plane.
 """
 from __future__ import annotations
 
@@ -32,13 +35,15 @@ ROUGHNESS, SHIFT = math.radians(7.5), math.radians(-5.0)
 @pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0)],
                          ids=["behind", "beside", "above_front"])
 def test_one_fibre_has_chiangs_far_field_radiance(gl, rasterizer, toward_light):
-    # a straight guide across a 2-degree view from +z (theta_o = 0 within 1 degree), root first,
+    # the far field (near_field off): a straight guide across a 2-degree view from +z (theta_o =
+    # 0 within 1 degree), root first,
     # 3 degrees off the rows so that its edges cross the pixels' samples at every offset
     T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])
     groom = Groom((np.linspace(-0.1, 0.1, 16)[:, None] * T).astype(np.float32), np.array([16], np.int32))
     settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=WIDTH, width_tip=1.0,
                               shading="chiang", shading_options={"melanin": MELANIN, "multiple_scattering": "none",
-                                                                 "roughness": ROUGHNESS, "shift": SHIFT},
+                                                                 "roughness": ROUGHNESS, "shift": SHIFT,
+                                                                 "near_field": False},
                               shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
                               exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer, accumulate=8)
     cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
@@ -56,3 +61,73 @@ def test_one_fibre_has_chiangs_far_field_radiance(gl, rasterizer, toward_light):
     expected = E * C.fibre([math.asin(L @ T)], [math.asin(V @ T)], [phi], melanin_to_sigma_a(*MELANIN),
                            roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3)[0]
     np.testing.assert_allclose(radiance, expected, rtol=0.01)
+
+
+def _pixel_means(img, T, L, width):
+    """(the picture's radiance per coverage, the twin's) at the pixels well inside a fibre
+    through the origin along T seen from +z. The twin: Chiang's near field averaged over the
+    part of the fibre's width one pixel covers (ShadingSettings.near_field: h +- 1 / width in
+    pixels, h along cross(T, V)) at the pixel's centre."""
+    view = 2 * D * math.tan(math.radians(FOV) / 2)
+    px = view / SIZE
+    rows, cols = np.indices((SIZE, SIZE))
+    X, Y = (cols + 0.5 - SIZE / 2) * px, (SIZE / 2 - rows - 0.5) * px     # the plane z = 0, top row first
+    side = np.cross(T, [0.0, 0.0, 1.0])[:2]
+    side /= np.linalg.norm(side)
+    half = width / 2
+    inside = (np.abs(X * side[0] + Y * side[1]) < 0.85 * half) & (cols >= SIZE // 4) & (cols < 3 * SIZE // 4)
+    dh = 2.0 * px / width
+    sigma = melanin_to_sigma_a(*MELANIN)
+    Xs, Ys = X[inside], Y[inside]
+    P = np.stack([Xs, Ys, np.zeros_like(Xs)], -1)
+    V = np.array([0.0, 0.0, D]) - P
+    V /= np.linalg.norm(V, axis=1, keepdims=True)
+    lp = L - (L @ T) * T
+    vp = V - (V @ T)[:, None] * T
+    phi = np.arctan2(-(np.cross(T, V) @ lp), vp @ lp)
+    h = (Xs * side[0] + Ys * side[1]) / half
+    g0, g1 = np.arcsin(np.maximum(h - dh / 2, -1.0)), np.arcsin(np.minimum(h + dh / 2, 1.0))
+    mean = 0.0
+    for k in range(16):   # the mean over h in [h0, h1], by steps of gamma = asin h
+        g = g0 + (g1 - g0) * (k + 0.5) / 16
+        mean = mean + C.fibre_near(np.full(len(h), math.asin(L @ T)), np.arcsin(V @ T), phi, np.sin(g), sigma,
+                                   roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3) * (np.cos(g) * (g1 - g0) / 16)[:, None]
+    expected = E * mean / (np.sin(g1) - np.sin(g0))[:, None]
+    got = img[..., :3][inside] / np.maximum(img[..., 3][inside], 1e-6)[:, None]
+    return got, expected
+
+
+@pytest.mark.parametrize("rasterizer", ["hardware", "compute"])
+@pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0), (0.0, -0.5, 1.0)],
+                         ids=["behind", "beside", "above_front", "below_front"])
+@pytest.mark.parametrize("pixels", [3, 16])
+def test_a_wide_fibre_shows_the_near_field_each_pixel_covers(gl, rasterizer, toward_light, pixels):
+    # A fibre 3 or 16 px wide: each pixel shows the mean of Chiang's fibre over the part of its
+    # width the pixel covers (ShadingSettings.near_field), as the path tracer's pixel does; a
+    # frame of its own, whose shading window is the pixel on both rasterisers (a still picture's
+    # frames move it by their sub-pixel offsets). The far field (the mean over the whole width)
+    # is 0.4-1.6 off per pixel here, and the near field with h mirrored 1.1-1.9.
+    T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])
+    width = pixels * 2 * D * math.tan(math.radians(FOV) / 2) / SIZE
+    groom = Groom((np.linspace(-0.1, 0.1, 16)[:, None] * T).astype(np.float32), np.array([16], np.int32))
+    settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=width, width_tip=1.0,
+                              shading="chiang", shading_options={"melanin": MELANIN, "multiple_scattering": "none",
+                                                                 "roughness": ROUGHNESS, "shift": SHIFT,
+                                                                 "near_field": True},
+                              shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
+                              exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer,
+                              accumulate=1)
+    L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
+    cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
+    img, _ = still_picture(gl, settings, groom, None, cam, [Light("directional", toward_light, (1, 1, 1), E)])
+    got, expected = _pixel_means(img, T, L, width)
+    per_pixel = np.abs(got - expected).sum() / expected.sum()
+    assert per_pixel < 0.04, per_pixel
+    # the pixels' windows tile the fibre: its light over all the pixels it covers is the far field's
+    # (within the edge pixels' coverage, 4 samples in one frame)
+    middle = img[:, SIZE // 4:3 * SIZE // 4]
+    lp, vp = L - (L @ T) * T, np.array([0.0, 0.0, 1.0]) - T[2] * T
+    far = E * C.fibre([math.asin(L @ T)], [0.0], [math.acos(lp @ vp / np.linalg.norm(lp) / np.linalg.norm(vp))],
+                      melanin_to_sigma_a(*MELANIN), roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3)[0]
+    np.testing.assert_allclose(middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum(), far,
+                               rtol=0.05 if pixels < 8 else 0.02)

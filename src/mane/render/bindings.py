@@ -98,6 +98,7 @@ TEX_LUT_DUAL = 7          # the shading model's tables (shading/__init__.py)
 TEX_LUT_M = 24
 TEX_LUT_N = 25
 TEX_LUT_CHIANG = 26
+TEX_LUT_CHIANG_NEAR = 24   # Chiang's near-field table (the Marschner LUT's unit: never in one program)
 TEX_RSM_FLUX = 27           # the skin's reflective shadow map (passes/skin_bounce.py)
 TEX_RSM_GEOM = 28
 TEX_RSM_DOM = 29

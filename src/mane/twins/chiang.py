@@ -135,25 +135,31 @@ def tilted(sin_o, cos_o, alpha, p):
 def fibre(theta_i, theta_o, phi, sigma_a, *, roughness, shift, beta_n, eta=1.55, n_h=256, lobes=False):
     """f |cos| (..., 3) at angles (arrays of one shape), averaged over n_h midpoint offsets h.
     With ``lobes=True`` the four lobes separately, (4, ..., 3)."""
+    hs = -1.0 + (np.arange(n_h) + 0.5) * (2.0 / n_h)
+    out = sum(fibre_near(theta_i, theta_o, phi, h, sigma_a, roughness=roughness, shift=shift, beta_n=beta_n, eta=eta,
+                         lobes=True) for h in hs) / n_h
+    return out if lobes else out.sum(axis=0)
+
+
+def fibre_near(theta_i, theta_o, phi, h, sigma_a, *, roughness, shift, beta_n, eta=1.55, lobes=False):
+    """The near field: f |cos| (..., 3) of the fibre met at offset h in [-1, 1] (pbrt's and
+    Mitsuba's evaluation at a ray's hit), phi = phi_i - phi_o signed in (-pi, pi]; its mean over
+    h is ``fibre``. With ``lobes=True`` the four lobes, (4, ..., 3)."""
     ti, to, ph = np.broadcast_arrays(np.asarray(theta_i, np.float64), np.asarray(theta_o, np.float64),
                                      np.asarray(phi, np.float64))
+    h = np.broadcast_to(np.asarray(h, np.float64), ti.shape)
     sin_i, cos_i = np.sin(ti), np.cos(ti)
     sin_o, cos_o = np.sin(to), np.cos(to)
     v = variances(roughness)
     s = logistic_scale(beta_n)
-    M = []
+    A, gamma_t = attenuation(cos_o, sin_o, h, sigma_a, eta)
+    gamma_o = np.arcsin(np.clip(h, -1.0, 1.0))
+    out = np.zeros((4,) + ti.shape + (3,))
     for p in range(4):
         so, co = tilted(sin_o, cos_o, shift, p)
-        M.append(mp(cos_i, co, sin_i, so, v[p]))
-    out = np.zeros((4,) + ti.shape + (3,))
-    hs = -1.0 + (np.arange(n_h) + 0.5) * (2.0 / n_h)
-    for h in hs:
-        A, gamma_t = attenuation(cos_o, sin_o, np.full_like(to, h), sigma_a, eta)
-        gamma_o = math.asin(h)
-        for p in range(3):
-            out[p] += (M[p] * n_p(ph, p, s, gamma_o, gamma_t))[..., None] * A[p]
-        out[3] += (M[3] / (2.0 * math.pi))[..., None] * A[3]
-    out /= n_h
+        m = mp(cos_i, co, sin_i, so, v[p])
+        n = n_p(ph, p, s, gamma_o, gamma_t) if p < 3 else 1.0 / (2.0 * math.pi)
+        out[p] = (m * n)[..., None] * A[p]
     return out if lobes else out.sum(axis=0)
 
 

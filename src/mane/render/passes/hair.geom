@@ -37,6 +37,8 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
+out float g_across;           // -1 .. 1 across the drawn ribbon along cross(T, V): the near field's h
+out float g_width_px;         // the strand's true width in pixels (before widening)
 flat out int g_strand;        // the rendered strand (the MSAA coverage mask's seed)
 invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
 
@@ -50,6 +52,7 @@ void main() {
     if (e_lod_alpha[0] <= 0.0 && e_lod_alpha[1] <= 0.0) return;   // LOD: dropped strand
     vec3 corner[4];
     float alpha[2];
+    float width_px[2];
 #if VERTEX_SHADOWS
     vec4 vis[2] = vec4[2](light_visibilities(e_pos[0]), light_visibilities(e_pos[1]));
 #endif
@@ -63,6 +66,7 @@ void main() {
         float depth = max(dot(P - u_eye, u_view_dir), 1e-4);
         float pixel = u_ortho != 0 ? u_pixel_size : u_pixel_size * depth;
         float w = e_width[i];
+        width_px[i] = w / pixel;
         float a = 1.0;
         float wmin = u_min_pixel_width * pixel;
         if (w < wmin) { a = w / wmin; w = wmin; }
@@ -86,18 +90,22 @@ void main() {
         g_s = e_s[i];
         g_rand = e_rand[i];
         g_alpha = alpha[i];
+        g_width_px = width_px[i];
         g_strand = int(e_id[0]);
 #if VERTEX_SHADOWS
         g_vis = vis[i];
 #endif
 #if GEOMETRY_LINES
         g_pos = e_pos[i];
+        g_across = 0.0;
+        g_width_px = 0.0;   // a line: no near field
         g_depth = dot(g_pos - u_eye, u_view_dir);
         gl_Position = u_view_proj * vec4(g_pos, 1.0);
         EmitVertex();
 #else
         for (int j = 0; j < 2; ++j) {
             g_pos = corner[2 * i + j];
+            g_across = j == 0 ? -1.0 : 1.0;
             g_depth = dot(g_pos - u_eye, u_view_dir);
             gl_Position = u_view_proj * vec4(g_pos, 1.0);
             EmitVertex();

@@ -12,6 +12,8 @@ centroid in float g_s;
 in float g_rand;
 in float g_alpha;
 centroid in float g_depth;
+centroid in float g_across;    // the near field's h (hair_shading.glsl's hair_set_near)
+in float g_width_px;
 flat in int g_strand;          // the rendered strand (coverage_mask.glsl)
 
 uniform vec3 u_eye;
@@ -38,6 +40,9 @@ layout(location = 0) out vec4 frag_opacity;
 
 void main() {
 #if PASS == 0
+    // the near field's window is the pixel (its centre, not the covered samples' centroid: the
+    // windows of a fibre's pixels then tile its width)
+    hair_set_near(interpolateAtOffset(g_across, vec2(0.0)), g_width_px);
     vec3 color = hair_radiance(g_pos, normalize(g_tangent), u_eye, g_s, g_rand);
 #if SAMPLE_MASK   // MSAA: each sample covered with probability g_alpha, covered samples opaque
     gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));

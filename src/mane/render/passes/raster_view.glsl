@@ -50,3 +50,18 @@ float raster_param(RasterPoint a, RasterPoint b, vec2 q) {
     float ib = ts * b.inv_w;
     return ib / max((1.0 - ts) * a.inv_w + ib, 1e-20);
 }
+
+// The near field's inputs at q (sample units; the pixel's centre) on segment a-b (hair_shading.glsl's hair_set_near):
+// (h, the strand's true width in pixels), h the signed offset from the segment's axis on screen
+// over its drawn half width, along the screen image of cross(T, V) (the hardware ribbon's
+// g_across: with x right, y up and V out of the screen, cross(T, V) is T's image turned
+// clockwise), interpolated at the screen parameter as hair.geom's varyings are.
+vec2 raster_across(RasterPoint a, RasterPoint b, vec2 q) {
+    vec2 d = b.s - a.s;
+    float len2 = dot(d, d);
+    float ts = clamp(dot(q - a.s, d) / max(len2, 1e-12), 0.0, 1.0);
+    vec2 r = q - a.s;
+    float h = (r.x * d.y - r.y * d.x) * inversesqrt(max(len2, 1e-12)) / max(mix(a.half_width, b.half_width, ts), 1e-6);
+    float width_px = 2.0 * mix(a.half_width * a.coverage, b.half_width * b.coverage, ts) / float(u_grid);
+    return vec2(h, width_px);
+}

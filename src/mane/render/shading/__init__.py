@@ -51,8 +51,9 @@ from moderngl import InvalidObject
 
 from ...gpu.uniforms import set_uniforms, write_uniform
 from ...phases import phase
-from ..bindings import B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_DUAL, TEX_LUT_M, TEX_LUT_N
-from . import kajiya_kay, sadeghi, scheuermann
+from ..bindings import (B_HARNESS_RESULTS, B_HARNESS_SAMPLES, TEX_LUT_CHIANG, TEX_LUT_CHIANG_NEAR, TEX_LUT_DUAL,
+                        TEX_LUT_M, TEX_LUT_N)
+from . import chiang, kajiya_kay, sadeghi, scheuermann
 from .melanin import (  # noqa: F401
     MELANIN_MAX,
     PRESETS,
@@ -106,6 +107,7 @@ LUT_UNIT_M = TEX_LUT_M
 LUT_UNIT_N = TEX_LUT_N
 LUT_UNIT_DUAL = TEX_LUT_DUAL
 LUT_UNIT_CHIANG = TEX_LUT_CHIANG
+LUT_UNIT_CHIANG_NEAR = TEX_LUT_CHIANG_NEAR
 TEXTURES_PER_CONTEXT = 16   # of each kind of table
 
 
@@ -147,6 +149,14 @@ class ShadingSettings:
     beta_n          Chiang's azimuthal roughness (0..1; pbrt's and Mitsuba's default 0.3)
     chiang_size     Chiang table resolution: theta_o texels (phi: twice as many)
     multiple_scattering  "auto", "none", "karis" or "dual"
+    near_field      Chiang's fibre: True shades a fibre wider than a pixel, in each pixel, as
+                    the mean over the part of its width the pixel covers (the near field, which
+                    pbrt and Mitsuba evaluate at each ray's hit; a table of its running
+                    integral over the offset h, chiang.near_table), so a wide fibre shows its
+                    highlights where they lie across it, as the path tracer does; a fibre
+                    under a pixel wide gets the mean over its whole width, the far field.
+                    False (the default until its cost on a GPU is measured: the default
+                    strands are 1-3 px wide in issue 14's close-ups): the far field everywhere
     lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
     dual_density_front  Zinke's d_f (forward-scattering density factor; the paper's 0.6-0.8
                     discounted counting every occluder as a fibre met; with the Poisson count
@@ -184,6 +194,7 @@ class ShadingSettings:
     beta_n: float = 0.3
     chiang_size: int = 64
     multiple_scattering: str = "auto"
+    near_field: bool = False
     lut_size: int = 256
     dual_density_front: float = 1.0
     dual_density_back: float = 1.0
@@ -316,7 +327,14 @@ class ShadingSettings:
             "HAIR_DUAL_DB": _glsl_float(self.dual_density_back),
             "HAIR_DUAL_MAX_HAIRS": _glsl_float(self.dual_max_hairs),
             **({NORM_DEFINES[self.model]: _glsl_float(self.model_norm)} if self.model in NORM_DEFINES else {}),
+            **({"HAIR_NEAR_FIELD": 1, "HAIR_CHIANG_S": _glsl_float(chiang.logistic_scale(self.beta_n))}
+               if self.near else {}),
         }
+
+    @property
+    def near(self) -> bool:
+        """Whether hair_bsdf has Chiang's near field (``near_field`` with the Chiang model)."""
+        return self.model == "chiang" and bool(self.near_field)
 
     @property
     def _fibre(self) -> tuple:
@@ -449,6 +467,9 @@ class ShadingSettings:
             if self.model == "chiang":
                 textures.append((chiang_texture(ctx, self), LUT_UNIT_CHIANG))
                 values["hair_chiang_n"] = LUT_UNIT_CHIANG
+            if self.near:
+                textures.append((chiang_near_texture(ctx, self), LUT_UNIT_CHIANG_NEAR))
+                values["hair_chiang_c"] = LUT_UNIT_CHIANG_NEAR
             if self.ms_mode == MULTIPLE_SCATTERING["dual"]:
                 textures.append((dual_lut_texture(ctx, self), unit_dual))
                 values["hair_dual_lut"] = unit_dual
@@ -504,7 +525,18 @@ def _build_chiang_table(key: tuple) -> np.ndarray:
     return azimuthal_table(np.asarray(sigma_a, np.float64), eta=eta, beta_n=beta_n, n_phi=2 * size, n_theta=size)
 
 
+@functools.lru_cache(maxsize=4)
+def _chiang_near_table(key: tuple) -> np.ndarray:
+    """``chiang.near_table`` of ``chiang_key()``, in memory only: its NumPy (~0.02 s) costs less
+    than reading its 3.2 MB, and a data set's material per sample must not fill a disk."""
+    from .chiang import near_table
+
+    sigma_a, eta, beta_n, _ = key
+    return near_table(np.asarray(sigma_a, np.float64), eta=eta, beta_n=beta_n)
+
+
 _chiang_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
+_chiang_near_cache: "weakref.WeakKeyDictionary" = weakref.WeakKeyDictionary()
 
 
 def _table_texture(ctx, caches, key, make):
@@ -518,8 +550,12 @@ def _table_texture(ctx, caches, key, make):
         cache.move_to_end(key)
         return cache[key]
     data = make()
-    tex = ctx.texture((data.shape[1], data.shape[0]), 4, np.ascontiguousarray(data, np.float32).tobytes(),
-                      dtype="f4")
+    raw = np.ascontiguousarray(data, np.float32).tobytes()
+    if data.ndim == 4:   # (layers, rows, columns, 4): a 3D texture
+        tex = ctx.texture3d((data.shape[2], data.shape[1], data.shape[0]), 4, raw, dtype="f4")
+        tex.repeat_z = False
+    else:
+        tex = ctx.texture((data.shape[1], data.shape[0]), 4, raw, dtype="f4")
     tex.repeat_x = tex.repeat_y = False
     tex.filter = (moderngl.LINEAR, moderngl.LINEAR)
     cache[key] = tex
@@ -532,6 +568,14 @@ def chiang_texture(ctx, settings: ShadingSettings):
     """The ``hair_chiang_n`` texture: (6 chiang_size x chiang_size) RGBA32F; cached per context
     and ``settings.chiang_key()``."""
     return _table_texture(ctx, _chiang_cache, (settings.tables,) + settings.chiang_key(), settings.chiang_table)
+
+
+def chiang_near_texture(ctx, settings: ShadingSettings):
+    """The ``hair_chiang_c`` texture (``chiang.near_table``: 192 x 32 x 33 RGBA32F, 3.2 MB), built
+    for the material whatever ``settings.tables`` (its NumPy costs ~0.02 s); cached per context
+    and ``settings.chiang_key()``."""
+    key = settings.chiang_key()
+    return _table_texture(ctx, _chiang_near_cache, key, lambda: _chiang_near_table(key))
 
 
 @functools.lru_cache(maxsize=32)
@@ -584,9 +628,13 @@ def lut_textures(ctx, settings: ShadingSettings):
 
 
 def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingSettings | None = None,
-                  *, strand_rand=None, transmittance=None, multiple: bool = False) -> np.ndarray:
+                  *, strand_rand=None, transmittance=None, multiple: bool = False, h=None,
+                  footprint: float = 0.0) -> np.ndarray:
     """Run hair_bsdf (or, ``multiple=True``, hair_multiple_scattering) in a compute shader
-    (harness.comp) on N rows of unit T, V, L; returns (N, 3) float32.
+    (harness.comp) on N rows of unit T, V, L; returns (N, 3) float32. ``h``: Chiang's near
+    field (``near_field`` on; the other models ignore it) at these offsets across the fibre
+    (-1 .. 1 along cross(T, V)): its mean over h +- ``footprint`` / 2 (clipped to the fibre), or
+    under chiang.glsl's HAIR_NEAR_MIN_DH the fibre at h.
 
     ``model`` names the model (overriding settings.model) or is the settings itself.
     """
@@ -608,6 +656,8 @@ def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingS
     data[:, 0, :3], data[:, 0, 3] = T, rand
     data[:, 1, :3], data[:, 1, 3] = V, trans
     data[:, 2, :3] = L
+    if h is not None:
+        data[:, 2, 3] = np.broadcast_to(np.asarray(h, np.float32), (n,))
     shader = compute_shader(ctx, HARNESS_COMP, defines=settings.defines())
     src = ctx.buffer(data.tobytes())
     dst = ctx.buffer(reserve=max(n, 1) * 32)
@@ -616,6 +666,9 @@ def evaluate_glsl(ctx, model: str | ShadingSettings, T, V, L, settings: ShadingS
         dst.bind_to_storage_buffer(B_HARNESS_RESULTS)
         settings.bind(shader, ctx)
         write_uniform(shader["u_count"], n)
+        if "u_near" in shader:
+            write_uniform(shader["u_near"], int(h is not None))
+            write_uniform(shader["u_near_dh"], float(footprint))
         shader.run((n + 63) // 64)
         ctx.memory_barrier()
         out = np.frombuffer(dst.read(), np.float32).reshape(-1, 2, 4)[:n]

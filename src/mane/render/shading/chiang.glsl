@@ -11,6 +11,10 @@
 // tile 0 = (TT.rgb, R), 1 = (TRT.rgb, 0), 2 = (TRRT+.rgb, 0)); it bakes sigma_a, eta and beta_n.
 // ALU: angles ~40 (1 atan for phi, 1 atan for theta_o), 4 M_p ~25 each (exp, log or a 10-term
 // series), 3 bilinear fetches: ~150 ALU + 3 tex, under half the analytic Marschner.
+// HAIR_NEAR_FIELD (ShadingSettings.near_field): where the drawing code says a pixel covers less
+// than the whole fibre (hair_set_near), Nbar_p is the mean over that part of the width from the
+// running integral's 3D table hair_chiang_c (chiang.near_table): 6 trilinear fetches, 2 asin and
+// a signed azimuth instead of the 3 fetches; past HAIR_NEAR_MIN_DH, the fibre at the pixel's h.
 #ifndef MANE_HAIR_CHIANG_GLSL
 #define MANE_HAIR_CHIANG_GLSL
 #if HAIR_MODEL == HAIR_MODEL_CHIANG
@@ -42,6 +46,81 @@ float hair_chiang_mp(float cos_i, float cos_o, float sin_i, float sin_o, float v
     return exp(-b) * hair_chiang_i0(a) / (v * (e - 1.0 / e));
 }
 
+#if HAIR_NEAR_FIELD
+#ifndef HAIR_CHIANG_S
+#define HAIR_CHIANG_S 0.3   // the azimuthal logistic's scale s (eq. 12; ShadingSettings.defines)
+#endif
+// the footprint (in h) under which the fibre is evaluated at its centre rather than averaged
+// from the table (about one step of the table's gamma grid near h = 0)
+#define HAIR_NEAR_MIN_DH 0.1
+
+uniform sampler3D hair_chiang_c;   // chiang.near_table: 1/2 int_{-1}^{h} A_p N_p dh per tile
+
+// The azimuth of L from V about -T, signed: its sine along -cross(T, V). A fibre met at
+// h = sin(gamma_o) reflects R from phi = -2 gamma_o (pbrt's and Mitsuba's phi_i - phi_o with h
+// along cross(T, V): tests/test_chiang.py, tests/test_reference.py).
+float hair_chiang_signed_phi(HairAngles an, vec3 T, vec3 V, vec3 L) {
+    vec3 vp = V - an.sin_o * T;
+    vec3 lp = L - an.sin_i * T;
+    return atan(-dot(lp, cross(T, V)), dot(lp, vp));   // |cross(T, V)| = |vp|: one scale on both
+}
+
+// The trimmed logistic of Chiang eq. 11 at x in [-pi, pi], scale s.
+float hair_chiang_logistic(float x, float s) {
+    float e = exp(-abs(x) / s);
+    float norm = 1.0 / (1.0 + exp(-PI / s)) - 1.0 / (1.0 + exp(PI / s));
+    return e / (s * (1.0 + e) * (1.0 + e) * norm);
+}
+
+// The fibre met at offset h (pbrt's and Mitsuba's evaluation at a ray's hit: twins/chiang.py
+// fibre_near): A_p(h) N_p(phi - Phi(p, h)) with the lobes' M_p given (mp: R, TT, TRT, TRRT+).
+vec3 hair_chiang_at(HairAngles an, float phi, HairMaterial m, vec4 mp, float h) {
+    float cos_o = max(an.cos_o, 1e-4);
+    float f = hair_fresnel(m.eta, m.eta, cos_o * sqrt(max(0.0, 1.0 - h * h)));
+    float sin_t = an.sin_o / m.eta;
+    float cos_t = sqrt(max(0.0, 1.0 - sin_t * sin_t));
+    float etap = sqrt(max(0.0, m.eta * m.eta - an.sin_o * an.sin_o)) / cos_o;
+    float sin_gt = h / etap;
+    float cos_gt = sqrt(max(0.0, 1.0 - sin_gt * sin_gt));
+    float gamma_o = hair_asin(h), gamma_t = hair_asin(sin_gt);
+    vec3 tr = exp(-m.sigma_a * (2.0 * cos_gt / max(cos_t, 1e-4)));
+    vec3 a1 = (1.0 - f) * (1.0 - f) * tr;
+    vec3 a2 = a1 * tr * f;
+    vec3 a3 = a2 * f * tr / max(vec3(1.0) - tr * f, vec3(1e-6));
+    vec3 n;
+    for (int p = 0; p < 3; ++p) {
+        float x = phi - (2.0 * float(p) * gamma_t - 2.0 * gamma_o + float(p) * PI);
+        x -= TWO_PI * floor((x + PI) / TWO_PI);   // to [-pi, pi)
+        n[p] = hair_chiang_logistic(x, HAIR_CHIANG_S);
+    }
+    return vec3(m.specular * mp.x * f * n.x) + mp.y * n.y * a1 + mp.z * n.z * a2 + (mp.w * 0.5 * INV_PI) * a3;
+}
+
+// The table's tiles averaged over h in [h0, h1] (phi >= 0; a negative phi is the mirrored
+// range, N_p(-phi, h) = N_p(phi, -h)): 2 (C(h1) - C(h0)) / (h1 - h0), C linear between the
+// table's gamma layers. n0 = (TT.rgb, R), n1 = TRT, n3 = TRRT+, as the far field's table.
+void hair_chiang_mean(float phi, float theta_o, float h0, float h1, out vec4 n0, out vec3 n1, out vec3 n3) {
+    if (phi < 0.0) {
+        float t = h0;
+        h0 = -h1;
+        h1 = -t;
+        phi = -phi;
+    }
+    vec3 size = vec3(textureSize(hair_chiang_c, 0));
+    float n_phi = size.x / 3.0;
+    float u = (clamp(phi * INV_PI, 0.0, 1.0) * (n_phi - 1.0) + 0.5) / size.x;
+    float w = (clamp(abs(theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size.y - 1.0) + 0.5) / size.y;
+    float z0 = ((hair_asin(h0) + HALF_PI) * INV_PI * (size.z - 1.0) + 0.5) / size.z;
+    float z1 = ((hair_asin(h1) + HALF_PI) * INV_PI * (size.z - 1.0) + 0.5) / size.z;
+    float tile = n_phi / size.x;
+    float k = 2.0 / max(h1 - h0, 1e-6);
+    n0 = (texture(hair_chiang_c, vec3(u, w, z1)) - texture(hair_chiang_c, vec3(u, w, z0))) * k;
+    n1 = (texture(hair_chiang_c, vec3(u + tile, w, z1)).rgb - texture(hair_chiang_c, vec3(u + tile, w, z0)).rgb) * k;
+    n3 = (texture(hair_chiang_c, vec3(u + 2.0 * tile, w, z1)).rgb
+          - texture(hair_chiang_c, vec3(u + 2.0 * tile, w, z0)).rgb) * k;
+}
+#endif
+
 vec3 hair_chiang(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     HairAngles an = hair_angles(T, V, L);
     float sin_i = an.sin_i, cos_i = an.cos_i;
@@ -56,14 +135,29 @@ vec3 hair_chiang(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     float m_tt = hair_chiang_mp(cos_i, cp.y, sin_i, sp.y, 0.25 * v0);
     float m_trt = hair_chiang_mp(cos_i, cp.z, sin_i, sp.z, 4.0 * v0);
     float m_3 = hair_chiang_mp(cos_i, cos_o, sin_i, sin_o, 4.0 * v0);
-    vec2 size = vec2(textureSize(hair_chiang_n, 0));
-    float n_phi = size.x / 3.0;
-    float u = (clamp(an.phi * INV_PI, 0.0, 1.0) * (n_phi - 1.0) + 0.5) / size.x;
-    float w = (clamp(abs(an.theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size.y - 1.0) + 0.5) / size.y;
-    float tile = n_phi / size.x;
-    vec4 n0 = texture(hair_chiang_n, vec2(u, w));
-    vec3 n1 = texture(hair_chiang_n, vec2(u + tile, w)).rgb;
-    vec3 n3 = texture(hair_chiang_n, vec2(u + 2.0 * tile, w)).rgb;
+    vec4 n0;
+    vec3 n1, n3;
+#if HAIR_NEAR_FIELD
+    // a pixel covers [h0, h1] of the fibre: its mean from the running integral's table, or
+    // under HAIR_NEAR_MIN_DH the fibre at the pixel's h (2 or more: the whole fibre, below)
+    if (hair_near_dh < 2.0) {
+        float phi = hair_chiang_signed_phi(an, T, V, L);
+        float h0 = max(hair_near_h - 0.5 * hair_near_dh, -1.0), h1 = min(hair_near_h + 0.5 * hair_near_dh, 1.0);
+        if (hair_near_dh < HAIR_NEAR_MIN_DH)   // (at the middle of the part on the fibre)
+            return max(hair_chiang_at(an, phi, m, vec4(m_r, m_tt, m_trt, m_3), 0.5 * (h0 + h1)), vec3(0.0));
+        hair_chiang_mean(phi, an.theta_o, h0, h1, n0, n1, n3);
+    } else
+#endif
+    {
+        vec2 size = vec2(textureSize(hair_chiang_n, 0));
+        float n_phi = size.x / 3.0;
+        float u = (clamp(an.phi * INV_PI, 0.0, 1.0) * (n_phi - 1.0) + 0.5) / size.x;
+        float w = (clamp(abs(an.theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size.y - 1.0) + 0.5) / size.y;
+        float tile = n_phi / size.x;
+        n0 = texture(hair_chiang_n, vec2(u, w));
+        n1 = texture(hair_chiang_n, vec2(u + tile, w)).rgb;
+        n3 = texture(hair_chiang_n, vec2(u + 2.0 * tile, w)).rgb;
+    }
     vec3 f = vec3(m.specular * m_r * n0.a) + m_tt * n0.rgb + m_trt * n1 + m_3 * n3;
     return max(f, vec3(0.0));
 }

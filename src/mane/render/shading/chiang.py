@@ -38,6 +38,16 @@ ShadingSettings. ``azimuthal_grid`` computes it as a matrix product over h (the 
 depend on theta_o and h, the logistic on phi - Phi), the logistic without an exponential per
 value (``_logistic_block``): ~0.035 s per material on one CPU core (the loop over h it replaced,
 kept in tests/shading_tables_v1.py as the golden, took ~0.4 s).
+
+The near field (``ShadingSettings.near_field``): a fibre wider than a pixel shows, in each pixel,
+the fibre's function averaged over the part of its width the pixel covers, h in [h0, h1] (pbrt
+and Mitsuba evaluate it at each ray's hit h; their pixels average it). ``near_table`` keeps the
+running integral C_p(phi, theta_o, gamma) = 1/2 int_{-1}^{sin gamma} A_p N_p dh at 65 layers of
+gamma (64 x 32 texels of (phi, theta_o) a tile, 6.4 MB as a 3D RGBA32F texture), and the mean
+over [h0, h1] is 2 (C(h1) - C(h0)) / (h1 - h0), the far field when the pixel covers the whole
+width. phi is then signed, the light's azimuth past the eye's about -T, with h along
+cross(T, V); N_p(-phi, h) = N_p(phi, -h), so phi in [0, pi] suffices. Under a tenth of the
+width (fibres over 20 px) the shader evaluates the fibre at the pixel's h instead (chiang.glsl).
 """
 from __future__ import annotations
 
@@ -144,9 +154,20 @@ def azimuthal_grid(phi, theta_o, sigma_a, *, eta=1.55, beta_n=0.3, n_h=256):
     Nbar_TT, Nbar_TRT (T, P, 3) and Nbar_3 (T, 3) (constant in phi). The h integral is a matrix
     product: per h, the attenuations A_p depend on theta_o alone and the logistic on
     phi - Phi(p, h, theta_o) (Phi(0, h) = -2 gamma_o on h alone)."""
+    n_r, n_tt, n_trt, n_3 = azimuthal_bins(phi, theta_o, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h, bins=1)
+    return n_r[:, 0], n_tt[:, 0], n_trt[:, 0], n_3[:, 0]
+
+
+def azimuthal_bins(phi, theta_o, sigma_a, *, eta=1.55, beta_n=0.3, n_h=256, bins=1):
+    """``azimuthal_grid``'s integral over h split into ``bins`` equal steps of gamma_o = asin h
+    (n_h a multiple of bins): Nbar_R (T, B, P), Nbar_TT, Nbar_TRT (T, B, P, 3), Nbar_3 (T, B, 3),
+    each bin's part of 1/2 int A_p N_p dh (their sum over the bins is the far field)."""
     phi = np.asarray(phi, np.float64).reshape(-1)
     theta_o = np.asarray(theta_o, np.float64).reshape(-1)
     sigma_a = np.asarray(sigma_a, np.float64).reshape(3)
+    if n_h % bins:
+        raise ValueError("n_h must be a multiple of bins")
+    k = n_h // bins
     s = logistic_scale(beta_n)
     sin_o, cos_o = np.sin(theta_o), np.maximum(np.cos(theta_o), 1e-6)               # (T,)
     cos_t = np.sqrt(np.maximum(0.0, 1.0 - (sin_o / eta) ** 2))
@@ -161,21 +182,22 @@ def azimuthal_grid(phi, theta_o, sigma_a, *, eta=1.55, beta_n=0.3, n_h=256):
     a1 = (1.0 - f) ** 2 * T
     a2 = a1 * T * f
     a3 = a2 * f * T / (1.0 - T * f)
-    n_3 = np.einsum("h,thc->tc", w, a3) / (2.0 * PI * _logistic_norm(s))
+    n_t, n_p = len(theta_o), len(phi)
+    n_3 = np.einsum("bh,tbhc->tbc", w.reshape(bins, k), a3.reshape(n_t, bins, k, 3)) / (2.0 * PI * _logistic_norm(s))
     # R: the logistic of phi + 2 gamma_o, the same for every theta_o
-    l_r = _logistic_block(phi, -2.0 * g[None, :], s, *np.empty((2, 1, len(phi), n_h)))[0]
-    n_r = np.einsum("th,ph->tp", f[..., 0] * w, l_r)     # (T, P); not BLAS: its threads cost more
-    n_tt = np.empty((len(theta_o), len(phi), 3))
+    l_r = _logistic_block(phi, -2.0 * g[None, :], s, *np.empty((2, 1, n_p, n_h)))[0]
+    n_r = np.einsum("tbh,pbh->tbp", (f[..., 0] * w).reshape(n_t, bins, k), l_r.reshape(n_p, bins, k))
+    n_tt = np.empty((n_t, bins, n_p, 3))
     n_trt = np.empty_like(n_tt)
-    step = max(1, _BLOCK // max(1, len(phi) * n_h))
-    buf = np.empty((2, min(step, len(theta_o)), len(phi), n_h))
+    step = max(1, _BLOCK // max(1, n_p * n_h))
+    buf = np.empty((2, min(step, n_t), n_p, n_h))
     for p, a, out in ((1, a1, n_tt), (2, a2, n_trt)):
         centre = 2.0 * p * gamma_t - 2.0 * g + p * PI                                 # Phi(p) (T, H)
-        aw = a * w[:, None]                                                            # (T, H, 3)
-        for t0 in range(0, len(theta_o), step):
-            t1 = min(len(theta_o), t0 + step)
-            out[t0:t1] = np.matmul(_logistic_block(phi, centre[t0:t1], s, buf[0, :t1 - t0], buf[1, :t1 - t0]),
-                                   aw[t0:t1])
+        aw = (a * w[:, None]).reshape(n_t, bins, k, 3)                                 # (T, B, k, 3)
+        for t0 in range(0, n_t, step):
+            t1 = min(n_t, t0 + step)
+            lb = _logistic_block(phi, centre[t0:t1], s, buf[0, :t1 - t0], buf[1, :t1 - t0])   # (t, P, H)
+            out[t0:t1] = np.matmul(lb.reshape(t1 - t0, n_p, bins, k).transpose(0, 2, 1, 3), aw[t0:t1])
     return n_r, n_tt, n_trt, n_3
 
 
@@ -215,6 +237,27 @@ def azimuthal_table(sigma_a, *, eta=1.55, beta_n=0.3, n_phi=128, n_theta=64, n_h
     out[:, 2 * n_phi:, :3] = n_3[:, None, :]          # constant along phi
     if not np.isfinite(out).all():
         raise FloatingPointError("non-finite Chiang table")
+    return out.astype(np.float32)
+
+
+def near_table(sigma_a, *, eta=1.55, beta_n=0.3, n_phi=64, n_theta=32, bins=64, n_h=256) -> np.ndarray:
+    """(bins + 1, n_theta, 3 n_phi, 4) float32 texture data of ``hair_chiang_c``: the near
+    field's running integral C_p(phi, theta_o, gamma) = 1/2 int_{-1}^{sin gamma} A_p N_p dh at
+    gamma_o = -pi/2 + pi j / bins (layer j; layer 0 zero, the last the far field, ``azimuthal_table``'s
+    values), in its tiles and texel grid (module docstring). The mean over h in [h0, h1] is
+    2 (C(h1) - C(h0)) / (h1 - h0): what a pixel covering that part of a fibre shows."""
+    if int(n_phi) < 4 or int(n_theta) < 4 or int(bins) < 2:
+        raise ValueError("the near-field table needs at least 4 x 4 texels and 2 steps")
+    phi = np.linspace(0.0, PI, int(n_phi))
+    theta = np.linspace(0.0, HALF_PI, int(n_theta))
+    n_r, n_tt, n_trt, n_3 = azimuthal_bins(phi, theta, sigma_a, eta=eta, beta_n=beta_n, n_h=n_h, bins=int(bins))
+    out = np.zeros((int(bins) + 1, int(n_theta), TILES * int(n_phi), 4))
+    out[1:, :, :n_phi, :3] = np.cumsum(n_tt, axis=1).transpose(1, 0, 2, 3)
+    out[1:, :, :n_phi, 3] = np.cumsum(n_r, axis=1).transpose(1, 0, 2)
+    out[1:, :, n_phi:2 * n_phi, :3] = np.cumsum(n_trt, axis=1).transpose(1, 0, 2, 3)
+    out[1:, :, 2 * n_phi:, :3] = np.cumsum(n_3, axis=1).transpose(1, 0, 2)[:, :, None, :]
+    if not np.isfinite(out).all():
+        raise FloatingPointError("non-finite Chiang near-field table")
     return out.astype(np.float32)
 
 

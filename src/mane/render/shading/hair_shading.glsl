@@ -74,6 +74,23 @@ struct HairMaterial {
 
 #include "hair_common.glsl"
 
+// The near field (ShadingSettings.near_field; Chiang's fibre only): the shaded point's offset
+// across the fibre, -1 .. 1 along cross(T, V) (hair_near_h), and the part of that range one
+// pixel covers there (hair_near_dh, 2 / the fibre's width in pixels; 2 or more: the whole
+// fibre, the far field). The drawing code sets both by hair_set_near(h, width in pixels)
+// before hair_bsdf; code that does not leaves the far field.
+#ifndef HAIR_NEAR_FIELD
+#define HAIR_NEAR_FIELD 0
+#endif
+float hair_near_h = 0.0;
+float hair_near_dh = 2.0;
+void hair_set_near(float h, float width_px) {
+#if HAIR_NEAR_FIELD
+    hair_near_h = clamp(h, -1.0, 1.0);
+    hair_near_dh = 2.0 / max(width_px, 1e-3);
+#endif
+}
+
 // mane.gpu.glsl expands every #include (also inside #if), so each model file is included;
 // unused functions cost nothing after compilation, and the LUT samplers are declared only
 // for HAIR_MODEL_MARSCHNER_LUT (inside marschner_lut.glsl).
