@@ -96,24 +96,25 @@ vec3 hair_chiang_at(HairAngles an, float phi, HairMaterial m, vec4 mp, float h) 
     return vec3(m.specular * mp.x * f * n.x) + mp.y * n.y * a1 + mp.z * n.z * a2 + (mp.w * 0.5 * INV_PI) * a3;
 }
 
-// The table's tiles averaged over h in [h0, h1] (phi >= 0; a negative phi is the mirrored
-// range, N_p(-phi, h) = N_p(phi, -h)): 2 (C(h1) - C(h0)) / (h1 - h0), C linear between the
-// table's gamma layers. n0 = (TT.rgb, R), n1 = TRT, n3 = TRRT+, as the far field's table.
-void hair_chiang_mean(float phi, float theta_o, float h0, float h1, out vec4 n0, out vec3 n1, out vec3 n3) {
+// The table's tiles averaged over the pixel's part of the fibre (hair_set_near: h in [h0, h1] at
+// the table's layer coordinates l0, l1): 2 (C(h1) - C(h0)) / (h1 - h0), C linear between the
+// layers; a negative phi reads the mirrored part, N_p(-phi, h) = N_p(phi, -h) (l -> 1 - l).
+// n0 = (TT.rgb, R), n1 = TRT, n3 = TRRT+, as the far field's table.
+void hair_chiang_mean(float phi, float theta_o, out vec4 n0, out vec3 n1, out vec3 n3) {
+    float l0 = hair_near_l0, l1 = hair_near_l1;
     if (phi < 0.0) {
-        float t = h0;
-        h0 = -h1;
-        h1 = -t;
+        l0 = 1.0 - hair_near_l1;
+        l1 = 1.0 - hair_near_l0;
         phi = -phi;
     }
     vec3 size = vec3(textureSize(hair_chiang_c, 0));
     float n_phi = size.x / 3.0;
     float u = (clamp(phi * INV_PI, 0.0, 1.0) * (n_phi - 1.0) + 0.5) / size.x;
     float w = (clamp(abs(theta_o) * (2.0 * INV_PI), 0.0, 1.0) * (size.y - 1.0) + 0.5) / size.y;
-    float z0 = ((hair_asin(h0) + HALF_PI) * INV_PI * (size.z - 1.0) + 0.5) / size.z;
-    float z1 = ((hair_asin(h1) + HALF_PI) * INV_PI * (size.z - 1.0) + 0.5) / size.z;
+    float z0 = (l0 * (size.z - 1.0) + 0.5) / size.z;
+    float z1 = (l1 * (size.z - 1.0) + 0.5) / size.z;
     float tile = n_phi / size.x;
-    float k = 2.0 / max(h1 - h0, 1e-6);
+    float k = hair_near_k;
     n0 = (texture(hair_chiang_c, vec3(u, w, z1)) - texture(hair_chiang_c, vec3(u, w, z0))) * k;
     n1 = (texture(hair_chiang_c, vec3(u + tile, w, z1)).rgb - texture(hair_chiang_c, vec3(u + tile, w, z0)).rgb) * k;
     n3 = (texture(hair_chiang_c, vec3(u + 2.0 * tile, w, z1)).rgb
@@ -142,10 +143,9 @@ vec3 hair_chiang(vec3 T, vec3 V, vec3 L, HairMaterial m) {
     // under HAIR_NEAR_MIN_DH the fibre at the pixel's h (2 or more: the whole fibre, below)
     if (hair_near_dh < 2.0) {
         float phi = hair_chiang_signed_phi(an, T, V, L);
-        float h0 = max(hair_near_h - 0.5 * hair_near_dh, -1.0), h1 = min(hair_near_h + 0.5 * hair_near_dh, 1.0);
         if (hair_near_dh < HAIR_NEAR_MIN_DH)   // (at the middle of the part on the fibre)
-            return max(hair_chiang_at(an, phi, m, vec4(m_r, m_tt, m_trt, m_3), 0.5 * (h0 + h1)), vec3(0.0));
-        hair_chiang_mean(phi, an.theta_o, h0, h1, n0, n1, n3);
+            return max(hair_chiang_at(an, phi, m, vec4(m_r, m_tt, m_trt, m_3), hair_near_h), vec3(0.0));
+        hair_chiang_mean(phi, an.theta_o, n0, n1, n3);
     } else
 #endif
     {

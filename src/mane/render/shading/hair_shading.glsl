@@ -74,20 +74,27 @@ struct HairMaterial {
 
 #include "hair_common.glsl"
 
-// The near field (ShadingSettings.near_field; Chiang's fibre only): the shaded point's offset
-// across the fibre, -1 .. 1 along cross(T, V) (hair_near_h), and the part of that range one
-// pixel covers there (hair_near_dh, 2 / the fibre's width in pixels; 2 or more: the whole
-// fibre, the far field). The drawing code sets both by hair_set_near(h, width in pixels)
-// before hair_bsdf; code that does not leaves the far field.
+// The near field (ShadingSettings.near_field; Chiang's fibre only): the part of the fibre's
+// width a pixel covers, h in [h0, h1] of -1 .. 1 along cross(T, V), from the pixel's offset h
+// across it and the fibre's width in pixels (one pixel is 2 / width of h). hair_near_dh: that
+// unclipped span (2 or more: the whole fibre, the far field); hair_near_h: the middle of
+// [h0, h1]; hair_near_l0, _l1: (asin(h0, h1) + pi/2) / pi, where the table's layers lie, and
+// hair_near_k = 2 / (h1 - h0) (once a pixel, not once a light). The drawing code sets them by hair_set_near before hair_bsdf;
+// code that does not leaves the far field.
 #ifndef HAIR_NEAR_FIELD
 #define HAIR_NEAR_FIELD 0
 #endif
 float hair_near_h = 0.0;
 float hair_near_dh = 2.0;
+float hair_near_l0 = 0.0, hair_near_l1 = 1.0, hair_near_k = 1.0;
 void hair_set_near(float h, float width_px) {
 #if HAIR_NEAR_FIELD
-    hair_near_h = clamp(h, -1.0, 1.0);
     hair_near_dh = 2.0 / max(width_px, 1e-3);
+    float h0 = clamp(h - 0.5 * hair_near_dh, -1.0, 1.0), h1 = clamp(h + 0.5 * hair_near_dh, -1.0, 1.0);
+    hair_near_h = 0.5 * (h0 + h1);
+    hair_near_l0 = hair_asin(h0) * INV_PI + 0.5;
+    hair_near_l1 = hair_asin(h1) * INV_PI + 0.5;
+    hair_near_k = 2.0 / max(h1 - h0, 1e-6);
 #endif
 }
 

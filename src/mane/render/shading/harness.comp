@@ -18,10 +18,8 @@ void main() {
     vec4 t = samples[3u * i], v = samples[3u * i + 1u], l = samples[3u * i + 2u];
     HairMaterial m = u_material;
     m.strand_rand = t.w;
-    if (u_near != 0) {
-        hair_near_h = l.w;
-        hair_near_dh = u_near_dh;
-    }
+    if (u_near != 0)   // a fibre 2 / u_near_dh pixels wide, the pixel at h
+        hair_set_near(l.w, 2.0 / max(u_near_dh, 1e-6));
     results[2u * i] = vec4(hair_bsdf(t.xyz, v.xyz, l.xyz, m), 0.0);
     results[2u * i + 1u] = vec4(hair_multiple_scattering(t.xyz, v.xyz, l.xyz, m, v.w), 0.0);
 }
