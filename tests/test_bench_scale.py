@@ -71,8 +71,9 @@ def test_render_scale_rows(render_scale):
         _check_issue_row(r)
     keys = [r["issue_key"] for r in rows]
     cfg = scale_rows.SCALE_CONFIG["quick"]
-    def with_no_lod(ks):   # the rows measured again with the coverage LOD off
-        return [x for k in ks for x in ([k, f"{k}_no_lod"] if k in cfg["no_lod"] else [k])]
+    def with_no_lod(ks):   # the rows measured again with the coverage LOD off, and with the near field
+        return [x for k in ks for x in ([k] + ([f"{k}_no_lod"] if k in cfg["no_lod"] else [])
+                                        + ([f"{k}_near"] if k in cfg["near_field"] else []))]
 
     assert keys == (with_no_lod([k for k, _, _ in cfg["closeup"]]) + with_no_lod([k for k, _ in cfg["strands"]])
                     + ["crowd_lod", "crowd_no_lod", "sim_render", "cold_start", "cold_start"])
@@ -80,6 +81,7 @@ def test_render_scale_rows(render_scale):
         if r["status"] == "ok" and r["bench"] in ("scale_strands", "scale_closeup"):
             assert r["settings"]["lod_depth"] == (0.0 if r["issue_key"].endswith("_no_lod") else
                                                   RenderSettings().lod_depth)
+            assert r["settings"]["shading_options"].get("near_field", False) == r["issue_key"].endswith("_near")
     from mane.bench import render_bench
 
     text = render_bench.format_text(result)

@@ -33,7 +33,8 @@ GPU timer queries are used, else ``frame_ms``. Rows (``bench``):
 
 Every other row runs with the renderer's defaults, the coverage LOD on (``lod_depth``); the rows
 named in the mode's ``no_lod`` are measured again with it off (``lod_depth`` 0, key
-``..._no_lod``). Each row's ``renderer_stats`` holds the LOD's figures (``lod_keep_fraction``,
+``..._no_lod``), and those in its ``near_field`` with ``shading_options.near_field`` on (key
+``..._near``). Each row's ``renderer_stats`` holds the LOD's figures (``lod_keep_fraction``,
 ``strands_expanded``, ``lod_depth_complexity``).
 ``scale_sim_render``
     The simulate + render loop: ``loop_guides`` x ``loop_points`` simulated with the sim bench's
@@ -230,11 +231,16 @@ class RenderScale:
                     row.update(cov, coverage_met=bool(cov["coverage"] >= want))
 
     def _lod_variants(self, key: str, name: str, settings: dict) -> list:
-        """(key, name, settings) of a row: as it is (the coverage LOD on, the default), and with
-        the LOD off where the mode's ``no_lod`` names the row."""
+        """(key, name, settings) of a row: as it is (the coverage LOD on, the default), with the
+        LOD off where the mode's ``no_lod`` names the row, and with Chiang's near field on where
+        its ``near_field`` does (``shading_options.near_field``: its cost where the strands are
+        wider than a pixel, which the default waits for)."""
         out = [(key, name, settings)]
         if key in self.cfg.get("no_lod", ()):
             out.append((f"{key}_no_lod", f"{name}, LOD off", dict(settings, lod_depth=0.0)))
+        if key in self.cfg.get("near_field", ()):
+            near = {**settings.get("shading_options", {}), "near_field": True}
+            out.append((f"{key}_near", f"{name}, near field on", dict(settings, shading_options=near)))
         return out
 
     def _probe_renderer(self, s, groom, head):

@@ -52,6 +52,9 @@ ISSUE = {
     "closeup_1m_50_no_lod": (51.9, None),
     "strands_1m_no_lod": (20.8, None),
     "strands_2m_no_lod": (37.6, None),
+    # the close-up with Chiang's near field on (shading_options.near_field): its cost, before it
+    # can be the default
+    "closeup_100k_50_near": (10.0, None),
     "sim_render": (21.3, 12.0),
     "cold_start": (2.8, 1.0),          # seconds
     "sim_1m": (15.8, 8.0),
@@ -71,7 +74,7 @@ SCALE_CONFIG = {
     # quick: tiny stand-ins with cheap settings (no shadows, one sample) and a coverage any
     # groom reaches: the JSON's structure on llvmpipe in CI, no timing claim
     "quick": dict(size=(160, 90), guides=64, points=17, render=dict(shadows="none", msaa=1),
-                  no_lod=("closeup_100k_50", "strands_1m"),
+                  no_lod=("closeup_100k_50", "strands_1m"), near_field=("closeup_100k_50",),
                   closeup=[("closeup_100k_50", 1024, 0.02)], cameras=((90.0, 0.5), (90.0, 0.3)),
                   strands=[("strands_100k", 256), ("strands_1m", 1024)],
                   crowd_heads=4, crowd_strands=256, crowd_spacing=0.6, crowd_lod_depth=32.0,
@@ -82,6 +85,8 @@ SCALE_CONFIG = {
     "default": dict(size=(1920, 1080), guides=6250, points=17, render={},
                     # rows measured a second time with the coverage LOD off (key + "_no_lod")
                     no_lod=("closeup_100k_50", "closeup_1m_50", "strands_1m", "strands_2m"),
+                    # and with Chiang's near field on (key + "_near")
+                    near_field=("closeup_100k_50",),
                     closeup=[("closeup_100k_50", 100_000, 0.5), ("closeup_100k_70", 100_000, 0.7),
                              ("closeup_1m_50", 1_000_000, 0.5)],
                     # (azimuth deg, distance scale) tried in order, the first whose hair coverage is
