@@ -99,67 +99,61 @@ def test_table_white_furnace_and_symmetry():
         assert np.ptp(n3) == 0.0
 
 
-def test_twin_matches_mitsuba_hair_bsdf():
-    """An independent golden value: Mitsuba 3's ``hair`` plugin (Chiang 2016 as in pbrt), its
-    eval averaged over 64 offsets h (Mitsuba takes h from the azimuth of its wi, the eye),
-    at 24 random direction pairs, within 1 % (the twin's own h quadrature)."""
+def _mitsuba_hair(sigma, beta_m, beta_n, tilt):
+    """Mitsuba 3's ``hair`` plugin and a function evaluating it with the eye at inclination
+    theta_o, the light at theta_i and azimuth phi past the eye's, met at offset h: Mitsuba takes
+    h from the azimuth of its wi (the eye; gamma = asin h past the frame's normal), the tangent is
+    its frame's y, wo the light."""
     mi = pytest.importorskip("mitsuba")
     mi.set_variant("scalar_rgb")
-    beta_m, beta_n, tilt = 0.3, 0.3, 2.0
-    sigma = melanin_to_sigma_a(1.3, 0.2)
-    bsdf = mi.load_dict({"type": "hair", "sigma_a": {"type": "rgb", "value": sigma.tolist()},
+    bsdf = mi.load_dict({"type": "hair", "sigma_a": {"type": "rgb", "value": list(map(float, sigma))},
                          "longitudinal_roughness": beta_m, "azimuthal_roughness": beta_n, "scale_tilt": tilt,
                          "int_ior": 1.55, "ext_ior": 1.0})
     ctx = mi.BSDFContext()
+
+    def at(theta_i, theta_o, phi, h):
+        pv = math.pi / 2 + math.asin(h)
+        si = mi.SurfaceInteraction3f()
+        si.sh_frame = mi.Frame3f([0, 0, 1])
+        si.wi = mi.Vector3f(math.cos(theta_o) * math.cos(pv), math.sin(theta_o), math.cos(theta_o) * math.sin(pv))
+        pl = pv + phi
+        wo = mi.Vector3f(math.cos(theta_i) * math.cos(pl), math.sin(theta_i), math.cos(theta_i) * math.sin(pl))
+        return np.array(bsdf.eval(ctx, si, wo))
+
+    return at
+
+
+def test_twin_matches_mitsuba_hair_bsdf():
+    """An independent golden value: Mitsuba 3's ``hair`` plugin (Chiang 2016 as in pbrt), its
+    eval averaged over 64 offsets h at 24 random direction pairs, within 1 % (the twin's own h
+    quadrature)."""
+    beta_m, beta_n, tilt = 0.3, 0.3, 2.0
+    sigma = melanin_to_sigma_a(1.3, 0.2)
+    at = _mitsuba_hair(sigma, beta_m, beta_n, tilt)
     rng = np.random.default_rng(9)
     n, nh = 24, 64
     ti, to, ph = rng.uniform(-1.3, 1.3, n), rng.uniform(-1.3, 1.3, n), rng.uniform(0, math.pi, n)
     ref = C.fibre(ti, to, ph, sigma, roughness=roughness_from_beta_m(beta_m), shift=math.radians(tilt),
                   beta_n=beta_n, n_h=nh)
     for k in range(n):
-        acc = np.zeros(3)
-        for j in range(nh):
-            g = math.asin(-1 + (j + 0.5) * 2 / nh)
-            pv = math.pi / 2 + g            # Mitsuba's gamma(wi) = asin h at this azimuth
-            si = mi.SurfaceInteraction3f()
-            si.sh_frame = mi.Frame3f([0, 0, 1])
-            # Mitsuba's hair frame: y is the tangent; wi the eye (mane's V), wo the light
-            si.wi = mi.Vector3f(math.cos(to[k]) * math.cos(pv), math.sin(to[k]), math.cos(to[k]) * math.sin(pv))
-            pl = pv + ph[k]
-            wo = mi.Vector3f(math.cos(ti[k]) * math.cos(pl), math.sin(ti[k]), math.cos(ti[k]) * math.sin(pl))
-            acc += np.array(bsdf.eval(ctx, si, wo))
-        acc /= nh
+        acc = sum(at(ti[k], to[k], ph[k], -1 + (j + 0.5) * 2 / nh) for j in range(nh)) / nh
         np.testing.assert_allclose(acc, ref[k], rtol=0.01, atol=1e-3 * ref.max())
 
 
 def test_near_field_twin_matches_mitsuba_hair_bsdf_at_each_offset():
     """Chiang's near field, the fibre met at one offset h (pbrt's and Mitsuba's evaluation at a
-    ray's hit), against Mitsuba's ``hair`` eval at that h (taken from the azimuth of its wi, the
-    eye: gamma = asin h past the frame's normal) with the light's azimuth phi past the eye's:
-    the twin's fibre_near(theta_i, theta_o, phi, h) within 0.5 %; with h or phi mirrored it is
+    ray's hit), against Mitsuba's ``hair`` eval at that h with the light's azimuth phi past the
+    eye's: the twin's fibre_near(theta_i, theta_o, phi, h) within 0.5 %; with h mirrored it is
     off by up to 100x (the sign convention the renderer's offset across the fibre follows)."""
-    mi = pytest.importorskip("mitsuba")
-    mi.set_variant("scalar_rgb")
     beta_m, beta_n, tilt = 0.3, 0.3, 2.0
     sigma = melanin_to_sigma_a(0.3, 0.1)
-    bsdf = mi.load_dict({"type": "hair", "sigma_a": {"type": "rgb", "value": sigma.tolist()},
-                         "longitudinal_roughness": beta_m, "azimuthal_roughness": beta_n, "scale_tilt": tilt,
-                         "int_ior": 1.55, "ext_ior": 1.0})
-    ctx = mi.BSDFContext()
+    at = _mitsuba_hair(sigma, beta_m, beta_n, tilt)
     rng = np.random.default_rng(5)
     n = 24
     ti, to = rng.uniform(-1.2, 1.2, n), rng.uniform(-1.2, 1.2, n)
     ph, h = rng.uniform(-math.pi, math.pi, n), rng.uniform(-0.97, 0.97, n)
     kw = dict(roughness=roughness_from_beta_m(beta_m), shift=math.radians(tilt), beta_n=beta_n)
-    ref = np.zeros((n, 3))
-    for k in range(n):
-        pv = math.pi / 2 + math.asin(h[k])
-        si = mi.SurfaceInteraction3f()
-        si.sh_frame = mi.Frame3f([0, 0, 1])
-        si.wi = mi.Vector3f(math.cos(to[k]) * math.cos(pv), math.sin(to[k]), math.cos(to[k]) * math.sin(pv))
-        pl = pv + ph[k]
-        wo = mi.Vector3f(math.cos(ti[k]) * math.cos(pl), math.sin(ti[k]), math.cos(ti[k]) * math.sin(pl))
-        ref[k] = np.array(bsdf.eval(ctx, si, wo))
+    ref = np.array([at(ti[k], to[k], ph[k], h[k]) for k in range(n)])
     np.testing.assert_allclose(C.fibre_near(ti, to, ph, h, sigma, **kw), ref, rtol=0.005, atol=1e-4 * ref.max())
     mirrored = C.fibre_near(ti, to, ph, -h, sigma, **kw)
     assert np.abs(mirrored - ref).max() > 0.3 * ref.max()

@@ -31,45 +31,57 @@ MELANIN = (0.3, 0.1)
 ROUGHNESS, SHIFT = math.radians(7.5), math.radians(-5.0)
 
 
-@pytest.mark.parametrize("rasterizer", ["hardware", "compute"])
-@pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0)],
-                         ids=["behind", "beside", "above_front"])
-def test_one_fibre_has_chiangs_far_field_radiance(gl, rasterizer, toward_light):
-    # the far field (near_field off): a straight guide across a 2-degree view from +z (theta_o =
-    # 0 within 1 degree), root first,
-    # 3 degrees off the rows so that its edges cross the pixels' samples at every offset
-    T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])
+T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])   # 3 degrees off the rows
+VIEW = 2 * D * math.tan(math.radians(FOV) / 2)                                  # metres across the view
+
+
+def _draw(gl, rasterizer, width, toward_light, near_field, accumulate):
+    """One straight guide along T through the origin (root first), ``width`` m wide, seen from
+    +z across a 2-degree view (theta_o = 0 within 1 degree), lit by one directional light: the
+    still picture (linear, premultiplied)."""
     groom = Groom((np.linspace(-0.1, 0.1, 16)[:, None] * T).astype(np.float32), np.array([16], np.int32))
-    settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=WIDTH, width_tip=1.0,
+    settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=width, width_tip=1.0,
                               shading="chiang", shading_options={"melanin": MELANIN, "multiple_scattering": "none",
                                                                  "roughness": ROUGHNESS, "shift": SHIFT,
-                                                                 "near_field": False},
+                                                                 "near_field": near_field},
                               shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
-                              exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer, accumulate=8)
+                              exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer,
+                              accumulate=accumulate)
     cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
     img, drawn = still_picture(gl, settings, groom, None, cam, [Light("directional", toward_light, (1, 1, 1), E)])
     assert drawn == rasterizer
-    middle = img[:, SIZE // 4:3 * SIZE // 4]                      # the fibre crosses every column
-    view = 2 * D * math.tan(math.radians(FOV) / 2)
-    coverage = middle[..., 3].sum(axis=0).mean() * (view / SIZE) / (WIDTH / T[0])   # of the fibre's strip
-    assert coverage == pytest.approx(1.0, abs=0.02)
-    radiance = middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum()   # RGB is premultiplied by coverage
+    return img
+
+
+def _far_field(toward_light):
+    """E f |cos theta_i| of the twin's far field at the fibre's angles (the eye on +z)."""
     L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
     V = np.array([0.0, 0.0, 1.0])
     lp, vp = L - (L @ T) * T, V - (V @ T) * T                   # their parts across the fibre
     phi = math.acos(lp @ vp / (np.linalg.norm(lp) * np.linalg.norm(vp)))
-    expected = E * C.fibre([math.asin(L @ T)], [math.asin(V @ T)], [phi], melanin_to_sigma_a(*MELANIN),
-                           roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3)[0]
-    np.testing.assert_allclose(radiance, expected, rtol=0.01)
+    return E * C.fibre([math.asin(L @ T)], [math.asin(V @ T)], [phi], melanin_to_sigma_a(*MELANIN),
+                       roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3)[0]
 
 
-def _pixel_means(img, T, L, width):
+@pytest.mark.parametrize("rasterizer", ["hardware", "compute"])
+@pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0)],
+                         ids=["behind", "beside", "above_front"])
+def test_one_fibre_has_chiangs_far_field_radiance(gl, rasterizer, toward_light):
+    # the far field (near_field off), 3.7 px wide, its edges across the pixels' samples at every offset
+    img = _draw(gl, rasterizer, WIDTH, toward_light, near_field=False, accumulate=8)
+    middle = img[:, SIZE // 4:3 * SIZE // 4]                      # the fibre crosses every column
+    coverage = middle[..., 3].sum(axis=0).mean() * (VIEW / SIZE) / (WIDTH / T[0])   # of the fibre's strip
+    assert coverage == pytest.approx(1.0, abs=0.02)
+    radiance = middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum()   # RGB is premultiplied by coverage
+    np.testing.assert_allclose(radiance, _far_field(toward_light), rtol=0.01)
+
+
+def _pixel_means(img, L, width):
     """(the picture's radiance per coverage, the twin's) at the pixels well inside a fibre
     through the origin along T seen from +z. The twin: Chiang's near field averaged over the
     part of the fibre's width one pixel covers (ShadingSettings.near_field: h +- 1 / width in
     pixels, h along cross(T, V)) at the pixel's centre."""
-    view = 2 * D * math.tan(math.radians(FOV) / 2)
-    px = view / SIZE
+    px = VIEW / SIZE
     rows, cols = np.indices((SIZE, SIZE))
     X, Y = (cols + 0.5 - SIZE / 2) * px, (SIZE / 2 - rows - 0.5) * px     # the plane z = 0, top row first
     side = np.cross(T, [0.0, 0.0, 1.0])[:2]
@@ -107,27 +119,14 @@ def test_a_wide_fibre_shows_the_near_field_each_pixel_covers(gl, rasterizer, tow
     # frame of its own, whose shading window is the pixel on both rasterisers (a still picture's
     # frames move it by their sub-pixel offsets). The far field (the mean over the whole width)
     # is 0.4-1.6 off per pixel here, and the near field with h mirrored 1.1-1.9.
-    T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])
-    width = pixels * 2 * D * math.tan(math.radians(FOV) / 2) / SIZE
-    groom = Groom((np.linspace(-0.1, 0.1, 16)[:, None] * T).astype(np.float32), np.array([16], np.int32))
-    settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=width, width_tip=1.0,
-                              shading="chiang", shading_options={"melanin": MELANIN, "multiple_scattering": "none",
-                                                                 "roughness": ROUGHNESS, "shift": SHIFT,
-                                                                 "near_field": True},
-                              shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
-                              exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer,
-                              accumulate=1)
+    width = pixels * VIEW / SIZE
+    img = _draw(gl, rasterizer, width, toward_light, near_field=True, accumulate=1)
     L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
-    cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
-    img, _ = still_picture(gl, settings, groom, None, cam, [Light("directional", toward_light, (1, 1, 1), E)])
-    got, expected = _pixel_means(img, T, L, width)
+    got, expected = _pixel_means(img, L, width)
     per_pixel = np.abs(got - expected).sum() / expected.sum()
     assert per_pixel < 0.04, per_pixel
     # the pixels' windows tile the fibre: its light over all the pixels it covers is the far field's
     # (within the edge pixels' coverage, 4 samples in one frame)
     middle = img[:, SIZE // 4:3 * SIZE // 4]
-    lp, vp = L - (L @ T) * T, np.array([0.0, 0.0, 1.0]) - T[2] * T
-    far = E * C.fibre([math.asin(L @ T)], [0.0], [math.acos(lp @ vp / np.linalg.norm(lp) / np.linalg.norm(vp))],
-                      melanin_to_sigma_a(*MELANIN), roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3)[0]
-    np.testing.assert_allclose(middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum(), far,
+    np.testing.assert_allclose(middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum(), _far_field(toward_light),
                                rtol=0.05 if pixels < 8 else 0.02)
