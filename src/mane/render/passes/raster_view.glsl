@@ -51,8 +51,9 @@ float raster_param(RasterPoint a, RasterPoint b, vec2 q) {
     return ib / max((1.0 - ts) * a.inv_w + ib, 1e-20);
 }
 
-// The near field's inputs at q (sample units; the pixel's centre) on segment a-b (hair_shading.glsl's hair_set_near):
-// (h, the strand's true width in pixels), h the signed offset from the segment's axis on screen
+// The near field's inputs (hair_shading.glsl's hair_set_near) at q (sample units; the pixel's
+// centre) on segment a-b: (h, the strand's true width in pixels), h the signed offset from the
+// segment's axis on screen
 // over its drawn half width, along the screen image of cross(T, V) (the hardware ribbon's
 // g_across: with x right, y up and V out of the screen, cross(T, V) is T's image turned
 // clockwise), interpolated at the screen parameter as hair.geom's varyings are.

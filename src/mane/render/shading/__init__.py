@@ -527,8 +527,8 @@ def _build_chiang_table(key: tuple) -> np.ndarray:
 
 @functools.lru_cache(maxsize=4)
 def _chiang_near_table(key: tuple) -> np.ndarray:
-    """``chiang.near_table`` of ``chiang_key()``, in memory only: its NumPy (~0.02 s) costs less
-    than reading its 3.2 MB, and a data set's material per sample must not fill a disk."""
+    """``chiang.near_table`` of ``chiang_key()``, in memory only: its NumPy (~0.04 s) costs less
+    than reading its 6.4 MB, and a data set's material per sample must not fill a disk."""
     from .chiang import near_table
 
     sigma_a, eta, beta_n, _ = key
@@ -571,8 +571,8 @@ def chiang_texture(ctx, settings: ShadingSettings):
 
 
 def chiang_near_texture(ctx, settings: ShadingSettings):
-    """The ``hair_chiang_c`` texture (``chiang.near_table``: 192 x 32 x 33 RGBA32F, 3.2 MB), built
-    for the material whatever ``settings.tables`` (its NumPy costs ~0.02 s); cached per context
+    """The ``hair_chiang_c`` texture (``chiang.near_table``: 192 x 32 x 65 RGBA32F, 6.4 MB), built
+    for the material whatever ``settings.tables`` (its NumPy costs ~0.04 s); cached per context
     and ``settings.chiang_key()``."""
     key = settings.chiang_key()
     return _table_texture(ctx, _chiang_near_cache, key, lambda: _chiang_near_table(key))
