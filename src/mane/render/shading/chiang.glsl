@@ -13,8 +13,9 @@
 // series), 3 bilinear fetches: ~150 ALU + 3 tex, under half the analytic Marschner.
 // HAIR_NEAR_FIELD (ShadingSettings.near_field): where the drawing code says a pixel covers less
 // than the whole fibre (hair_set_near), Nbar_p is the mean over that part of the width from the
-// running integral's 3D table hair_chiang_c (chiang.near_table): 6 trilinear fetches, 2 asin and
-// a signed azimuth instead of the 3 fetches; past HAIR_NEAR_MIN_DH, the fibre at the pixel's h.
+// running integral's 3D table hair_chiang_c (chiang.near_table): 6 trilinear fetches and a signed
+// azimuth a light instead of the 3 fetches (the pixel's part of the width, 2 asin, once a pixel);
+// past HAIR_NEAR_MIN_DH, the fibre at the pixel's h.
 #ifndef MANE_HAIR_CHIANG_GLSL
 #define MANE_HAIR_CHIANG_GLSL
 #if HAIR_MODEL == HAIR_MODEL_CHIANG
