@@ -219,6 +219,22 @@ def test_chiang_near_field_glsl_matches_twin(gl, case):
     np.testing.assert_array_equal(evaluate_glsl(gl, s, T, V, L, h=h, footprint=2.0), far)
 
 
+@pytest.mark.gpu
+def test_near_field_finite_at_degenerate_directions_and_offsets(gl):
+    """T along V or L, V along L, grazing: the near field (at one h and averaged over a
+    footprint, at the fibre's middle and both edges) is finite and non-negative."""
+    t, x, y = np.eye(3)[2], np.eye(3)[0], np.eye(3)[1]
+    g = np.array([math.sin(1e-4), 0.0, math.cos(1e-4)])
+    rows = [(t, t, x), (t, x, t), (t, t, t), (t, -t, t), (t, x, -x), (t, x, x), (t, g, x), (t, x, g), (t, g, -g),
+            (t, x, y), (t, x, -y)]
+    T, V, L = (np.array([r[k] for r in rows], np.float32) for k in range(3))
+    s = ShadingSettings(model="chiang", multiple_scattering="none", near_field=True, melanin=(0.3, 0.1))
+    for h in (-1.0, -0.999, 0.0, 0.999, 1.0):
+        for footprint in (0.0, 0.05, 0.5, 1.9):
+            f = evaluate_glsl(gl, s, T, V, L, h=h, footprint=footprint)
+            assert np.isfinite(f).all() and (f >= 0).all(), (h, footprint, f)
+
+
 def test_roughness_beta_m_mapping():
     assert abs(beta_m_from_roughness(roughness_from_beta_m(0.3)) - 0.3) <= 1e-9
     # sqrt(v_0) = 0.726 beta_m + 0.812 beta_m^2 + 3.7 beta_m^20 (Chiang eq. 7) = 2 roughness

@@ -221,6 +221,10 @@ def test_settings_interface(gl):
     np.testing.assert_allclose(u["u_material.sigma_a"], melanin_to_sigma_a(1.3, 0.2))
     with pytest.raises(ValueError):
         ShadingSettings(model="phong")
+    for name in ("energy_clamp", "near_field"):   # a switch is a bool, not any truthy value
+        for bad in ("maybe", 2, None):
+            with pytest.raises(ValueError, match=f"{name} must be true or false"):
+                ShadingSettings(**{name: bad})
     hash(s)   # frozen
 
 

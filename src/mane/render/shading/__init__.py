@@ -240,6 +240,9 @@ class ShadingSettings:
             x = real(name, getattr(self, name))
             if not lo <= x <= hi:
                 raise ValueError(f"{name} must be in [{lo:g}, {hi:g}], got {x:g}")
+        for name in ("energy_clamp", "near_field"):
+            if not isinstance(getattr(self, name), (bool, np.bool_)):
+                raise ValueError(f"{name} must be true or false, got {getattr(self, name)!r}")
         for name, (lo, hi) in TABLE_SIZES.items():
             x = real(name, getattr(self, name))
             if x != int(x) or not lo <= x <= hi:
