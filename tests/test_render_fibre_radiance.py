@@ -35,7 +35,7 @@ T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])   
 VIEW = 2 * D * math.tan(math.radians(FOV) / 2)                                  # metres across the view
 
 
-def _draw(gl, rasterizer, width, toward_light, near_field, accumulate):
+def _draw(gl, rasterizer, width, toward_light, near_field, accumulate, pipeline="compute"):
     """One straight guide along T through the origin (root first), ``width`` m wide, seen from
     +z across a 2-degree view (theta_o = 0 within 1 degree), lit by one directional light: the
     still picture (linear, premultiplied)."""
@@ -46,7 +46,7 @@ def _draw(gl, rasterizer, width, toward_light, near_field, accumulate):
                                                                  "near_field": near_field},
                               shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
                               exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer,
-                              accumulate=accumulate)
+                              accumulate=accumulate, pipeline=pipeline)
     cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
     img, drawn = still_picture(gl, settings, groom, None, cam, [Light("directional", toward_light, (1, 1, 1), E)])
     assert drawn == rasterizer
@@ -109,18 +109,21 @@ def _pixel_means(img, L, width):
     return got, expected
 
 
-@pytest.mark.parametrize("rasterizer", ["hardware", "compute"])
+@pytest.mark.parametrize("rasterizer, pipeline", [("hardware", "compute"), ("hardware", "tessellation"),
+                                                   ("compute", "compute")],
+                         ids=["hardware", "hardware_tessellation", "compute"])
 @pytest.mark.parametrize("toward_light", [(0.3, 0.3, -1.0), (-0.2, 1.0, 0.0), (0.4, 1.0, 1.0), (0.0, -0.5, 1.0)],
                          ids=["behind", "beside", "above_front", "below_front"])
 @pytest.mark.parametrize("pixels", [3, 16])
-def test_a_wide_fibre_shows_the_near_field_each_pixel_covers(gl, rasterizer, toward_light, pixels):
-    # A fibre 3 or 16 px wide: each pixel shows the mean of Chiang's fibre over the part of its
-    # width the pixel covers (ShadingSettings.near_field), as the path tracer's pixel does; a
+def test_a_wide_fibre_shows_the_near_field_each_pixel_covers(gl, rasterizer, pipeline, toward_light, pixels):
+    # A fibre 3 or 16 px wide (the raster units fed by vertex pulling, hair_pull.vert, or by the
+    # tessellation and geometry stages, hair.geom): each pixel shows the mean of Chiang's fibre
+    # over the part of its width the pixel covers (ShadingSettings.near_field), as the path tracer's pixel does; a
     # frame of its own, whose shading window is the pixel on both rasterisers (a still picture's
     # frames move it by their sub-pixel offsets). The far field (the mean over the whole width)
     # is 0.4-1.6 off per pixel here, and the near field with h mirrored 1.1-1.9.
     width = pixels * VIEW / SIZE
-    img = _draw(gl, rasterizer, width, toward_light, near_field=True, accumulate=1)
+    img = _draw(gl, rasterizer, width, toward_light, near_field=True, accumulate=1, pipeline=pipeline)
     L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
     got, expected = _pixel_means(img, L, width)
     per_pixel = np.abs(got - expected).sum() / expected.sum()
