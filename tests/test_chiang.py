@@ -194,11 +194,7 @@ def test_chiang_near_field_glsl_matches_twin(gl, case):
     T, V, L = _unit(rng, N), _unit(rng, N), _unit(rng, N)
     h = rng.uniform(-1.0, 1.0, N)
     s = ShadingSettings(model="chiang", multiple_scattering="none", near_field=True, **CASES[case])
-    Td, Vd, Ld = T.astype(float), V.astype(float), L.astype(float)
-    sin_i, sin_o = np.sum(Td * Ld, 1), np.sum(Td * Vd, 1)
-    lp, vp = Ld - sin_i[:, None] * Td, Vd - sin_o[:, None] * Td
-    phi = np.arctan2(-np.sum(lp * np.cross(Td, Vd), 1), np.sum(lp * vp, 1))   # L's azimuth past V about -T
-    args = (np.arcsin(sin_i), np.arcsin(sin_o), phi)
+    args = C.signed_angles(T, V, L)
     kw = dict(roughness=s.roughness, shift=s.shift, beta_n=s.beta_n)
     sigma = s.resolved_sigma_a()
     point = evaluate_glsl(gl, s, T, V, L, h=h, footprint=0.0)
@@ -206,13 +202,7 @@ def test_chiang_near_field_glsl_matches_twin(gl, case):
     assert np.abs(point - r).max() <= 1e-3 * r.max()
     for footprint in (0.2, 0.6, 1.2):
         g = evaluate_glsl(gl, s, T, V, L, h=h, footprint=footprint)
-        h0, h1 = np.maximum(h - footprint / 2, -1.0), np.minimum(h + footprint / 2, 1.0)
-        g0, g1 = np.arcsin(h0), np.arcsin(h1)
-        mean = 0.0
-        for k in range(200):
-            gk = g0 + (g1 - g0) * (k + 0.5) / 200
-            mean = mean + C.fibre_near(*args, np.sin(gk), sigma, **kw) * (np.cos(gk) * (g1 - g0) / 200)[:, None]
-        mean /= (h1 - h0)[:, None]
+        mean = C.near_mean(*args, h - footprint / 2, h + footprint / 2, sigma, **kw)
         assert np.isfinite(g).all() and (g >= 0).all()
         assert np.abs(g - mean).mean() <= 0.02 * mean.mean(), footprint
     far = evaluate_glsl(gl, s, T, V, L)

@@ -264,12 +264,10 @@ def test_a_wide_fibre_shows_the_near_field_with_h_along_cross_t_v(mi):
             P = np.stack([X[inside], Y[inside], np.zeros(inside.sum())], -1)
             V = np.array([0.0, 0.0, d]) - P
             V /= np.linalg.norm(V, axis=1, keepdims=True)
-            lp, vp = L - (L @ T) * T, V - (V @ T)[:, None] * T
-            phi = np.arctan2(-(np.cross(T, V) @ lp), vp @ lp)
+            angles = C.signed_angles(np.broadcast_to(T, V.shape), V, np.broadcast_to(L, V.shape))
             for sign in (1.0, -1.0):
-                f = E * C.fibre_near(np.full(inside.sum(), math.asin(L @ T)), np.arcsin(V @ T), phi,
-                                     sign * np.clip(h[inside], -1, 1), sigma, roughness=roughness_from_beta_m(0.3),
-                                     shift=math.radians(tilt), beta_n=0.3) / 16
+                f = E * C.fibre_near(*angles, sign * np.clip(h[inside], -1, 1), sigma,
+                                     roughness=roughness_from_beta_m(0.3), shift=math.radians(tilt), beta_n=0.3) / 16
                 if sign > 0:
                     expected = expected + f
                 else:

@@ -94,17 +94,10 @@ def _pixel_means(img, L, width):
     P = np.stack([Xs, Ys, np.zeros_like(Xs)], -1)
     V = np.array([0.0, 0.0, D]) - P
     V /= np.linalg.norm(V, axis=1, keepdims=True)
-    lp = L - (L @ T) * T
-    vp = V - (V @ T)[:, None] * T
-    phi = np.arctan2(-(np.cross(T, V) @ lp), vp @ lp)
     h = (Xs * side[0] + Ys * side[1]) / half
-    g0, g1 = np.arcsin(np.maximum(h - dh / 2, -1.0)), np.arcsin(np.minimum(h + dh / 2, 1.0))
-    mean = 0.0
-    for k in range(16):   # the mean over h in [h0, h1], by steps of gamma = asin h
-        g = g0 + (g1 - g0) * (k + 0.5) / 16
-        mean = mean + C.fibre_near(np.full(len(h), math.asin(L @ T)), np.arcsin(V @ T), phi, np.sin(g), sigma,
-                                   roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3) * (np.cos(g) * (g1 - g0) / 16)[:, None]
-    expected = E * mean / (np.sin(g1) - np.sin(g0))[:, None]
+    angles = C.signed_angles(np.broadcast_to(T, V.shape), V, np.broadcast_to(L, V.shape))
+    expected = E * C.near_mean(*angles, h - dh / 2, h + dh / 2, sigma, roughness=ROUGHNESS, shift=SHIFT, beta_n=0.3,
+                               steps=16)
     got = img[..., :3][inside] / np.maximum(img[..., 3][inside], 1e-6)[:, None]
     return got, expected
 

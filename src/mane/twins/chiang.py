@@ -176,6 +176,29 @@ def _vec_angles(T, V, L):
     return np.arctan2(si, np.maximum(ci, 1e-30)), np.arctan2(so, np.maximum(co, 1e-30)), phi
 
 
+def signed_angles(T, V, L):
+    """(theta_i, theta_o, phi) for the near field: phi the light's azimuth past the eye's about
+    -T, signed, in (-pi, pi] (its sine along -cross(T, V)); with h along cross(T, V) the
+    convention of pbrt's and Mitsuba's phi_i - phi_o (chiang.glsl's hair_chiang_signed_phi)."""
+    T, V, L = (np.asarray(x, np.float64) for x in (T, V, L))
+    ti, to, _ = _vec_angles(T, V, L)
+    lp = L - np.sum(T * L, -1)[:, None] * T
+    vp = V - np.sum(T * V, -1)[:, None] * T
+    return ti, to, np.arctan2(-np.sum(lp * np.cross(T, V), -1), np.sum(lp * vp, -1))
+
+
+def near_mean(theta_i, theta_o, phi, h0, h1, sigma_a, *, roughness, shift, beta_n, eta=1.55, steps=200):
+    """``fibre_near`` averaged over h in [h0, h1] (arrays of one shape), by ``steps`` midpoint steps
+    of gamma = asin h (dh = cos gamma dgamma): what a pixel covering that part of a fibre shows."""
+    g0, g1 = np.arcsin(np.clip(h0, -1.0, 1.0)), np.arcsin(np.clip(h1, -1.0, 1.0))
+    acc = 0.0
+    for k in range(int(steps)):
+        g = g0 + (g1 - g0) * (k + 0.5) / steps
+        acc = acc + fibre_near(theta_i, theta_o, phi, np.sin(g), sigma_a, roughness=roughness, shift=shift,
+                               beta_n=beta_n, eta=eta) * (np.cos(g) * (g1 - g0) / steps)[..., None]
+    return acc / np.maximum(np.sin(g1) - np.sin(g0), 1e-12)[..., None]
+
+
 def chiang(T, V, L, m, n_h=256):
     """hair_bsdf of HAIR_MODEL_CHIANG for unit T, V, L (N, 3) and the material dict of
     shading.material() (plus "beta_n")."""
