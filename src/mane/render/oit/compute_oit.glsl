@@ -82,8 +82,10 @@ vec4 oit_shade(uint i, ivec2 q) {
     OitSegment s = oit_segment(i);
     float a = oit_alpha_of(oit_coverage(s, q));
     float t = raster_param(s.a, s.b, vec2(q) + 0.5);
+#if HAIR_NEAR_FIELD
     vec2 across = raster_across(s.a, s.b, vec2(q) + 0.5);
     hair_set_near(across.x, across.y);
+#endif
     vec3 P = mix(s.p0.xyz, s.p1.xyz, t);
     vec3 T = normalize(mix(s.t0.xyz, s.t1.xyz, t));
     float j = float(i % uint(u_points_per_strand));

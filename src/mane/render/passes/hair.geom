@@ -37,10 +37,18 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
-out float g_across;           // -1 .. 1 across the drawn ribbon along cross(T, V): the near field's h
-out float g_width_px;         // the strand's true width in pixels (before widening)
 flat out int g_strand;        // the rendered strand (the MSAA coverage mask's seed)
 invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
+#ifndef HAIR_NEAR_FIELD
+#define HAIR_NEAR_FIELD 0
+#endif
+#if HAIR_NEAR_FIELD   // the near field's inputs (shading/hair_shading.glsl's hair_set_near)
+out float g_across;           // -1 .. 1 across the drawn ribbon along cross(T, V): h
+out float g_width_px;         // the strand's true width in pixels (before widening)
+#define NEAR_OUT(across, width) g_across = (across); g_width_px = (width)
+#else
+#define NEAR_OUT(across, width)
+#endif
 
 #if CAPTURE
 // Test hook: every emitted segment appended to a buffer (8 vec4 per segment).
@@ -90,22 +98,20 @@ void main() {
         g_s = e_s[i];
         g_rand = e_rand[i];
         g_alpha = alpha[i];
-        g_width_px = width_px[i];
         g_strand = int(e_id[0]);
 #if VERTEX_SHADOWS
         g_vis = vis[i];
 #endif
 #if GEOMETRY_LINES
         g_pos = e_pos[i];
-        g_across = 0.0;
-        g_width_px = 0.0;   // a line: no near field
+        NEAR_OUT(0.0, 0.0);   // a line: no near field
         g_depth = dot(g_pos - u_eye, u_view_dir);
         gl_Position = u_view_proj * vec4(g_pos, 1.0);
         EmitVertex();
 #else
         for (int j = 0; j < 2; ++j) {
             g_pos = corner[2 * i + j];
-            g_across = j == 0 ? -1.0 : 1.0;
+            NEAR_OUT(j == 0 ? -1.0 : 1.0, width_px[i]);
             g_depth = dot(g_pos - u_eye, u_view_dir);
             gl_Position = u_view_proj * vec4(g_pos, 1.0);
             EmitVertex();

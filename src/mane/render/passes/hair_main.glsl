@@ -12,8 +12,10 @@ centroid in float g_s;
 in float g_rand;
 in float g_alpha;
 centroid in float g_depth;
+#if HAIR_NEAR_FIELD
 centroid in float g_across;    // the near field's h (hair_shading.glsl's hair_set_near)
 in float g_width_px;
+#endif
 flat in int g_strand;          // the rendered strand (coverage_mask.glsl)
 
 uniform vec3 u_eye;
@@ -40,9 +42,11 @@ layout(location = 0) out vec4 frag_opacity;
 
 void main() {
 #if PASS == 0
+#if HAIR_NEAR_FIELD
     // the near field's window is the pixel (its centre, not the covered samples' centroid: the
     // windows of a fibre's pixels then tile its width)
     hair_set_near(interpolateAtOffset(g_across, vec2(0.0)), g_width_px);
+#endif
     vec3 color = hair_radiance(g_pos, normalize(g_tangent), u_eye, g_s, g_rand);
 #if SAMPLE_MASK   // MSAA: each sample covered with probability g_alpha, covered samples opaque
     gl_SampleMask[0] = coverage_mask(g_alpha, g_strand, ivec2(gl_FragCoord.xy));

@@ -26,10 +26,18 @@ out float g_s;
 out float g_rand;
 out float g_alpha;
 out float g_depth;            // view depth (m) along u_view_dir
-out float g_across;           // -1 .. 1 across the ribbon along cross(T, V): the near field's h (hair.geom)
-out float g_width_px;         // the strand's true width in pixels (before widening)
 flat out int g_strand;        // the rendered strand (the MSAA coverage mask's seed)
 invariant gl_Position;        // the depth pre-pass and the shading pass meet at equal depths
+#ifndef HAIR_NEAR_FIELD
+#define HAIR_NEAR_FIELD 0
+#endif
+#if HAIR_NEAR_FIELD   // the near field's inputs (shading/hair_shading.glsl's hair_set_near)
+out float g_across;           // -1 .. 1 across the ribbon along cross(T, V): h
+out float g_width_px;         // the strand's true width in pixels (before widening)
+#define NEAR_OUT(across, width) g_across = (across); g_width_px = (width)
+#else
+#define NEAR_OUT(across, width)
+#endif
 
 void main() {
 #if GEOMETRY_LINES
@@ -49,8 +57,7 @@ void main() {
     float depth = max(dot(P - u_eye, u_view_dir), 1e-4);
     float pixel = u_ortho != 0 ? u_pixel_size : u_pixel_size * depth;
     float w = pw.w;
-    g_width_px = w / pixel;
-    g_across = 0.0;
+    float width_px = w / pixel;
     float wmin = u_min_pixel_width * pixel;
     if (w < wmin) { a = w / wmin; w = wmin; }
 #if !GEOMETRY_LINES
@@ -59,9 +66,9 @@ void main() {
     if (dot(side, side) < 1e-10) side = cross(T, abs(T.y) < 0.9 ? vec3(0, 1, 0) : vec3(1, 0, 0));
     side = normalize(side);
     P += ((gl_VertexID & 1) == 0 ? -0.5 : 0.5) * w * side;
-    g_across = (gl_VertexID & 1) == 0 ? -1.0 : 1.0;
+    NEAR_OUT((gl_VertexID & 1) == 0 ? -1.0 : 1.0, width_px);
 #else
-    g_width_px = 0.0;   // a line: no near field
+    NEAR_OUT(0.0, 0.0);   // a line: no near field
 #endif
     g_pos = P;
     g_tangent = T;

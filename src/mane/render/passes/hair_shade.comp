@@ -32,8 +32,10 @@ vec3 shade_segment(uint i, vec2 q) {
     vec4 p1 = expanded[2 * i + 2], t1 = expanded[2 * i + 3];
     RasterPoint a = raster_point(p0.xyz, p0.w), b = raster_point(p1.xyz, p1.w);
     float t = raster_param(a, b, q);
+#if HAIR_NEAR_FIELD
     vec2 across = raster_across(a, b, (floor(q / float(u_grid)) + 0.5) * float(u_grid));   // at the pixel's centre
     hair_set_near(across.x, across.y);
+#endif
     vec3 P = mix(p0.xyz, p1.xyz, t);
     vec3 T = normalize(mix(t0.xyz, t1.xyz, t));
     float j = float(i % uint(u_points_per_strand));

@@ -79,8 +79,9 @@ struct HairMaterial {
 // across it and the fibre's width in pixels (one pixel is 2 / width of h). hair_near_dh: that
 // unclipped span (2 or more: the whole fibre, the far field); hair_near_h: the middle of
 // [h0, h1]; hair_near_l0, _l1: (asin(h0, h1) + pi/2) / pi, where the table's layers lie, and
-// hair_near_k = 2 / (h1 - h0) (once a pixel, not once a light). The drawing code sets them by hair_set_near before hair_bsdf;
-// code that does not leaves the far field.
+// hair_near_k = 2 / (h1 - h0) (once a pixel, not once a light). The drawing code sets them by
+// hair_set_near before hair_bsdf (under #if HAIR_NEAR_FIELD: without it the hair programs are
+// the far field's as they were); code that does not leaves the far field.
 #ifndef HAIR_NEAR_FIELD
 #define HAIR_NEAR_FIELD 0
 #endif
