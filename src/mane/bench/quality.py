@@ -153,18 +153,7 @@ def shading(ctx, cfg, image_dir, log) -> dict:
             else:
                 raise Skip(f"no NumPy reference for {model!r}")
             floor = 1e-2 if model in ("marschner_lut", "chiang") else 1e-3    # the tests' floors (tables)
-            err = relative_error(g, ref, floor)
-            errs = relative_error(gs, refs, floor)
-            both = np.concatenate([err.ravel(), errs.ravel()])
-            diff = np.abs(np.concatenate([np.ravel(g - ref), np.ravel(gs - refs)]))
-            allref = np.abs(np.concatenate([np.ravel(ref), np.ravel(refs)]))
-            row.update(max_rel_error=float(both.max()), p95_rel_error=float(np.quantile(both, 0.95)),
-                       p99_rel_error=float(np.quantile(both, 0.99)), rel_error_floor=floor,
-                       max_abs_over_peak=float(diff.max() / max(allref.max(), 1e-30)),
-                       mean_abs_over_mean=float(diff.mean() / max(allref.mean(), 1e-30)),
-                       peak=float(allref.max()), samples=int(len(T) + len(ST)),
-                       finite=bool(np.isfinite(g).all() and np.isfinite(gs).all()),
-                       non_negative=bool((g >= 0).all() and (gs >= 0).all()))
+            row.update(_errors([g, gs], [ref, refs], floor))
             lum = np.array([0.2126, 0.7152, 0.0722])
             maps[model] = ((gs @ lum).reshape(cfg["sweep"]), (np.asarray(refs) @ lum).reshape(cfg["sweep"]))
         except Skip as exc:
@@ -197,6 +186,21 @@ def shading(ctx, cfg, image_dir, log) -> dict:
     return out
 
 
+def _errors(gots, refs, floor: float) -> dict:
+    """A shading row's figures: GLSL results ``gots`` against ``refs`` (lists of (N, 3) arrays;
+    ``relative_error`` per pair, its floor a fraction ``floor`` of that pair's peak)."""
+    rel = np.concatenate([relative_error(g, r, floor).ravel() for g, r in zip(gots, refs)])
+    diff = np.abs(np.concatenate([np.ravel(np.asarray(g) - np.asarray(r)) for g, r in zip(gots, refs)]))
+    ref = np.abs(np.concatenate([np.ravel(r) for r in refs]))
+    got = np.concatenate([np.ravel(g) for g in gots])
+    return dict(max_rel_error=float(rel.max()), p95_rel_error=float(np.quantile(rel, 0.95)),
+                p99_rel_error=float(np.quantile(rel, 0.99)), rel_error_floor=floor,
+                max_abs_over_peak=float(diff.max() / max(ref.max(), 1e-30)),
+                mean_abs_over_mean=float(diff.mean() / max(ref.mean(), 1e-30)),
+                peak=float(ref.max()), samples=int(sum(len(g) for g in gots)),
+                finite=bool(np.isfinite(got).all()), non_negative=bool((got >= 0).all()))
+
+
 def _near_field_row(ctx, T, V, L, rng) -> dict:
     """Chiang's near field (ShadingSettings.near_field) on the random directions at random
     offsets h: the fibre at h (footprint 0) and its mean over a footprint of 0.5 of h (the
@@ -213,19 +217,9 @@ def _near_field_row(ctx, T, V, L, rng) -> dict:
         angles = C.signed_angles(T, V, L)
         kw = dict(roughness=s.roughness, shift=s.shift, beta_n=s.beta_n, eta=s.eta)
         sigma = s.resolved_sigma_a()
-        got = np.concatenate([evaluate_glsl(ctx, s, T, V, L, h=h, footprint=0.0),
-                              evaluate_glsl(ctx, s, T, V, L, h=h, footprint=0.5)])
-        ref = np.concatenate([C.fibre_near(*angles, h, sigma, **kw),
-                              C.near_mean(*angles, h - 0.25, h + 0.25, sigma, steps=64, **kw)])
-        floor = 1e-2
-        err = relative_error(got, ref, floor)
-        diff = np.abs(got - ref)
-        row.update(max_rel_error=float(err.max()), p95_rel_error=float(np.quantile(err, 0.95)),
-                   p99_rel_error=float(np.quantile(err, 0.99)), rel_error_floor=floor,
-                   max_abs_over_peak=float(diff.max() / max(np.abs(ref).max(), 1e-30)),
-                   mean_abs_over_mean=float(diff.mean() / max(np.abs(ref).mean(), 1e-30)),
-                   peak=float(np.abs(ref).max()), samples=int(len(got)),
-                   finite=bool(np.isfinite(got).all()), non_negative=bool((got >= 0).all()))
+        gots = [evaluate_glsl(ctx, s, T, V, L, h=h, footprint=0.0), evaluate_glsl(ctx, s, T, V, L, h=h, footprint=0.5)]
+        refs = [C.fibre_near(*angles, h, sigma, **kw), C.near_mean(*angles, h - 0.25, h + 0.25, sigma, steps=64, **kw)]
+        row.update(_errors(gots, refs, 1e-2))
     except Exception as exc:
         row.update(status="error", reason=f"{type(exc).__name__}: {exc}"[:400])
     return row
