@@ -244,15 +244,17 @@ def test_still_maps_no_finer_than_the_frames_or_than_the_gpu_holds_are_the_frame
     from mane.gpu import capabilities
 
     for kw in (dict(still_shadow_map_size=0), dict(still_shadow_map_size=256), dict(still_shadow_map_size=128)):
-        r = _renderer(gl, still_segments=0, **kw)
-        try:
-            assert r.still_settings() is r.settings
-            cam = r.default_camera()
-            for _ in range(3):
-                r.render(cam, refine=True)
-            assert not r._still_twins
-        finally:
-            r.release()
+        for near in (False, True):   # the near field alone (still_near_field) changes no map
+            r = _renderer(gl, still_segments=0, still_near_field=near, **kw)
+            try:
+                assert (r.still_settings() is r.settings) is not near
+                assert r.still_settings().shading_options.get("near_field", False) is near
+                cam = r.default_camera()
+                for _ in range(3):
+                    r.render(cam, refine=True)
+                assert not r._still_twins
+            finally:
+                r.release()
     caps = capabilities.get_capabilities(gl)
     small = dict(caps.limits, max_shader_storage_block_size=1024 * 1024 * 16)   # a 1024 map's counters
     monkeypatch.setattr(capabilities, "get_capabilities", lambda ctx: type(caps)(**{**caps.__dict__, "limits": small}))
@@ -281,7 +283,8 @@ def test_the_extra_lights_maps_of_a_still_picture(gl):
         assert frame_maps == [(64, 64)] * 2 and still_maps == [(512, 512)] * 2
     finally:
         r.release()
-    r = _renderer(gl, still_segments=0, still_shadow_map_size=0, extra_shadow_map_size=64, still_extra_shadow_map_size=0)
+    r = _renderer(gl, still_segments=0, still_shadow_map_size=0, extra_shadow_map_size=64, still_extra_shadow_map_size=0,
+                  still_near_field=False)
     try:
         assert r.still_settings() is r.settings
     finally:

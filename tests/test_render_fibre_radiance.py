@@ -35,10 +35,10 @@ T = np.array([math.cos(math.radians(3.0)), math.sin(math.radians(3.0)), 0.0])   
 VIEW = 2 * D * math.tan(math.radians(FOV) / 2)                                  # metres across the view
 
 
-def _draw(gl, rasterizer, width, toward_light, near_field, accumulate, pipeline="compute"):
+def _draw(gl, rasterizer, width, toward_light, near_field, accumulate, pipeline="compute", still_near_field=False):
     """One straight guide along T through the origin (root first), ``width`` m wide, seen from
     +z across a 2-degree view (theta_o = 0 within 1 degree), lit by one directional light: the
-    still picture (linear, premultiplied)."""
+    still picture (linear, premultiplied; its frames' near field as ``still_near_field``)."""
     groom = Groom((np.linspace(-0.1, 0.1, 16)[:, None] * T).astype(np.float32), np.array([16], np.int32))
     settings = RenderSettings(size=(SIZE, SIZE), strands_per_guide=1, hair_color=None, width=width, width_tip=1.0,
                               shading="chiang", shading_options={"melanin": MELANIN, "multiple_scattering": "none",
@@ -46,7 +46,7 @@ def _draw(gl, rasterizer, width, toward_light, near_field, accumulate, pipeline=
                                                                  "near_field": near_field},
                               shadows="none", ambient=0.0, background=(0.0, 0.0, 0.0), tone_mapping="none",
                               exposure=1.0, strand_spread=0.0, draw_head=False, rasterizer=rasterizer,
-                              accumulate=accumulate, pipeline=pipeline)
+                              accumulate=accumulate, pipeline=pipeline, still_near_field=still_near_field)
     cam = Camera(eye=(0, 0, D), target=(0, 0, 0), fov_y=FOV)
     img, drawn = still_picture(gl, settings, groom, None, cam, [Light("directional", toward_light, (1, 1, 1), E)])
     assert drawn == rasterizer
@@ -126,3 +126,24 @@ def test_a_wide_fibre_shows_the_near_field_each_pixel_covers(gl, rasterizer, pip
     middle = img[:, SIZE // 4:3 * SIZE // 4]
     np.testing.assert_allclose(middle[..., :3].sum(axis=(0, 1)) / middle[..., 3].sum(), _far_field(toward_light),
                                rtol=0.05 if pixels < 8 else 0.02)
+
+
+@pytest.mark.parametrize("rasterizer, bound", [("compute", 0.05), ("hardware", 0.25)])
+def test_a_still_picture_shows_a_wide_fibres_near_field_by_default(gl, rasterizer, bound):
+    # RenderSettings.still_near_field (on by default): a still picture's frames shade with the
+    # near field though the frames' own setting is off, so a 16-px fibre's pixels follow the twin's
+    # near field; with it off they show the far field, 1.05 off per pixel. The raster units' still
+    # picture resolves each sample with its fragment's one colour, which blurs the shading across
+    # about two pixels (docs/quality.md): 0.18 there, 0.03 on the compute rasteriser.
+    assert RenderSettings().still_near_field
+    width = 16 * VIEW / SIZE
+    toward_light = (0.4, 1.0, 1.0)
+    L = np.asarray(toward_light, float) / np.linalg.norm(toward_light)
+    errors = []
+    for still_near_field in (True, False):
+        img = _draw(gl, rasterizer, width, toward_light, near_field=False, accumulate=8,
+                    still_near_field=still_near_field)
+        got, expected = _pixel_means(img, L, width)
+        errors.append(np.abs(got - expected).sum() / expected.sum())
+    assert errors[0] < bound, errors
+    assert errors[1] > 0.5, errors

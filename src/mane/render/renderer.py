@@ -141,7 +141,8 @@ class Renderer(GpuOwner):
         self._frames_dirty = True
         self._geometry_version = 0
         self._still = (None, 0)       # (what the last frame showed: _scene_key, its place in a still scene's mean)
-        self._still_settings = None   # (settings, still_settings() of them)
+        self._still_settings = None   # (settings, still_settings() of them, whether their maps differ)
+        self._still_shading_memo = None   # (the frames' ShadingAdapter, a still picture's)
         self._still_twins = {}        # id(light-space pass) -> (the pass, its twin for still frames)
         self._strand_writes = 0       # strands_changed calls (a still scene has none between its frames)
         self._sim_rebuilds = 0        # geometry versions that rebuilt a simulator's frames every frame
@@ -792,12 +793,13 @@ class Renderer(GpuOwner):
         self._hdr_resolved = False
         self.sample_offsets = None
         still = self._still_place(camera, lights) if refine else 0
-        base, passes = self.settings, self.passes
+        base, passes, shading = self.settings, self.passes, self.shading
         if 1 <= still <= int(base.accumulate) and self.still_settings() is not base:
             # a still picture's frames in its mean: its own, finer shadow and opacity maps
+            self.shading = self._still_shading()
             self.settings = self.still_settings()
         try:
-            if self.settings is not base:
+            if self.settings is not base and self._still_settings[2]:   # (not the shading alone)
                 passes = self._still_passes()
             view = self.camera_view(camera)
             frame = Frame(self, camera, lights, self._still_view(view, still), index=self.frames_rendered, still=still)
@@ -846,11 +848,11 @@ class Renderer(GpuOwner):
             if passes is self.passes and self.settings is base:
                 raise
             # the finer maps do not fit: the frames' own from now on, and this frame again with them
-            self.settings = base
+            self.settings, self.shading = base, shading
             self._drop_still_settings()
             return self.render(camera, lights, refine=refine)
         finally:
-            self.settings = base
+            self.settings, self.shading = base, shading
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame
@@ -861,7 +863,8 @@ class Renderer(GpuOwner):
         """The settings a still picture's frames in its mean are drawn with: the shadow and
         opacity maps at settings.still_shadow_map_size, lowered to what the GPU's storage blocks
         and textures hold, with still_dom_layers, the extra lights' at still_extra_shadow_map_size,
-        and still_segments; the settings themselves where that is no finer.
+        still_segments, and Chiang's near field with still_near_field; the settings themselves
+        where that is no finer.
         The same object while the settings are (light_key.py keeps the maps by it)."""
         s = self.settings
         memo = self._still_settings
@@ -876,9 +879,25 @@ class Renderer(GpuOwner):
             changes["extra_shadow_map_size"] = x
         if int(s.still_segments) > int(s.segments):
             changes["segments"] = int(s.still_segments)
+        maps = bool(changes)   # the light-space passes' twins draw their own maps (_still_passes)
+        if s.still_near_field and s.shading == "chiang" and not s.shading_options.get("near_field"):
+            changes["shading_options"] = {**s.shading_options, "near_field": True}
         out = s.replace(**changes) if changes else s
-        self._still_settings = (s, out)
+        self._still_settings = (s, out, maps)
         return out
+
+    def _still_shading(self) -> ShadingAdapter:
+        """The hair material of a still picture's frames: the frames' own, with still_settings()'
+        shading options where they differ (Chiang's near field, still_near_field). Kept while the
+        frames' material is."""
+        still = self.still_settings()
+        if still.shading_options is self.settings.shading_options:
+            return self.shading
+        memo = self._still_shading_memo
+        if memo is None or memo[0] is not self.shading:
+            memo = self._still_shading_memo = (self.shading, ShadingAdapter(still.shading, still.hair_color,
+                                                                             still.shading_options))
+        return memo[1]
 
     def _fitting_map(self, n: int, base: int) -> int:
         """``n`` texels a side halved until the GPU's storage blocks and textures hold such a map
@@ -906,7 +925,7 @@ class Renderer(GpuOwner):
         for _, twin in self._still_twins.values():
             twin.release()
         self._still_twins.clear()
-        self._still_settings = (self.settings, self.settings)
+        self._still_settings = (self.settings, self.settings, False)
 
     def _still_passes(self) -> list:
         """The passes of a still picture's frames in its mean: each light-space pass (Pass.light_space)

@@ -333,6 +333,13 @@ class RenderSettings:
     still_dom_layers: tuple[float, float, float] = setting((0.02, 0.06, 1.0), lo=0.0, lo_open=True, hi=100.0,
         help="""The deep opacity layers' ends of those maps (as dom_layers): the first closer to the
         lit surface, where most of a fibre's shadow falls.""")
+    still_near_field: bool = setting(True,
+        help="""A still picture's frames in its mean shade Chiang's fibre with its near field
+        (``shading_options`` near_field, mane.render.shading.ShadingSettings): a fibre wider than a
+        pixel shows in each pixel the part of its width the pixel covers, its highlights where the
+        path tracer puts them (a close-up of the curly head, fibres ~3 px: 0.84 -> 0.76 relative
+        error per pixel; docs/quality.md), which the frames leave off for their cost. Fibres under
+        a pixel look the same either way. False: the frames' own setting.""")
     tone_mapping: str = setting("aces", choices=TONE_MAPS,
         help='Tone curve from linear radiance to the display: "aces" (the ACES filmic fit), "reinhard" or "none" (clamp).')
     exposure: float = setting(1.0, lo=0.0, hi=1000.0, slider=(0.0, 4.0),

@@ -156,7 +156,9 @@ class ShadingSettings:
                     highlights where they lie across it, as the path tracer does; a fibre
                     under a pixel wide gets the mean over its whole width, the far field.
                     False (the default until its cost on a GPU is measured: the default
-                    strands are 1-3 px wide in issue 14's close-ups): the far field everywhere
+                    strands are 1-3 px wide in issue 14's close-ups): the far field everywhere;
+                    a still picture's frames draw with it all the same
+                    (RenderSettings.still_near_field)
     lut_size        Marschner LUT resolution (M: lut_size^2, N: 2 lut_size x lut_size)
     dual_density_front  Zinke's d_f (forward-scattering density factor; the paper's 0.6-0.8
                     discounted counting every occluder as a fibre met; with the Poisson count
