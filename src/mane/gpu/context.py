@@ -125,5 +125,10 @@ def renderer_name(ctx) -> str:
 
 def is_software_renderer(ctx) -> bool:
     """True for CPU rasterisers (Mesa llvmpipe, softpipe, swrast, SwiftShader)."""
-    name = renderer_name(ctx).lower()
+    return is_software_name(renderer_name(ctx))
+
+
+def is_software_name(name: str) -> bool:
+    """Whether a GL_RENDERER string names a CPU rasteriser (is_software_renderer)."""
+    name = (name or "").lower()
     return any(k in name for k in ("llvmpipe", "softpipe", "swrast", "swiftshader", "software"))

@@ -43,6 +43,9 @@ class Quality:
     """RenderSettings.hair_shadow_lookup ("vertex": at the strands' points, for a CPU rasteriser)."""
     skin_bounce: float | None = None
     """RenderSettings.skin_bounce; None: the renderer's default (the skin's bounce on)."""
+    rasterizer: str = "auto"
+    """RenderSettings.rasterizer ("hardware" for SOFTWARE's lines on llvmpipe: 84 ms a frame
+    against the compute rasteriser's 113, docs/performance.md)."""
 
     def render_settings(self, **changes):
         from ..grooming.scene import DEFAULT_SCENE_RENDER
@@ -51,7 +54,7 @@ class Quality:
 
         base = dict(**DEFAULT_SCENE_RENDER, size=self.size, strands_per_guide=self.strands_per_guide, segments=self.segments,
                     msaa=self.msaa, shading=self.shading, shadows=self.shadows,
-                    geometry=self.geometry, hair_shadow_lookup=self.hair_shadow_lookup,
+                    geometry=self.geometry, hair_shadow_lookup=self.hair_shadow_lookup, rasterizer=self.rasterizer,
                     shading_options={"melanin": hair_preset(self.hair), "specular": self.specular,
                                      "multiple_scattering": self.multiple_scattering})
         base.update({k: v for k, v in (("shadow_map_size", self.shadow_map_size), ("pcf", self.pcf),
@@ -74,6 +77,7 @@ SOFTWARE = Quality("software (scaled down for a CPU rasteriser)", 300, 3, 12, 6,
                                                  # for ~25% of the hair pass on llvmpipe
                    hair_shadow_lookup="vertex",  # the hair's shadows at its points (docs/quality.md)
                    geometry="lines",             # sub-pixel strands: the same picture, half the hair pass
+                   rasterizer="hardware",        # lines by the raster units: 84 ms a frame, compute 113
                    skin_bounce=0.0)              # unoccluded by the hair without deep opacity maps (2x the
                                                  # path tracer's bounce), and its grid's build ~50-75 ms
                                                  # a frame on llvmpipe
