@@ -796,7 +796,7 @@ class Renderer(GpuOwner):
         base, passes, shading = self.settings, self.passes, self.shading
         if 1 <= still <= int(base.accumulate) and self.still_settings() is not base:
             # a still picture's frames in its mean: its own, finer shadow and opacity maps
-            self.shading = self._still_shading()
+            self.shading = self._still_shading(base, self.still_settings())
             self.settings = self.still_settings()
         try:
             if self.settings is not base and self._still_settings[2]:   # (not the shading alone)
@@ -886,12 +886,11 @@ class Renderer(GpuOwner):
         self._still_settings = (s, out, maps)
         return out
 
-    def _still_shading(self) -> ShadingAdapter:
-        """The hair material of a still picture's frames: the frames' own, with still_settings()'
-        shading options where they differ (Chiang's near field, still_near_field). Kept while the
-        frames' material is."""
-        still = self.still_settings()
-        if still.shading_options is self.settings.shading_options:
+    def _still_shading(self, base: RenderSettings, still: RenderSettings) -> ShadingAdapter:
+        """The hair material of a still picture's frames (drawn with ``still``, the still_settings()
+        of the frames' ``base``): the frames' own, with the still settings' shading options where
+        they differ (Chiang's near field, still_near_field). Kept while the frames' material is."""
+        if still.shading_options is base.shading_options:
             return self.shading
         memo = self._still_shading_memo
         if memo is None or memo[0] is not self.shading:
