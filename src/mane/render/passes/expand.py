@@ -22,6 +22,7 @@ from .base import HERE, Frame, Pass, pulls, set_strand_uniforms, set_uniform, se
 
 LOCAL_SIZE = 128
 MAX_GROUPS_X = 65535
+EXPAND_POINTS = LOCAL_SIZE - 2   # points a work group of strand_expand.comp writes (its ends: neighbours)
 
 
 class ExpandPass(Pass):
@@ -91,7 +92,8 @@ class ExpandPass(Pass):
         multi = s.interpolation_mode != "single"
         cs = self._programs.get("expand", (s.interpolation, s.interpolation_mode, bool(s.lod)), lambda: compute_shader(
             ctx, HERE / "strand_expand.comp", {"INTERPOLATION": _ids()["interp"][s.interpolation],
-                                               "MULTI": _ids()["multi"][s.interpolation_mode], "LOD": int(bool(s.lod))},
+                                               "MULTI": _ids()["multi"][s.interpolation_mode], "LOD": int(bool(s.lod)),
+                                               "EXPAND_LOCAL": LOCAL_SIZE},
             include_dirs=[HERE.parent]))
         if multi:
             table = r.strand_table()
@@ -131,7 +133,7 @@ class ExpandPass(Pass):
             _set(cs, "u_width_scale", float(scale) if not multi else 1.0)
             _set(cs, "u_first_strand", first)
             _set(cs, "u_model", np.asarray(model, dtype=np.float64))
-            run_1d(cs, n * points)
+            run_1d(cs, n * points, EXPAND_POINTS)
             first += n
         ctx.memory_barrier()
         self.points, self.strands, self._key = points, strands, key
@@ -200,17 +202,17 @@ class ExpandPass(Pass):
         self._key = self._key_memo = None
 
 
-def run_1d(cs, n: int) -> None:
-    """Dispatch ``cs`` (local_size_x = LOCAL_SIZE) over n invocations, x then y groups (the
-    shader flattens gl_WorkGroupID); nothing for n = 0."""
-    groups = groups_1d(n)
+def run_1d(cs, n: int, per_group: int = LOCAL_SIZE) -> None:
+    """Dispatch ``cs`` (local_size_x = LOCAL_SIZE) over n items, ``per_group`` a work group, x
+    then y groups (the shader flattens gl_WorkGroupID); nothing for n = 0."""
+    groups = groups_1d(n, per_group)
     if groups is not None:
         cs.run(*groups)
 
 
-def groups_1d(n: int) -> tuple[int, int] | None:
-    """run_1d's work groups (x, y) for n invocations; None for n = 0."""
-    groups = math.ceil(int(n) / LOCAL_SIZE)
+def groups_1d(n: int, per_group: int = LOCAL_SIZE) -> tuple[int, int] | None:
+    """run_1d's work groups (x, y) for n items; None for n = 0."""
+    groups = math.ceil(int(n) / per_group)
     if groups <= 0:
         return None
     gx = min(groups, MAX_GROUPS_X)

@@ -8,9 +8,14 @@
 //     that guide's frame.
 // Then every strand: deviation with probability u_stray_fraction in one of five equiprobable
 // shapes (Vulkan hair after Rapp 2014; twins in mane/render/strand_math.py), render-time curl
-// (a helix around the curve), distance LOD (width multiplier, fading strands). The tangent is
-// the strand's own (offsets and curl differentiated), tilted per strand by u_strand_spread.
-// Needs strand_common.glsl first.
+// (a helix around the curve), distance LOD (width multiplier, fading strands). The tangent here
+// is the strand's own as far as its offsets' lengths go (the clump's taper, a stray, the curl
+// differentiated), but not the turning of the guide's frame that carries them: a strand an
+// offset r off a guide bent with curvature k moves at (1 - k r cos) times the guide's pace, and
+// where k r > 1 (tight curls) backwards. So the callers replace it with the direction of the
+// strand's drawn points, strand_curve_tangent (central differences: strand_expand.comp from its
+// neighbours, hair.tese from the curve evaluated a step either side), and then tilt it per strand
+// by u_strand_spread (strand_tilted). Needs strand_common.glsl first.
 
 uniform float u_clump_radius;
 uniform float u_clump_root;
@@ -32,6 +37,9 @@ struct StrandVertex {
     float width;      // metres
     float id;         // guide * strands_per_guide + strand (MULTI: the record index)
     float lod_alpha;  // LOD fade of the strand (1 kept, 0 dropped)
+    vec3 n;           // the guide's frame normal here (the tilt's reference direction)
+    float tilt;       // the strand's tilt of its shading tangent (radians; 0: none)
+    float tilt_phi;   // its direction about the tangent
 };
 
 // The five deviation shapes, peak 1 over all of them (4.5 s^10 at the tip).
@@ -67,6 +75,25 @@ vec3 frame_normal(vec3 n, vec3 T) {
         n = cross(cross(T, a), T);
     }
     return normalize(n);
+}
+
+// The shading tangent at a point whose neighbours along the drawn strand are a (before) and b
+// (after), either of them the point itself at an end: their direction, or `fallback` where
+// they coincide (a collapsed LOD segment).
+vec3 strand_curve_tangent(vec3 a, vec3 b, vec3 fallback) {
+    vec3 d = b - a;
+    return dot(d, d) > 1e-24 ? normalize(d) : fallback;
+}
+
+// T tilted by the strand's spread (strand_eval's tilt, tilt_phi; unchanged where there is none):
+// fibres of a clump are not parallel copies, each strand's direction tilts from its curve's by
+// a random angle (Rayleigh, RMS u_strand_spread radians) in a random direction turning twice
+// along the strand, so that a clump's strands catch the highlight at different places along
+// it instead of all at once as one flat reflector
+vec3 strand_tilted(vec3 T, StrandVertex v) {
+    if (v.tilt <= 0.0) return T;
+    vec3 nt = frame_normal(v.n, T);
+    return normalize(T + tan(min(v.tilt, 1.2)) * (cos(v.tilt_phi) * nt + sin(v.tilt_phi) * cross(T, nt)));
 }
 
 // guide (single) and seg: the guide segment; u in [0,1] along it; strand: the strand of the
@@ -166,16 +193,9 @@ StrandVertex strand_eval(int guide, int seg, float u, int strand, float lod_coun
         dPds += u_curl_radius * (dramp * radial + ramp * 6.28318530718 * u_curl_frequency * around);
         if (dot(dPds, dPds) > 1e-20) T = normalize(dPds);
     }
-    if (keep && u_strand_spread > 0.0) {
-        // fibres of a clump are not parallel copies: each strand's direction tilts from its
-        // curve's by a random angle (Rayleigh, RMS u_strand_spread radians) in a random
-        // direction, so that a clump's strands catch the highlight at different places along
-        // it instead of all at once as one flat reflector
-        float tilt = u_strand_spread * sqrt(-log(max(1.0 - r_tilt, 1e-7)));
-        float phi = 6.28318530718 * (r_tilt_dir + 2.0 * s);   // turning twice along the strand
-        vec3 nt = frame_normal(n, T);
-        T = normalize(T + tan(min(tilt, 1.2)) * (cos(phi) * nt + sin(phi) * cross(T, nt)));
-    }
+    // the strand's tilt (strand_tilted applies it to the tangent the caller settles on)
+    float tilt = keep && u_strand_spread > 0.0 ? u_strand_spread * sqrt(-log(max(1.0 - r_tilt, 1e-7))) : 0.0;
+    float tilt_phi = 6.28318530718 * (r_tilt_dir + 2.0 * s);   // turning twice along the strand
 
     float lod_alpha = 1.0;
 #if LOD
@@ -191,6 +211,9 @@ StrandVertex strand_eval(int guide, int seg, float u, int strand, float lod_coun
     v.lod_alpha = lod_alpha;
     v.pos = P;
     v.tangent = T;
+    v.n = n;
+    v.tilt = tilt;
+    v.tilt_phi = tilt_phi;
     v.s = s;
     v.width = u_width * mix(1.0, u_width_tip, s) * mix(1.0, u_lod_range.w, lod_t_strand);
 #if MULTI
