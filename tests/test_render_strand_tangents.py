@@ -11,6 +11,7 @@ import pytest
 from test_render_compute import expanded
 from mane.groom import Groom
 from mane.render import Renderer, RenderSettings
+from mane.render.camera import Camera
 from mane.render.capture import capture_segments
 from test_render_tessellation import wavy_groom
 
@@ -131,3 +132,30 @@ def test_the_tessellation_pipeline_shades_the_same_direction(gl):
         n += len(fd)
     assert n > 3 * 16 * 60
     assert worst < 0.1, worst
+
+
+def test_collapsed_lod_points_keep_the_strands_direction(gl):
+    # the distance LOD collapses a guide segment's last points onto its end, which the next
+    # segment's first point meets but for the round-off of two cubics: their neighbours' direction
+    # would be noise. Every point's tangent lies within 10 degrees of the nearest segment of
+    # non-zero length before or after it (up to 150 degrees off without the guard, checked)
+    g = wavy_groom(guides=3, points=8)
+    r = Renderer(RenderSettings(size=(64, 48), msaa=1, segments=64, strands_per_guide=4, lod=True, lod_start=0.2,
+                                lod_end=1.0, lod_percent=0.3, strand_spread=0.0), ctx=gl, profile=False)
+    try:
+        r.set_strands(g)
+        r.render(Camera(eye=(0.3, 0.0, 0.9), target=(0.05, -0.15, 0.0), fov_y=30.0))
+        e = r.get_pass("expand").read()
+    finally:
+        r.release()
+    p, t = e[..., :3].astype(np.float64), e[..., 4:7].astype(np.float64)
+    d = np.diff(p, axis=1)
+    length = np.linalg.norm(d, axis=-1)
+    assert np.mean(length < 1e-6) > 0.3   # the LOD collapsed segments
+    worst = 0.0
+    for i in range(len(p)):
+        real = [k for k in range(d.shape[1]) if length[i, k] > 1e-5]
+        for j in range(p.shape[1]):
+            near = [k for k in real if k < j][-1:] + [k for k in real if k >= j][:1]
+            worst = max(worst, min(angles(t[i, j], d[i, k] / length[i, k]) for k in near))
+    assert worst < 10.0, worst

@@ -79,10 +79,12 @@ vec3 frame_normal(vec3 n, vec3 T) {
 
 // The shading tangent at a point whose neighbours along the drawn strand are a (before) and b
 // (after), either of them the point itself at an end: their direction, or `fallback` where
-// they coincide (a collapsed LOD segment).
+// they lie within 1e-5 of their distance from the origin (float32's round-off a few hundred times
+// over): the points of a collapsed LOD segment, equal but for the round-off of two cubics.
 vec3 strand_curve_tangent(vec3 a, vec3 b, vec3 fallback) {
     vec3 d = b - a;
-    return dot(d, d) > 1e-24 ? normalize(d) : fallback;
+    float scale = 1e-5 * max(max(length(a), length(b)), 1e-3);
+    return dot(d, d) > scale * scale ? normalize(d) : fallback;
 }
 
 // T tilted by the strand's spread (strand_eval's tilt, tilt_phi; unchanged where there is none):
