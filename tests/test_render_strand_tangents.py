@@ -159,3 +159,15 @@ def test_collapsed_lod_points_keep_the_strands_direction(gl):
             near = [k for k in real if k < j][-1:] + [k for k in real if k >= j][:1]
             worst = max(worst, min(angles(t[i, j], d[i, k] / length[i, k]) for k in near))
     assert worst < 10.0, worst
+
+
+@pytest.mark.parametrize("mode", ["multi", "hybrid"])
+def test_blended_strands_shade_their_drawn_direction(gl, mode):
+    # the barycentric blends of three guides (and the hybrid's single-guide strands) take the
+    # same tangent: their drawn points' direction, float32 round-off
+    g = tight_curls(guides=6)
+    e = expanded(gl, g, segments=64, strands_per_guide=16, strand_spread=0.0, interpolation_mode=mode)
+    p = e[:, :, :3].astype(np.float64)
+    d = np.concatenate([p[:, 1:2] - p[:, :1], p[:, 2:] - p[:, :-2], p[:, -1:] - p[:, -2:-1]], axis=1)
+    assert len(e) >= 6 * 16
+    assert angles(e[:, :, 4:7].astype(np.float64), d / np.linalg.norm(d, axis=-1, keepdims=True)).max() < 0.05
