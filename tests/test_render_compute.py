@@ -33,6 +33,15 @@ def expanded(gl, groom, weights=None, **kw):
         r.release()
 
 
+def drawn_directions(points) -> np.ndarray:
+    """Unit directions of drawn strands (..., points, 3): from each point's previous point to its
+    next, the end segments' at the ends: the shading tangent the expansion is to give."""
+    p = np.asarray(points, np.float64)
+    d = np.concatenate([p[..., 1:2, :] - p[..., :1, :], p[..., 2:, :] - p[..., :-2, :], p[..., -1:, :] - p[..., -2:-1, :]],
+                       axis=-2)
+    return d / np.linalg.norm(d, axis=-1, keepdims=True)
+
+
 def captured(gl, groom, weights=None, **kw):
     r = Renderer(RenderSettings(**{"size": (64, 48), "msaa": 1, "pipeline": "tessellation", **kw}), ctx=gl,
                  profile=False)
@@ -54,9 +63,7 @@ def test_expanded_guides_match_the_numpy_curves(gl, scheme):
     for gi in range(g.num_strands):
         pos, _ = curve(g.as_padded()[gi].astype(np.float64), scheme, s)
         np.testing.assert_allclose(e[gi, :, :3], pos, atol=2e-6)
-        # the tangent: the drawn points' direction (the neighbours', the end segments' at the ends)
-        d = np.concatenate([pos[1:2] - pos[:1], pos[2:] - pos[:-2], pos[-1:] - pos[-2:-1]])
-        np.testing.assert_allclose(e[gi, :, 4:7], d / np.linalg.norm(d, axis=1, keepdims=True), atol=2e-5)
+        np.testing.assert_allclose(e[gi, :, 4:7], drawn_directions(pos), atol=2e-5)   # the shading tangent
         w = RenderSettings().width * (1.0 + (RenderSettings().width_tip - 1.0) * s)
         np.testing.assert_allclose(e[gi, :, 3], w, rtol=1e-5)
 

@@ -17,6 +17,7 @@ from mane.render.camera import Camera
 from mane.render.coverage_lod import (SEGMENT_PX, LodPlan, depth_complexity, kept_per_guide, lod_plan,
                                       mean_strand_length)
 from mane.render.passes.base import View, subdivisions
+from test_render_compute import drawn_directions
 
 
 def _view(fov=30.0, size=(400, 300), eye=(0.0, 0.0, 2.0)):
@@ -180,9 +181,7 @@ def test_segment_lod_keeps_the_guide_knots(gl):
     assert lod.shape == (g.num_strands, (N - 1) * sub + 1, 8)
     keep = [0, 1, 2, 3, 7]   # position, width, strand random (the tangent: the drawn points' direction, below)
     np.testing.assert_allclose(lod[:, ::sub][..., keep], full[:, ::sub_full][..., keep], rtol=1e-5, atol=1e-6)
-    p = lod[..., :3].astype(np.float64)
-    d = np.concatenate([p[:, 1:2] - p[:, :1], p[:, 2:] - p[:, :-2], p[:, -1:] - p[:, -2:-1]], axis=1)
-    np.testing.assert_allclose(lod[..., 4:7], d / np.linalg.norm(d, axis=-1, keepdims=True), atol=2e-5)
+    np.testing.assert_allclose(lod[..., 4:7], drawn_directions(lod[..., :3]), atol=2e-5)
 
 
 def test_segment_levels_per_instance():

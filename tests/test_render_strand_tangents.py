@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from test_render_compute import expanded
+from test_render_compute import drawn_directions, expanded
 from mane.groom import Groom
 from mane.render import Renderer, RenderSettings
 from mane.render.camera import Camera
@@ -16,13 +16,6 @@ from mane.render.capture import capture_segments
 from test_render_tessellation import wavy_groom
 
 pytestmark = pytest.mark.gpu
-
-
-def finite_difference_directions(e):
-    """Unit central-difference directions of the expanded points (strands, points - 2, 3)."""
-    p = e[:, :, :3].astype(np.float64)
-    d = p[:, 2:] - p[:, :-2]
-    return d / np.linalg.norm(d, axis=-1, keepdims=True)
 
 
 def angles(a, b):
@@ -38,7 +31,7 @@ def test_tangents_follow_each_strands_own_curve(gl):
     g = wavy_groom(guides=3, points=8)
     kw = dict(segments=80, strands_per_guide=32, stray_fraction=1.0)
     e = expanded(gl, g, strand_spread=0.0, **kw)
-    fd = finite_difference_directions(e)
+    fd = drawn_directions(e[:, :, :3])[:, 1:-1]
     t = e[:, 1:-1, 4:7].astype(np.float64)
     guide_t = np.repeat(e[::32, 1:-1, 4:7], 32, axis=0).astype(np.float64)
     assert np.percentile(angles(fd, guide_t), 99) > 4.0   # the guide's tangent would be off
@@ -84,10 +77,8 @@ def test_tangents_are_the_drawn_strands_direction_in_tight_curls(gl):
     # more than 90 degrees at a tenth of the points here, which the offset's length alone did not see.
     g = tight_curls()
     e = expanded(gl, g, segments=64, strands_per_guide=16, strand_spread=0.0)
-    p = e[:, :, :3].astype(np.float64)
     t = e[:, :, 4:7].astype(np.float64)
-    d = np.concatenate([p[:, 1:2] - p[:, :1], p[:, 2:] - p[:, :-2], p[:, -1:] - p[:, -2:-1]], axis=1)
-    fd = d / np.linalg.norm(d, axis=-1, keepdims=True)
+    fd = drawn_directions(e[:, :, :3])
     guide_t = np.repeat(t[::16], 16, axis=0)
     assert np.mean(angles(fd, guide_t) > 90.0) > 0.05   # the case: strands running back along their guide
     assert angles(t, fd).max() < 0.05                   # float32 round-off
@@ -125,9 +116,7 @@ def test_the_tessellation_pipeline_shades_the_same_direction(gl):
         p0 = seg["p0"][m][order].astype(np.float64)
         p1 = seg["p1"][m][order].astype(np.float64)
         t0 = seg["t0"][m][order].astype(np.float64)
-        pts = np.concatenate([p0, p1[-1:]])
-        d = pts[2:] - pts[:-2]
-        fd = d / np.linalg.norm(d, axis=-1, keepdims=True)
+        fd = drawn_directions(np.concatenate([p0, p1[-1:]]))[1:-1]
         worst = max(worst, angles(t0[1:], fd).max())
         n += len(fd)
     assert n > 3 * 16 * 60
@@ -167,7 +156,5 @@ def test_blended_strands_shade_their_drawn_direction(gl, mode):
     # same tangent: their drawn points' direction, float32 round-off
     g = tight_curls(guides=6)
     e = expanded(gl, g, segments=64, strands_per_guide=16, strand_spread=0.0, interpolation_mode=mode)
-    p = e[:, :, :3].astype(np.float64)
-    d = np.concatenate([p[:, 1:2] - p[:, :1], p[:, 2:] - p[:, :-2], p[:, -1:] - p[:, -2:-1]], axis=1)
     assert len(e) >= 6 * 16
-    assert angles(e[:, :, 4:7].astype(np.float64), d / np.linalg.norm(d, axis=-1, keepdims=True)).max() < 0.05
+    assert angles(e[:, :, 4:7].astype(np.float64), drawn_directions(e[:, :, :3])).max() < 0.05
