@@ -93,7 +93,7 @@ class ExpandPass(Pass):
         cs = self._programs.get("expand", (s.interpolation, s.interpolation_mode, bool(s.lod)), lambda: compute_shader(
             ctx, HERE / "strand_expand.comp", {"INTERPOLATION": _ids()["interp"][s.interpolation],
                                                "MULTI": _ids()["multi"][s.interpolation_mode], "LOD": int(bool(s.lod)),
-                                               "EXPAND_LOCAL": LOCAL_SIZE},
+                                               "EXPAND_LOCAL": LOCAL_SIZE, "EXPAND_POINTS": EXPAND_POINTS},
             include_dirs=[HERE.parent]))
         if multi:
             table = r.strand_table()

@@ -13,10 +13,10 @@
 // guide are expanded, widened by u_width_scale. Instances: one dispatch per instance, its
 // strands from u_first_strand on, moved by its rigid transform u_model.
 // The shading tangent is the direction of the point's neighbours on the strand (strand_eval.glsl,
-// strand_curve_tangent): a work group of EXPAND_LOCAL invocations writes EXPAND_LOCAL - 2
-// consecutive points, its first and last invocations evaluating the points on either side of
-// them (expand.py's groups), and each reads its neighbours from shared memory. EXPAND_LOCAL:
-// expand.LOCAL_SIZE.
+// strand_curve_tangent): a work group of EXPAND_LOCAL invocations writes EXPAND_POINTS (its size
+// less 2) consecutive points, its first and last invocations evaluating the points on either
+// side of them, and each reads its neighbours from shared memory (expand.py's LOCAL_SIZE and
+// EXPAND_POINTS).
 layout(local_size_x = EXPAND_LOCAL) in;
 shared vec3 s_pos[EXPAND_LOCAL];
 #include "strand_common.glsl"
@@ -35,7 +35,7 @@ uniform int u_level;           // segments of a guide segment this instance uses
 void main() {
     int points = (u_n - 1) * u_subdivisions + 1;
     int local = int(gl_LocalInvocationID.x);
-    int idx = int(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * (EXPAND_LOCAL - 2) + local - 1;
+    int idx = int(gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * EXPAND_POINTS + local - 1;
     bool valid = idx >= 0 && idx < u_num_strands * points;
     int j = 0;
     StrandVertex v;
