@@ -50,3 +50,13 @@ def test_look_at_known_values_and_errors():
     cam = Camera(eye=(1.0, 2.0, 3.0), target=(1.0, 2.0, -1.0))
     np.testing.assert_allclose(cam.forward, [0.0, 0.0, -1.0])
     np.testing.assert_allclose(cam.view()[2, :3], -cam.forward)
+
+
+def test_a_camera_keeps_its_vectors_as_tuples():
+    """Lists and NumPy arrays become tuples of floats, so cameras compare and hash by value
+    (the renderer keeps a view while its camera is the same)."""
+    a = Camera(eye=np.array([0.1, 0.2, 1.0]), target=[0, 0, 0], up=np.array([0, 1, 0]))
+    b = Camera(eye=(0.1, 0.2, 1.0), target=(0.0, 0.0, 0.0))
+    assert a.eye == (0.1, 0.2, 1.0) and type(a.target) is tuple and a == b and hash(a) == hash(b)
+    with pytest.raises(UsageError, match="eye"):
+        Camera(eye=["x", 0, 1])

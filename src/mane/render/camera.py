@@ -82,6 +82,14 @@ class Camera:
     far: float = 100.0
 
     def __post_init__(self) -> None:
+        for name in ("eye", "target", "up"):   # lists and NumPy arrays as tuples: cameras compare and hash
+            value = getattr(self, name)
+            if value.__class__ is not tuple:
+                try:
+                    value = tuple(float(v) for v in np.asarray(value, dtype=float).reshape(-1))
+                except (TypeError, ValueError):
+                    raise UsageError(f"the camera's {name} must be three numbers, got {value!r}") from None
+                object.__setattr__(self, name, value)
         values = [*self.eye, *self.target, *self.up, self.fov_y, self.near, self.far]
         if len(self.eye) != 3 or len(self.target) != 3 or not all(math.isfinite(float(v)) for v in values):
             raise UsageError(f"a camera needs finite numbers (eye {self.eye}, target {self.target}, "
