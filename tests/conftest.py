@@ -1,9 +1,15 @@
 """Shared fixtures: the real data folder, and one headless OpenGL context for the session."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 import pytest
+
+# every frame a recording would have stood in for is drawn and its GL calls compared with the
+# recording's instead (mane.render.frame_replay): a frame that depends on something missing from
+# the recording's key fails the test that drew it
+os.environ.setdefault("MANE_REPLAY_VERIFY", "1")
 
 ROOT = Path(__file__).resolve().parents[1]
 SHARED_DATA = ROOT.parent / "shared" / "data"

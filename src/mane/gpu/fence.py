@@ -15,6 +15,7 @@ from __future__ import annotations
 import ctypes
 import time
 
+from . import replay
 from .entry_points import gl_entry
 
 GL_SYNC_GPU_COMMANDS_COMPLETE = 0x9117
@@ -40,6 +41,7 @@ def available() -> bool:
 
 class Fence:
     def __init__(self):
+        replay.side("a fence")   # the frame reads it later (gpu/replay.py)
         f = _gl()
         self._sync = f["fence"](GL_SYNC_GPU_COMMANDS_COMPLETE, 0) if available() else None
         if f["flush"] is not None:
@@ -63,6 +65,7 @@ class Fence:
         then waits in the driver, as without one)."""
         if self._sync is None:
             return True
+        replay.side("a fence read")
         if _gl()["wait"](self._sync, 0, 0) == GL_TIMEOUT_EXPIRED:
             return False
         self.release()

@@ -85,6 +85,8 @@ class TimestampQueries:
             except Exception:
                 pass
 
+    # Neither stamps nor reads are in a recorded frame's calls (gpu/replay.py): a played frame is
+    # not timed, and what a read decides (the scan-form tuner's form) shows in that frame's calls
     def stamp(self, query: int) -> None:
         self.counter(query, GL_TIMESTAMP)
 
@@ -174,6 +176,10 @@ class GpuProfiler:
         return "gpu-timer", note or ("asked for" if forced else "GL_TIMESTAMP queries")
 
     # ------------------------------------------------------------------ sections
+    def quiet(self) -> bool:
+        """Whether the next frame's sections are off (no timer query, no CPU finish)."""
+        return not self.enabled or self._frames % self.every != 0
+
     def section(self, name: str):
         """Time the GL work issued inside the block under ``name``. Sections may nest. Off, one
         shared do-nothing context (a frame enters a dozen: no generator made for each)."""

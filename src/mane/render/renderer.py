@@ -16,6 +16,7 @@ resolve (hdr -> output).
 """
 from __future__ import annotations
 
+import copy
 import math
 import weakref
 
@@ -23,6 +24,7 @@ import moderngl
 import numpy as np
 
 from ..errors import GPUMemoryError, UsageError
+from ..gpu import replay as gl_replay
 from ..gpu.clear import clear_texture
 from ..gpu.context import get_context, renderer_name
 from ..gpu.glsl import ProgramMemo
@@ -32,6 +34,7 @@ from ..gpu.uniforms import write_uniform
 from ..groom import Groom
 from .camera import Camera, look_at, orthographic, perspective
 from .coverage_lod import LodPlan, box_corners, lod_plan, mean_width
+from .frame_replay import FrameReplay
 from .light_key import light_key
 from .lights import MAX_LIGHTS, Light, default_lights
 from .passes import (ADSMPass, DeepOpacityPass, DensityPass, ExtraShadowsPass, HairPass, HeadPass, OpacityMapsPass,
@@ -42,7 +45,7 @@ from .passes.accumulate import AccumulatePass, jittered_view, still_jitter
 from .passes.expand import ExpandPass
 from .passes.ms_smooth import MsSmoothPass
 from .passes.frames import FramesPass
-from .passes.extra_shadows import extra_map_size
+from .passes.extra_shadows import extra_casters, extra_map_size
 from .passes.hair_compute import HairComputePass, sample_grid, unsupported_reason, wants_compute
 from .passes.oit_pass import OitPass
 from .passes.scan_form import ScanForms
@@ -183,6 +186,7 @@ class Renderer(GpuOwner):
         self.file_appearance: dict = {}   # what the groom's own colours / widths set (set_strands)
         self._scene_look: dict = {}       # the settings' values those replaced, restored for the next groom
         self.on_pass = None           # called with each pass's name after it ran (progress bars)
+        self._replay = FrameReplay(self)   # a frame's GL calls issued again while nothing changes
 
     @property
     def compute_raster(self) -> bool:
@@ -790,6 +794,35 @@ class Renderer(GpuOwner):
         one = self.settings.oit != "none" or (self.compute_raster and not self.settings.head_msaa)
         if one and self.samples > 1:
             self._single_sample()   # settings switched after construction (a viewer)
+        replay = self._replay
+        action, phase = replay.plan(camera, tuple(lights), refine)
+        if action == "play":   # a frame drawn twice the same: its recorded GL calls (frame_replay.py)
+            take = replay.play(phase)
+            frame = copy.copy(take.frame)
+            frame.index = self.frames_rendered
+            self._hdr_resolved, self.sample_offsets = take.resolved, None
+            self.profiler.frame()
+            self.frames_rendered += 1
+            self.last_frame = frame
+            self._still = (None, 0)
+            return frame
+        if action == "draw":
+            replay.drawn()
+            return self._draw(camera, lights, refine)
+        try:
+            with gl_replay.record(strict=False) as rec:   # None while another thread records
+                frame = self._draw(camera, lights, refine)
+        except BaseException:
+            replay.forget(keep_view=True)   # a frame cut short: nothing recorded stands for the next
+            raise
+        if rec is None:
+            replay.drawn()
+        else:
+            replay.recorded(phase, rec, frame, verify=action == "verify")
+        return frame
+
+    def _draw(self, camera: Camera, lights: list, refine: bool) -> Frame:
+        """A frame's passes (render, frame_replay.py's frames not played)."""
         self._hdr_resolved = False
         self.sample_offsets = None
         still = self._still_place(camera, lights) if refine else 0
@@ -816,7 +849,7 @@ class Renderer(GpuOwner):
                 frame.light_view = self.light_view(lights[0])
                 frame.hair_depth_range = self._hair_depth_range(frame.light_view)
                 extra = extra_map_size(self.settings)
-                for light in lights[1:int(self.settings.shadow_lights)]:   # more lights that cast
+                for light in extra_casters(self.settings, lights):   # more lights that cast
                     lv = self.light_view(light, extra)
                     frame.shadow_views.append((lv, self._hair_depth_range(lv)))
             fbo = self.hdr_fbo()
@@ -850,7 +883,7 @@ class Renderer(GpuOwner):
             # the finer maps do not fit: the frames' own from now on, and this frame again with them
             self.settings, self.shading = base, shading
             self._drop_still_settings()
-            return self.render(camera, lights, refine=refine)
+            return self._draw(camera, lights, refine)
         finally:
             self.settings, self.shading = base, shading
         self.profiler.frame()
@@ -1060,6 +1093,7 @@ class Renderer(GpuOwner):
         return {
             "passes": {k: round(v, 4) for k, v in self.profiler.means(wait=True).items()},
             "frames": self.frames_rendered,
+            "frames_replayed": self._replay.played,   # frames issued from a recording (frame_replay.py)
             "still_frames": self.still_frames,
             "size": list(self.settings.size),
             "renderer": renderer_name(self.ctx),
@@ -1123,6 +1157,7 @@ class Renderer(GpuOwner):
             self._initial_fbo.use()
         else:
             self.ctx.fbo = None
+        self._replay.forget()
         for p in self.passes:
             p.release()
         self._drop_still_settings()

@@ -22,6 +22,12 @@ from .deep_opacity import DeepOpacityPass
 from .shadow_map import ShadowMapPass
 
 
+def extra_casters(settings, lights) -> list:
+    """The lights after the first that cast shadows (settings.shadow_lights); one of them has
+    its maps drawn again each frame while the hair moves, in turn (frame.index % their number)."""
+    return list(lights[1:int(settings.shadow_lights)]) if lights and settings.shadows != "none" else []
+
+
 def extra_map_size(settings) -> int:
     """The extra lights' maps' texels a side: extra_shadow_map_size, at most shadow_map_size."""
     return min(int(settings.extra_shadow_map_size), int(settings.shadow_map_size))

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ...gpu import replay as gl_replay
 from ...gpu.buffers import as_device, check_allocation
 from ...gpu.capabilities import get_capabilities
 from ...gpu.fence import Fence
@@ -96,6 +97,8 @@ class RasterTiles:
             if limit:
                 want = min(want, int(limit) // 4)
         self._steps += 1
+        if CAPACITY is None:
+            gl_replay.each_frame(self._quiet_next, self._skip)
         if self.index is not None and CAPACITY is None:
             peak = self._check_peak()
             if peak is not None and peak > self.capacity:
@@ -114,6 +117,13 @@ class RasterTiles:
         self.entries = as_device(ctx.buffer(reserve=4 * want))
         self.tiles, self.capacity = tiles, want
         self._uniforms = {"u_rt_tiles": tiles, "u_rt_capacity": want}
+
+    def _quiet_next(self) -> bool:
+        """Whether the next step neither reads the peak nor copies it (a frame may be played)."""
+        return self._pending is None and (self._steps + 1) % CHECK_EVERY != 0
+
+    def _skip(self) -> None:
+        self._steps += 1
 
     def _check_peak(self) -> int | None:
         """The largest total since the buffers were made, read without waiting for the GPU: every

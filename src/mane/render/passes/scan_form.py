@@ -61,6 +61,7 @@ import math
 from collections import deque
 from statistics import median
 
+from ...gpu import replay as gl_replay
 from ...gpu.capabilities import get_capabilities   # cached per context
 from . import raster_segment, scan_form_memory
 
@@ -164,6 +165,20 @@ class FormChooser:
         self._out[f] += 1
         self._last = f
         return f, (self.epoch, f, False)
+
+    def quiet_next(self, can_time: bool = True) -> bool:
+        """Whether ``next`` with the same key and sizes would give the form in use untimed
+        and change nothing but the frame count (``skip``): settled, no watch and no probe due."""
+        if self.probing or self._key is None:
+            return False
+        since = self._since + 1
+        if since >= self.reprobe:
+            return False
+        return not (can_time and self.watch > 0 and since % self.watch == 0)
+
+    def skip(self) -> None:
+        """Count a frame that ``quiet_next`` said was quiet (a recorded frame played: frame_replay.py)."""
+        self._since += 1
 
     def record(self, ticket, ms) -> None:
         """A timed frame's GPU milliseconds (None or not finite: lost, asked for again)."""
@@ -339,6 +354,7 @@ class ScanFormSite:
             self._keep(chooser)
         form, ticket = chooser.next(key, sizes, timer.free())
         self.form = form
+        gl_replay.each_frame(self._quiet_next, chooser.skip)   # a frame played instead of drawn counts here too
         if ticket is not None:
             slot = timer.start()
             if slot is None:
@@ -346,6 +362,12 @@ class ScanFormSite:
             else:
                 self._open = (slot, ticket)
         return form
+
+    def _quiet_next(self) -> bool:
+        """Whether the next frame's ``begin`` would read no time and give this form untimed."""
+        c = self.chooser
+        return (c is not None and not self._pending and self._open is None
+                and c.quiet_next(self.timer.free()))
 
     def _keep(self, chooser: FormChooser) -> None:
         """Keep the chooser's decision on disk under its probe's key (when it is another than the
