@@ -164,6 +164,9 @@ def test_targets(quick):
     assert orbit["degrees_a_frame"] == render_bench.ORBIT_DEGREES
     assert _positive(orbit["pipelined_ms"]) and _positive(orbit["submit_bare_ms"]["median"])
     assert t["stand_in"]["orbit"]["pipelined_ms"] == orbit["pipelined_ms"]
+    # and with every frame drawn (the row's own frames are played from their recording once confirmed)
+    assert _positive(row["drawn"]["submit_bare_ms"]["median"])
+    assert t["stand_in"]["drawn"]["cpu_submit_bare_median_ms"] == row["drawn"]["submit_bare_ms"]["median"]
 
 
 @pytest.mark.slow

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from mane.gpu import replay as gl_replay
+from mane.gpu.capabilities import get_capabilities
 from mane.render import Renderer, frame_replay, light_key
 from mane.render.passes import raster_tiles
 from mane.render.passes.scan_form import FormChooser
@@ -51,7 +52,7 @@ def test_a_recording_issues_the_same_calls_again(gl):
     assert all(cls.__dict__[name] is original for cls, name, original, _ in gl_replay._table())
     with gl_replay.record() as other:
         buf.bind_to_storage_buffer(3)
-    assert rec.difference(other) is not None and other.same(other)
+    assert rec.difference(other) is not None and other.difference(other) is None
     buf.release()
     tex.release()
 
@@ -104,10 +105,19 @@ def test_hooks_and_nested_recording(gl):
             gl_replay.record().__enter__()
     assert len(rec.hooks) == 1 and rec.ready()
     gl_replay.each_frame(lambda: False, lambda: None)   # no recording: nothing kept anywhere
-    assert not gl_replay.recording()
+    assert gl_replay._active is None
 
 
 # ---------------------------------------------------------------------------- the renderer
+@pytest.fixture
+def playing(gl, monkeypatch):
+    """A renderer of the small scene that plays its recordings (VERIFY off), released after."""
+    monkeypatch.setattr(frame_replay, "VERIFY", False)
+    r = _renderer(gl)
+    yield r
+    r.release()
+
+
 def _renderer(gl, **kw):
     r = Renderer(base_settings(**{"shadow_lights": 3, **kw}), ctx=gl, profile=False)
     r.set_strands(fan())
@@ -115,13 +125,16 @@ def _renderer(gl, **kw):
     return r
 
 
-def _until_played(r, camera=CAM, lights=LIGHTS, limit=40):
+def _until_played(r, camera=CAM, lights=LIGHTS, limit=400):   # (a GPU's tuner times its forms first)
     for _ in range(limit):
         before = r.stats()["frames_replayed"]
         r.render(camera, lights)
         if r.stats()["frames_replayed"] > before:
             return
-    raise AssertionError(f"no frame played in {limit}")
+    takes = {k: (t.confirmed, [ready.__qualname__ for ready, _ in t.rec.hooks if not ready()])
+             for k, t in r._replay.takes.items()}
+    raise AssertionError(f"no frame played in {limit}: recordings (confirmed, hooks not quiet) {takes}, "
+                         f"tuner {r.scan_forms.details()}")
 
 
 @pytest.mark.gpu
@@ -138,16 +151,23 @@ def test_played_frames_equal_drawn_frames_while_the_hair_moves(gl, rasterizer, m
             drawn.render(CAM, LIGHTS)
         rest = np.frombuffer(played.strands.positions.read(), np.float32).reshape(-1, 4).copy()
         before = played.stats()["frames_replayed"]
-        for step in range(3 * PHASES):   # every phase recorded twice, then played
+        exact = get_capabilities(gl).is_software   # a GPU's float atomics add in another order each frame
+        for step in range(200):   # (on GPUs the scan-form tuner's probe first times its forms: frames drawn)
             moved = rest.copy()
-            moved[:, 0] += 0.001 * (step + 1)   # the strands slide sideways, a frame at a time
+            moved[:, 0] += 0.0002 * (step + 1)   # the strands slide sideways, a frame at a time
             for r in (played, drawn):
                 r.strands.positions.write(moved.tobytes())
                 r.strands_changed()
             a = played.render_image(CAM, LIGHTS)
             b = drawn.render_image(CAM, LIGHTS)
-            assert np.array_equal(a, b), f"step {step}: {np.count_nonzero(np.any(a != b, axis=2))} pixels differ"
-        assert played.stats()["frames_replayed"] >= before + PHASES, "the moving hair's frames were not played"
+            differ = np.any(a != b, axis=2)
+            if exact:
+                assert not differ.any(), f"step {step}: {np.count_nonzero(differ)} pixels differ"
+            else:
+                assert np.abs(a.astype(int) - b).max() <= 1 and differ.mean() < 0.01, f"step {step}"
+            if step >= 3 * PHASES and played.stats()["frames_replayed"] >= before + 2 * PHASES:
+                break
+        assert played.stats()["frames_replayed"] >= before + 2 * PHASES, "the moving hair's frames were not played"
         assert drawn.stats()["frames_replayed"] == 0
         assert not np.array_equal(a, first_image(rest, played)), "the hair did not move in the picture"
     finally:
@@ -167,61 +187,50 @@ class _NeverReplay(frame_replay.FrameReplay):
 
 
 @pytest.mark.gpu
-def test_each_turn_of_the_extra_lights_has_its_recording(gl, monkeypatch):
-    monkeypatch.setattr(frame_replay, "VERIFY", False)
+def test_each_turn_of_the_extra_lights_has_its_recording(playing, monkeypatch):
     monkeypatch.setattr(light_key, "KEEP", False)   # the lights' maps drawn every frame, as when the hair moves
-    r = _renderer(gl)
-    try:
-        _until_played(r)
-        _until_played(r)
-        takes = r._replay.takes
-        assert sorted(takes) == list(range(PHASES)) and all(t.confirmed for t in takes.values())
-        assert takes[0].rec.difference(takes[1].rec) is not None   # another light's maps drawn
-    finally:
-        r.release()
+    _until_played(playing)
+    _until_played(playing)
+    takes = playing._replay.takes
+    assert sorted(takes) == list(range(PHASES)) and all(t.confirmed for t in takes.values())
+    assert takes[0].rec.difference(takes[1].rec) is not None   # another light's maps drawn
 
 
 @pytest.mark.gpu
-def test_whatever_changes_draws_the_next_frame(gl, monkeypatch):
-    monkeypatch.setattr(frame_replay, "VERIFY", False)
-    r = _renderer(gl)
-    try:
-        changes = [
-            ("camera", lambda: None, CAM2, LIGHTS),
-            ("lights", lambda: None, CAM, LIGHTS2),
-            ("settings", lambda: setattr(r, "settings", replace(r.settings, exposure=1.3)), CAM, LIGHTS),
-            ("head", lambda: r.set_head(ball(0.08)), CAM, LIGHTS),
-            ("strands", lambda: r.set_strands(fan(0.01)), CAM, LIGHTS),
-            ("a module switch", lambda: monkeypatch.setattr(light_key, "KEEP", not light_key.KEEP), CAM, LIGHTS),
-        ]
-        for name, change, camera, lights in changes:
-            _until_played(r)
-            change()
-            before = r.stats()["frames_replayed"]
-            r.render(camera, lights)
-            assert r.stats()["frames_replayed"] == before, f"the frame after a new {name} was played"
+def test_whatever_changes_draws_the_next_frame(playing, monkeypatch):
+    r = playing
+    changes = [
+        ("camera", lambda: None, CAM2, LIGHTS),
+        ("lights", lambda: None, CAM, LIGHTS2),
+        ("settings", lambda: setattr(r, "settings", replace(r.settings, exposure=1.3)), CAM, LIGHTS),
+        ("head", lambda: r.set_head(ball(0.08)), CAM, LIGHTS),
+        ("strands", lambda: r.set_strands(fan(0.01)), CAM, LIGHTS),
+        ("a module switch", lambda: monkeypatch.setattr(light_key, "KEEP", not light_key.KEEP), CAM, LIGHTS),
+    ]
+    for name, change, camera, lights in changes:
+        _until_played(r)
+        change()
+        before = r.stats()["frames_replayed"]
+        r.render(camera, lights)
+        assert r.stats()["frames_replayed"] == before, f"the frame after a new {name} was played"
+        try:
             _until_played(r, camera, lights)   # and the new scene's frames are played in turn
-            _until_played(r)
-    finally:
-        r.release()
+        except AssertionError as exc:
+            raise AssertionError(f"after a new {name}: {exc}") from None
+        _until_played(r)
 
 
 @pytest.mark.gpu
-def test_a_camera_of_numpy_vectors_is_played_and_moved(gl, monkeypatch):
+def test_a_camera_of_numpy_vectors_is_played_and_moved(playing):
     from mane.render import Camera
 
-    monkeypatch.setattr(frame_replay, "VERIFY", False)
-    r = _renderer(gl)
-    try:
-        def cam(x):
-            return Camera(eye=np.array([x, 0.05, 0.8]), target=np.zeros(3), fov_y=32.0, near=0.1, far=3.0)
+    def cam(x):
+        return Camera(eye=np.array([x, 0.05, 0.8]), target=np.zeros(3), fov_y=32.0, near=0.1, far=3.0)
 
-        _until_played(r, cam(0.0))
-        before = r.stats()["frames_replayed"]
-        r.render(cam(0.01), LIGHTS)
-        assert r.stats()["frames_replayed"] == before
-    finally:
-        r.release()
+    _until_played(playing, cam(0.0))
+    before = playing.stats()["frames_replayed"]
+    playing.render(cam(0.01), LIGHTS)
+    assert playing.stats()["frames_replayed"] == before
 
 
 @pytest.mark.gpu

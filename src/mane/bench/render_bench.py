@@ -39,7 +39,9 @@ strands, tessellated to ``segments`` per strand. Sections (``bench`` in each row
     renderer has them.
 
 Timing of a configuration: a Renderer is built, the guides and head uploaded; W warm-up
-frames (the first compiles the shaders, its wall time is ``first_frame_s``), then:
+frames (the first compiles the shaders, its wall time is ``first_frame_s``) and, on GPUs, the
+frames the scan-form tuner still times its forms in (``tuner_settle_frames``, at most
+SETTLE_FRAMES), then:
 
 1. N frames, one at a time: the renderer's own profiler times every pass (``Renderer.stats``
    names: frames, shadow_map, deep_opacity, head, hair, resolve, ...), and this benchmark's
@@ -48,8 +50,10 @@ frames (the first compiles the shaders, its wall time is ``first_frame_s``), the
    ``passes_sum_ms`` is the per-frame sum of the passes; ``wall_ms`` the CPU wall with
    ``ctx.finish()``; ``submit_ms`` the CPU time to issue the frame (with the profiler's
    sections); ``submit_bare_ms`` the same without any profiler section (targets:
-   ``cpu_submit_bare_ms``); targets' ``sim_render_loop``: a simulator step and a frame issued
-   in turn (``Bench.sim_render_loop``);
+   ``cpu_submit_bare_ms``; frames played from their recording once it is confirmed,
+   render/frame_replay.py; the target row's ``drawn``: the same with every frame drawn);
+   targets' ``sim_render_loop``: a simulator step and a frame issued in turn
+   (``Bench.sim_render_loop``);
 2. pipelined: N frames back to back with the pass profiler off, one ``finish`` at the end:
    wall / N (``pipelined_ms``, ``fps``): what an application would see;
 3. gapless (GPU timer queries only): N frames, each issued while a serial compute job keeps
@@ -266,6 +270,7 @@ def lod_switch() -> tuple[dict | None, dict | None, str]:
 # --------------------------------------------------------------------------- workloads
 # the target frame shades with mane's default hair model (RenderSettings.shading, "chiang")
 TARGET_SHADING = "chiang"
+SETTLE_FRAMES = 400   # frames a row draws at most after its warm-up for the scan-form tuner to settle
 ORBIT_DEGREES = 0.25   # the target row's turning camera (Bench._orbit): a slow drag of the view
 
 
@@ -431,6 +436,12 @@ class Bench(BenchRows):
                 raise Skip(f"too slow for the {self.mode} mode's budget: a frame takes {per_frame * 1e3:.0f} ms "
                            f"(budget {budget:.0f} s a configuration, 2 phases of at least 3 frames)")
             N_eff = max(3, min(N, int(budget / (per_frame * 2.5))))
+            # steady state: the scan-form tuner done timing its forms (GPUs; a first launch's probe
+            # takes some tens of frames, drawn while it times, never played from a recording)
+            settle = 0
+            while r.scan_forms.probing() and settle < SETTLE_FRAMES:
+                r.render(cam, lights)
+                settle += 1
 
             # 1. one frame at a time: passes (the renderer's profiler) and the whole frame (ours)
             prof, rp = self.prof, r.profiler
@@ -465,6 +476,7 @@ class Bench(BenchRows):
             gapless = self._gapless(r, cam, lights, N_eff, stats(submit)["mean"])
             still = self._still_hair(r, cam, lights, N_eff, stats(submit)["mean"]) if still_hair else None
             orbit = self._orbit(r, cam, lights, N_eff) if still_hair else None
+            drawn = self._drawn(r, cam, lights, N_eff) if still_hair else None
 
             info = {k: v for k, v in r.stats().items() if k != "passes"}
             # sample_visits, sample_writes, raster_atomics (HairComputePass.count_samples): one more frame
@@ -483,6 +495,7 @@ class Bench(BenchRows):
                 "size": list(s.size),
                 "frames_timed": N_eff,
                 "warmup_frames": len(walls),
+                "tuner_settle_frames": settle,
                 "first_frame_s": first,
                 "frame_ms": frame_stats,
                 "frame_source": prof.source,
@@ -497,6 +510,7 @@ class Bench(BenchRows):
                 "fps": (1e3 / pipelined) if pipelined > 0 else None,
                 **({"still_hair": still} if still is not None else {}),
                 **({"orbit": orbit} if orbit is not None else {}),
+                **({"drawn": drawn} if drawn is not None else {}),
                 "gpu_fps": (1e3 / gpu_mean) if gpu_mean else None,
                 "camera_distance_m": float(np.linalg.norm(eye - target)),
                 "lights": len(lights) if lights is not None else 3,
@@ -521,6 +535,18 @@ class Bench(BenchRows):
             return pipelined, time_each(ctx, lambda: r.render(cam, lights), n)[1]
         finally:
             rp.enabled = True
+
+    def _drawn(self, r, cam, lights, n: int) -> dict:
+        """The CPU's issue (between finishes, profiler off) with every frame drawn by the passes
+        (frame_replay.REPLAY off): the frames above are played from their recording once it is
+        confirmed, so this is the same figure without that."""
+        from ..render import frame_replay
+
+        keep, frame_replay.REPLAY = frame_replay.REPLAY, False
+        try:
+            return {"submit_bare_ms": stats(self._unprofiled(r, cam, lights, n)[1])}
+        finally:
+            frame_replay.REPLAY = keep
 
     def _orbit(self, r, cam, lights, n: int) -> dict:
         """The frame while the camera turns by ORBIT_DEGREES a frame about the target (the
@@ -892,6 +918,11 @@ def _targets(rows: list[dict], mode: str) -> dict:
         summary["orbit"] = dict(cpu_submit_bare_ms=orbit["submit_bare_ms"]["mean"],
                                 cpu_submit_bare_median_ms=orbit["submit_bare_ms"]["median"],
                                 pipelined_ms=orbit["pipelined_ms"])
+    drawn = row.get("drawn")
+    if drawn:   # the same frame, every frame drawn (no recording played: Bench._drawn)
+        summary["drawn"] = dict(cpu_submit_bare_ms=drawn["submit_bare_ms"]["mean"],
+                                cpu_submit_bare_median_ms=drawn["submit_bare_ms"]["median"])
+    summary["cpu_submit_bare_median_ms"] = (row.get("submit_bare_ms") or {}).get("median")
     if not full:
         out["note"] = (f"not measured in {mode} mode (run without --quick); stand-in {row['name']}: "
                        f"{fmt(v)} ms")
@@ -1065,6 +1096,10 @@ def format_text(result: dict) -> str:
         out.append(f"{which}, camera turning {ORBIT_DEGREES} degrees a frame: CPU issue median "
                    f"{fmt(ob['cpu_submit_bare_median_ms'])} ms (mean {fmt(ob['cpu_submit_bare_ms'])}), "
                    f"pipelined {fmt(ob['pipelined_ms'])} ms")
+    dr = t.get("drawn")
+    if dr:
+        out.append(f"the target frame's CPU issue median {fmt(t.get('cpu_submit_bare_median_ms'))} ms (frames played from "
+                   f"their recording once confirmed), {fmt(dr['cpu_submit_bare_median_ms'])} ms with every frame drawn")
     lp = t.get("sim_render_loop") or {}
     if lp.get("cpu_submit_ms"):
         out.append(f"simulate + render ({lp['guides']} guides): CPU issue {fmt(lp['cpu_submit_ms']['mean'])} ms "

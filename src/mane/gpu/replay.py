@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import threading
 from functools import partial
+from threading import get_ident
 
 import moderngl
 import numpy as np
@@ -67,6 +68,7 @@ _SIDE = {
     "Scope": ("release",),
 }
 _DATA = (bytearray, memoryview)   # arguments copied when recorded (the caller may change them after), and arrays
+_COPY = frozenset({bytearray, memoryview, np.ndarray})
 _BINDS: dict = {}   # the recorded functions that bind one unit or point -> its kind (Recording.pruned)
 _KEEPS: set = set()   # recorded functions that change no binding pruned follows
 
@@ -80,7 +82,7 @@ class Recording:
         self.calls: list[partial] = []
         self.hooks: list[tuple] = []
         self.side: str | None = None
-        self.thread = threading.get_ident()
+        self.thread = get_ident()
         self.depth = 0
 
     def play(self) -> None:
@@ -114,8 +116,7 @@ class Recording:
                 slot = (kind, a[1] if len(a) > 1 else call.keywords.get("location" if kind == "tex" else "binding",
                                                                            call.keywords.get("unit", 0)))
                 what = (a[0], *a[2:], *sorted(call.keywords.items()))
-            held = bound.get(slot)
-            if held is not None and _same_args(held, what):
+            if bound.get(slot) == what:
                 continue
             bound[slot] = what
             out.calls.append(call)
@@ -129,38 +130,19 @@ class Recording:
         for _, advance in self.hooks:
             advance()
 
-    def same(self, other: "Recording") -> bool:
-        """The same calls with the same arguments (GL objects the same objects, values equal)."""
-        return self.difference(other) is None
-
     def difference(self, other: "Recording") -> str | None:
-        """None when ``same``; else where the two first differ, in words."""
+        """None when the two make the same calls with the same arguments; else where they first
+        differ, in words. GL objects compare by identity (moderngl defines no equality), values
+        by ``==``, data as bytes."""
         a, b = self.calls, other.calls
         for i, (x, y) in enumerate(zip(a, b)):
-            if x.func is not y.func or not _same_args(x.args, y.args) or not _same_args(
-                    tuple(sorted(x.keywords.items())), tuple(sorted(y.keywords.items()))):
+            if x.func is not y.func or x.args != y.args or x.keywords != y.keywords:
                 return f"call {i}: {_describe(x)} against {_describe(y)}"
         if len(a) != len(b):
             n = min(len(a), len(b))
             extra = _describe((a if len(a) > n else b)[n])
             return f"{len(a)} calls against {len(b)}, from call {n}: {extra}"
         return None
-
-
-def _same_args(xs, ys) -> bool:
-    if len(xs) != len(ys):
-        return False
-    for x, y in zip(xs, ys):
-        if x is y:
-            continue
-        if type(x) is not type(y):
-            return False
-        if isinstance(x, tuple):
-            if not _same_args(x, y):
-                return False
-        elif type(x).__module__.startswith("moderngl") or x != y:   # GL objects by identity
-            return False
-    return True
 
 
 def _describe(call: partial) -> str:
@@ -206,7 +188,7 @@ def side(reason: str) -> None:
     """A GL call outside moderngl (ctypes: queries, fences) whose result the frame reads: the
     frame being recorded, if any, cannot be replayed."""
     rec = _active
-    if rec is not None and rec.side is None and rec.thread == threading.get_ident():
+    if rec is not None and rec.side is None and rec.thread == get_ident():
         rec.side = reason
 
 
@@ -214,27 +196,22 @@ def each_frame(ready, advance) -> None:
     """Per-frame state kept outside the GL calls: ``ready()`` -> whether the next frame comes out
     as the recording does; ``advance()`` moves the state as that frame would have (when played)."""
     rec = _active
-    if rec is not None and rec.thread == threading.get_ident():
+    if rec is not None and rec.thread == get_ident():
         rec.hooks.append((ready, advance))
-
-
-def recording() -> bool:
-    """Whether a frame is being recorded on this thread."""
-    rec = _active
-    return rec is not None and rec.thread == threading.get_ident()
 
 
 def _recorded(fn):
     def call(*args, **kwargs):
         rec = _active
-        if rec is None or rec.depth or rec.thread != threading.get_ident():
+        if rec is None or rec.depth or rec.thread != get_ident():
             return fn(*args, **kwargs)
-        rec.depth += 1
-        try:
-            out = fn(*args, **kwargs)
-        finally:
-            rec.depth -= 1
-        args = tuple(map(_frozen, args))
+        rec.depth = 1   # (a call that raises ends the frame, and its recording with it)
+        out = fn(*args, **kwargs)
+        rec.depth = 0
+        for a in args:
+            if a.__class__ in _COPY:
+                args = tuple(map(_frozen, args))
+                break
         if kwargs:
             kwargs = {k: _frozen(v) for k, v in kwargs.items()}
         rec.calls.append(partial(fn, *args, **kwargs))
@@ -255,21 +232,19 @@ def _frozen(value):
 def _setter(prop: property):
     def fset(self, value, _set=prop.fset):
         rec = _active
-        if rec is None or rec.depth or rec.thread != threading.get_ident():
+        if rec is None or rec.depth or rec.thread != get_ident():
             return _set(self, value)
-        rec.depth += 1
-        try:
-            _set(self, value)
-        finally:
-            rec.depth -= 1
-        rec.calls.append(partial(_set, self, value))
+        rec.depth = 1
+        _set(self, value)
+        rec.depth = 0
+        rec.calls.append(partial(_set, self, _frozen(value)))
     return property(prop.fget, fset, prop.fdel, prop.__doc__)
 
 
 def _marks_side(fn, name: str):
     def call(*args, **kwargs):
         rec = _active
-        if rec is not None and not rec.depth and rec.side is None and rec.thread == threading.get_ident():
+        if rec is not None and not rec.depth and rec.side is None and rec.thread == get_ident():
             rec.side = name
         return fn(*args, **kwargs)
     return call

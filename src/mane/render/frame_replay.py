@@ -14,8 +14,7 @@ frame is recorded and the recording issued instead of the Python:
    switches that change what a frame issues (``switches``); its phase is which extra light
    extra_shadows.py draws this frame (one in turn), with a recording per phase. Frames drawn
    with a sub-pixel offset (``refine``) or an ``on_pass`` callback are never recorded; a frame
-   the profiler times is recorded (its timer queries are not calls a recording holds) but
-   never played.
+   the profiler times is never played.
 2. A frame whose camera and lights are the last frame's is drawn while recorded, and its calls
    are compared with its phase's last recording: two recordings of a phase with the same calls,
    nothing read back in them (a fence, a buffer read, a finish, a GL object made or released:
@@ -23,8 +22,11 @@ frame is recorded and the recording issued instead of the Python:
 3. The phase's next frame with that key plays the recording, once every per-frame hook
    registered in it (the scan-form tuner's timed frames, the tiled raster's peak check) says
    the frame comes out as recorded; the hooks then move their counters as the frame would have.
-   A frame whose recording read something back takes every confirmation away: the next
-   recorded frames must match their recordings again.
+   A frame a confirmed recording's hooks say is not quiet is drawn without a recording, and it,
+   like a recorded frame that read something back, takes every confirmation away: the next
+   recorded frame of each phase must match its recording again (an unconfirmed recording's
+   hooks not quiet: the frame is recorded afresh, as the passes that registered them may not
+   run in it). A quiet frame the profiler times is drawn and keeps them.
 
 ``VERIFY`` (``MANE_REPLAY_VERIFY=1``; the test suite sets it): a frame that would be played is
 drawn and recorded instead, and a recording that differs from the confirmed one raises
@@ -114,7 +116,9 @@ class FrameReplay:
 
     def plan(self, camera, lights: tuple, refine: bool):
         """("play", phase), ("record", phase), ("verify", phase: VERIFY's frame that would have
-        been played) or ("draw", None) for this frame."""
+        been played), ("timed", None: the profiler times a frame that would have been played: it
+        is drawn, the recordings stay confirmed) or ("draw", None: drawn, the confirmations
+        dropped) for this frame."""
         r = self.renderer
         hair = r.hair_version()
         moved, self._hair = hair != self._hair, hair
@@ -129,8 +133,17 @@ class FrameReplay:
         # extra_shadows.py draws one extra light's maps a frame, in turn: a recording per turn
         phase = r.frames_rendered % max(1, len(extra_casters(r.settings, lights)))
         take = self.takes.get(phase)
-        if take is not None and take.confirmed and r.profiler.quiet() and take.rec.ready():
-            return ("verify" if VERIFY else "play"), phase
+        if take is None:
+            return "record", phase
+        if not take.rec.ready():   # the tuner times or reads, the tiled raster checks
+            if take.confirmed:
+                return "draw", None   # drawn as it comes, without a recording's cost
+            del self.takes[phase]     # a recording whose hooks ran in another frame than this one may
+            return "record", phase    # (a light-space pass since reused): recorded afresh
+        if take.confirmed:
+            if r.profiler.quiet():
+                return ("verify" if VERIFY else "play"), phase
+            return "timed", None   # drawn with the profiler's sections; what it changes a played frame would
         return "record", phase
 
     def play(self, phase: int):

@@ -806,8 +806,9 @@ class Renderer(GpuOwner):
             self.last_frame = frame
             self._still = (None, 0)
             return frame
-        if action == "draw":
-            replay.drawn()
+        if action in ("draw", "timed"):
+            if action == "draw":
+                replay.drawn()
             return self._draw(camera, lights, refine)
         try:
             with gl_replay.record(strict=False) as rec:   # None while another thread records

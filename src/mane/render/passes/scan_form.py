@@ -415,6 +415,11 @@ class ScanForms:
             return "forced"
         return "tuner" if self.hair.tuning() else "fixed"
 
+    def probing(self) -> bool:
+        """Whether a site's tuner is still timing its forms (its first frames, or after a change)."""
+        return any(getattr(self, name).tuning() and getattr(self, name).chooser is not None
+                   and getattr(self, name).chooser.probing for name in SITES)
+
     def stats(self) -> dict:
         """{"hair": "tiled", "dom_z0": "per_thread", "dom": "balanced"}: each site's form now."""
         return {name: FORM_NAMES[getattr(self, name).current()] for name in SITES}
