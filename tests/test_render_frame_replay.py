@@ -221,6 +221,19 @@ def test_whatever_changes_draws_the_next_frame(playing, monkeypatch):
 
 
 @pytest.mark.gpu
+def test_a_key_that_changes_every_frame_records_nothing(playing):
+    """A head that moves every frame (the bench's nodding loop): every frame drawn, none recorded
+    (a recording costs more than a drawn frame); once it stops, its frames are played."""
+    for i in range(6):
+        m = np.eye(4)
+        m[1, 3] = 0.001 * i
+        playing.set_head_transform(m)
+        playing.render(CAM, LIGHTS)
+        assert not playing._replay.takes
+    _until_played(playing)
+
+
+@pytest.mark.gpu
 def test_a_camera_of_numpy_vectors_is_played_and_moved(playing):
     from mane.render import Camera
 

@@ -15,8 +15,8 @@ frame is recorded and the recording issued instead of the Python:
    extra_shadows.py draws this frame (one in turn), with a recording per phase. Frames drawn
    with a sub-pixel offset (``refine``) or an ``on_pass`` callback are never recorded; a frame
    the profiler times is never played.
-2. A frame whose camera and lights are the last frame's is drawn while recorded, and its calls
-   are compared with its phase's last recording: two recordings of a phase with the same calls,
+2. A frame whose key is the last frame's is drawn while recorded, and its calls are compared
+   with its phase's last recording: two recordings of a phase with the same calls,
    nothing read back in them (a fence, a buffer read, a finish, a GL object made or released:
    gpu/replay.py's ``side``), confirm it.
 3. The phase's next frame with that key plays the recording, once every per-frame hook
@@ -127,9 +127,10 @@ class FrameReplay:
             self.forget(keep_view=True)
             return "draw", None
         key, objects = self.key_of(camera, lights, moved)
-        if not _equal(key, self.key):
-            self.takes.clear()
+        if not _equal(key, self.key):   # recorded from the second frame with this key on: a key
+            self.takes.clear()          # that changes every frame (a nodding head) costs no recording
             self.key, self._alive = key, objects
+            return "draw", None
         # extra_shadows.py draws one extra light's maps a frame, in turn: a recording per turn
         phase = r.frames_rendered % max(1, len(extra_casters(r.settings, lights)))
         take = self.takes.get(phase)
