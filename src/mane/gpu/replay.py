@@ -11,15 +11,17 @@ render/frame_replay.py decides when a recording may stand in for a frame.
 
 What a recording cannot hold makes it ``side`` (the frame is drawn, the recording is not used):
 a call whose result the Python reads (buffer and texture reads, a finish, fences: marked with
-``side()`` by gpu/fence.py), a GL object made or released during the frame. Timer queries are not
-recorded (a played frame is not timed); what the scan-form tuner decides from their results it
-decides in the frame it reads them, so that frame's calls show it. Code that keeps per-frame state (a counter that makes every Nth frame different: the
-scan-form tuner's timed frames, the tiled raster's peak check) registers ``each_frame(ready,
-advance)``: before a recording is played, ``ready()`` says whether this frame would come out as
-recorded, and ``advance()`` moves the state as the skipped frame would have.
+``side()`` by gpu/fence.py), a GL object made or released during the frame. Timer queries are
+not recorded (a played frame is not timed); what the scan-form tuner decides from their results
+it decides in the frame it reads them, so that frame's calls show it. Code that keeps per-frame
+state (a counter that makes every Nth frame different: the scan-form tuner's timed frames, the
+tiled raster's peak check) registers ``each_frame(ready, advance)``: before a recording is
+played, ``ready()`` says whether this frame would come out as recorded, and ``advance()`` moves
+the state as the skipped frame would have.
 
-moderngl's classes are patched only while a frame is recorded, on the recording thread; calls
-made inside a recorded call (moderngl's own) are not recorded again.
+moderngl's classes are patched only while a frame is recorded (one at a time in a process), and
+only the recording thread's calls are kept; calls made inside a recorded call (moderngl's own)
+are not recorded again.
 """
 from __future__ import annotations
 
