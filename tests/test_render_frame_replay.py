@@ -293,7 +293,7 @@ def test_a_settled_choosers_timed_frames_come_where_they_would_with_frames_playe
     played frame), time the same frames and probe again at the same frame."""
     a, b = FormChooser(0, watch=7, reprobe=40), FormChooser(0, watch=7, reprobe=40)
     key, sizes = "k", (1000, 1)
-    timed_a, timed_b = [], []
+    timed_a, timed_b, skipped = [], [], 0
     for frame in range(200):
         fa, ta = a.next(key, sizes)
         if ta is not None:
@@ -301,6 +301,7 @@ def test_a_settled_choosers_timed_frames_come_where_they_would_with_frames_playe
             a.record(ta, 1.0 + 0.01 * ta[1])
         if b.quiet_next():
             b.skip()
+            skipped += 1
             continue
         fb, tb = b.next(key, sizes)
         assert fb == fa
@@ -308,17 +309,19 @@ def test_a_settled_choosers_timed_frames_come_where_they_would_with_frames_playe
             timed_b.append(frame)
             b.record(tb, 1.0 + 0.01 * tb[1])
     assert timed_a == timed_b and len(timed_a) > 20
+    assert skipped > 60   # most settled frames are quiet: played, not asked
 
 
 def test_the_tiled_rasters_peak_check_keeps_its_cadence(gl):
     """Frames played between drawn ones count as steps: the peak is still copied every
     CHECK_EVERY steps."""
     t = raster_tiles.RasterTiles(gl)
-    copies = []
+    copies, skipped = [], 0
     try:
         for step in range(1, 3 * raster_tiles.CHECK_EVERY + 1):
             if t.index is not None and t._quiet_next():
                 t._skip()
+                skipped += 1
                 continue
             pending = t._pending
             t.prepare((64, 64), 100)
@@ -327,5 +330,6 @@ def test_the_tiled_rasters_peak_check_keeps_its_cadence(gl):
             gl.finish()
         assert copies and all(s % raster_tiles.CHECK_EVERY == 0 for s in copies)
         assert len(copies) == 3 if raster_tiles.CAPACITY is None else not copies
+        assert skipped > raster_tiles.CHECK_EVERY   # most steps were played ones
     finally:
         t.release()

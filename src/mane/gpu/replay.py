@@ -70,7 +70,7 @@ _SIDE = {
     "Scope": ("release",),
 }
 _DATA = (bytearray, memoryview)   # arguments copied when recorded (the caller may change them after), and arrays
-_COPY = frozenset({bytearray, memoryview, np.ndarray})
+_COPY = frozenset({*_DATA, np.ndarray})
 _BINDS: dict = {}   # the recorded functions that bind one unit or point -> its kind (Recording.pruned)
 _KEEPS: set = set()   # recorded functions that change no binding pruned follows
 

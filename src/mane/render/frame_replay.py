@@ -35,10 +35,7 @@ drawn and recorded instead, and a recording that differs from the confirmed one 
 """
 from __future__ import annotations
 
-import dataclasses
 import os
-
-import numpy as np
 
 from . import light_key
 from .passes import base, depth_tiles, head_pass, occlusion_tiles, raster_segment, raster_tiles, scan_form
@@ -65,24 +62,6 @@ def switches() -> tuple:
             raster_tiles.CHECK_EVERY)
 
 
-def _equal(a, b) -> bool:
-    try:
-        return bool(a == b)
-    except ValueError:   # a camera or light given NumPy arrays for its vectors
-        return _plain(a) == _plain(b)
-
-
-def _plain(x):
-    """``x`` with NumPy arrays as tuples, a dataclass as its fields' tuple (comparable with ==)."""
-    if isinstance(x, (tuple, list)):
-        return tuple(map(_plain, x))
-    if hasattr(x, "__array__") and not isinstance(x, (str, bytes)):
-        return tuple(np.asarray(x, dtype=float).ravel())
-    if dataclasses.is_dataclass(x) and not isinstance(x, type):
-        return (type(x).__name__, *(_plain(getattr(x, f.name)) for f in dataclasses.fields(x)))
-    return x
-
-
 class _Take:
     """A phase's recording: the calls, the Frame they drew, the renderer's _hdr_resolved after
     them, and whether the frame after it issued the same calls (confirmed)."""
@@ -104,7 +83,6 @@ class FrameReplay:
         self.takes: dict = {}    # phase -> _Take
         self._alive = None       # the objects whose identities the key holds (kept: no identity reused)
         self.played = 0          # frames played (Renderer.stats: frames_replayed)
-        self.mismatches = 0
 
     def key_of(self, camera, lights, moved: bool) -> tuple:
         """The frame's key, and the objects it holds by identity."""
@@ -123,11 +101,11 @@ class FrameReplay:
         hair = r.hair_version()
         moved, self._hair = hair != self._hair, hair
         view, self._view = self._view, (camera, lights)
-        if not REPLAY or refine or r.on_pass is not None or view is None or not _equal(view, self._view):
+        if not REPLAY or refine or r.on_pass is not None or view is None or view != self._view:
             self.forget(keep_view=True)
             return "draw", None
         key, objects = self.key_of(camera, lights, moved)
-        if not _equal(key, self.key):   # recorded from the second frame with this key on: a key
+        if key != self.key:   # recorded from the second frame with this key on: a key
             self.takes.clear()          # that changes every frame (a nodding head) costs no recording
             self.key, self._alive = key, objects
             return "draw", None
@@ -161,16 +139,16 @@ class FrameReplay:
         """A frame drawn under the recorder ``rec`` in ``phase``; ``verify``: one the phase's
         confirmed recording would have stood in for (VERIFY)."""
         take = self.takes.get(phase)
-        diff = rec.side and f"it read {rec.side}" if verify else None
-        if rec.side is None and take is not None:
-            diff = rec.difference(take.rec)
-            if diff is None:
-                take.confirmed = True
-                take.rec.hooks, take.frame, take.resolved = rec.hooks, frame, self.renderer._hdr_resolved
-                take.calls = None
-                return
+        if rec.side is not None:
+            diff = f"it read {rec.side}"
+        else:
+            diff = rec.difference(take.rec) if take is not None else "no recording of this phase"
+        if diff is None:
+            take.confirmed = True
+            take.rec.hooks, take.frame, take.resolved = rec.hooks, frame, self.renderer._hdr_resolved
+            take.calls = None
+            return
         if verify:
-            self.mismatches += 1
             self.forget(keep_view=True)
             raise ReplayMismatch(f"a frame the recording would have stood in for came out otherwise ({diff}): "
                                  "something the frame depends on is missing from frame_replay's key")

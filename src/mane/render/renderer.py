@@ -801,11 +801,7 @@ class Renderer(GpuOwner):
             frame = copy.copy(take.frame)
             frame.index = self.frames_rendered
             self._hdr_resolved, self.sample_offsets = take.resolved, None
-            self.profiler.frame()
-            self.frames_rendered += 1
-            self.last_frame = frame
-            self._still = (None, 0)
-            return frame
+            return self._close_frame(frame, (None, 0))
         if action in ("draw", "timed"):
             if action == "draw":
                 replay.drawn()
@@ -887,10 +883,14 @@ class Renderer(GpuOwner):
             return self._draw(camera, lights, refine)
         finally:
             self.settings, self.shading = base, shading
+        return self._close_frame(frame, (self._scene_key(camera, lights), still) if refine else (None, 0))
+
+    def _close_frame(self, frame: Frame, still: tuple) -> Frame:
+        """A frame drawn or played: counted, kept as the last, and its place in a still scene."""
         self.profiler.frame()
         self.frames_rendered += 1
         self.last_frame = frame
-        self._still = (self._scene_key(camera, lights), still) if refine else (None, 0)
+        self._still = still
         return frame
 
     def still_settings(self) -> RenderSettings:

@@ -417,8 +417,8 @@ class ScanForms:
 
     def probing(self) -> bool:
         """Whether a site's tuner is still timing its forms (its first frames, or after a change)."""
-        return any(getattr(self, name).tuning() and getattr(self, name).chooser is not None
-                   and getattr(self, name).chooser.probing for name in SITES)
+        sites = [getattr(self, name) for name in SITES]
+        return any(s.tuning() and s.chooser is not None and s.chooser.probing for s in sites)
 
     def stats(self) -> dict:
         """{"hair": "tiled", "dom_z0": "per_thread", "dom": "balanced"}: each site's form now."""
